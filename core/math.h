@@ -1,0 +1,35 @@
+// Small math vocabulary shared by core/ and sim/. GLM supplies the vector types; everything here is plain
+// IEEE single precision so that scalar and SIMD code agree bit for bit (DESIGN §3).
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cmath>
+#include <cstdint>
+
+namespace restir {
+
+using Vec2 = glm::vec2;
+using Vec3 = glm::vec3;
+using Vec4 = glm::vec4;
+using Mat4 = glm::mat4;
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 0.31830988618379067154f;
+
+// Rec. 709 luminance (DESIGN §4 target and §6 metrics).
+inline float Luminance(const Vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+inline bool IsFinite(float v) { return std::isfinite(v); }
+inline bool IsFinite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// Orthonormal basis around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+inline void OrthonormalBasis(const Vec3& n, Vec3& t, Vec3& b) {
+  const float sign = std::copysign(1.0f, n.z);
+  const float a = -1.0f / (sign + n.z);
+  const float bb = n.x * n.y * a;
+  t = Vec3(1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+  b = Vec3(bb, sign + n.y * n.y * a, -n.y);
+}
+
+}  // namespace restir

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages ReSTIR Sim builds against, only those not yet installed. Idempotent; uses sudo
+# only when not root. Usage: scripts/setup.sh [--with-tools]
+#   --with-tools  also the optional tools some tests use when present (exrheader, oiiotool)
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libembree-dev          # Embree 3: rays
+  libopenexr-dev         # OpenEXR 3: frames
+  libopenimageio-dev     # OpenImageIO: previews, reading images
+  libglm-dev             # GLM: math
+  libhwy-dev             # Highway: SIMD with dynamic dispatch
+  libtbb-dev             # oneTBB: parallel loops
+  nlohmann-json3-dev     # sequence files, reports
+  libcli11-dev           # command line
+  libgtest-dev libgmock-dev libbenchmark-dev
+  openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+echo "setup: installing ${missing[*]}"
+"${sudo_cmd[@]}" apt-get update -qq
+DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done"

@@ -1,0 +1,79 @@
+// The Embree 3 scene: one instance per animated object over prototypes built once, static geometry merged,
+// emitters as one static mesh. Two top-level scenes are kept so that the previous frame stays queryable
+// (ray-traced bias correction traces visibility in the previous frame's scene).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/light.h"
+#include "core/math.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+enum class SceneFrame { kCurrent, kPrevious };
+
+// Closest hit of a ray. Normals face the ray origin (every surface is two-sided except emitters, which emit
+// from their front only).
+struct SurfaceHit {
+  bool hit = false;
+  float t = 0.0f;
+  Vec3 position;
+  Vec3 geometricNormal;    // unit, facing the ray origin
+  Vec3 shadingNormal;      // unit, interpolated vertex normal when the mesh has normals, facing the ray origin
+  int32_t objectId = -1;   // index into Sequence::objects; LightObjectId() for an emitter; -1 on a miss
+  int32_t materialId = -1; // index into Sequence::materials; -1 for an emitter or a miss
+  int32_t lightId = -1;    // index into the light-triangle list for an emitter hit, else -1
+  bool frontFace = true;   // for emitters: the ray hit the emitting side
+};
+
+// One shadow ray of a batch: from org along dir (unit) up to tmax.
+struct ShadowRay {
+  Vec3 org;
+  Vec3 dir;
+  float tmax = 0.0f;
+};
+
+class EmbreeScene {
+ public:
+  explicit EmbreeScene(const Sequence& sequence);
+  ~EmbreeScene();
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  // Makes `state` the current frame; what was current becomes the previous frame. Only instance transforms
+  // change; nothing is rebuilt except the top-level BVH over instances.
+  void Update(const FrameState& state);
+
+  SurfaceHit Intersect(const Vec3& org, const Vec3& dir, float tmax,
+                       SceneFrame frame = SceneFrame::kCurrent) const;
+  bool Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;
+  // Traces a batch of shadow rays; occluded[i] = 1 when ray i is blocked.
+  void OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count,
+                     SceneFrame frame = SceneFrame::kCurrent) const;
+
+  // Light triangles of the current frame in a fixed order (radiance zero while their light is off), and the
+  // index of the Sequence::lights entry each came from.
+  const std::vector<LightTriangle>& LightTriangles() const { return lights_; }
+  const std::vector<uint32_t>& LightGroupOf() const { return lightGroup_; }
+  int32_t LightObjectId() const { return lightObjectId_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::vector<LightTriangle> lights_;
+  std::vector<uint32_t> lightGroup_;
+  int32_t lightObjectId_ = 0;
+};
+
+// Builds the light-triangle list of a frame: every triangle of every light, radiance zero when switched off.
+std::vector<LightTriangle> BuildLightTriangles(const Sequence& sequence, const FrameState& state,
+                                               std::vector<uint32_t>* groupOf = nullptr);
+
+// Offsets a ray origin off a surface along its geometric normal, on the side `dir` leaves towards, so a
+// secondary ray does not re-hit the surface it starts on (scale-aware epsilon).
+Vec3 OffsetRayOrigin(const Vec3& p, const Vec3& geometricNormal, const Vec3& dir);
+
+}  // namespace restir

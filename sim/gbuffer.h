@@ -1,0 +1,52 @@
+// The G-buffer: what the primary ray at each pixel centre hit, as structure-of-arrays, and where that point
+// was in the previous frame (DESIGN §2, §4 temporal reuse).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/math.h"
+#include "sim/embree_scene.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+struct GBuffer {
+  int width = 0;
+  int height = 0;
+  std::vector<float> posX, posY, posZ;     // world position of the hit
+  std::vector<float> ngX, ngY, ngZ;        // geometric normal, facing the camera
+  std::vector<float> nsX, nsY, nsZ;        // shading normal, facing the camera
+  std::vector<int32_t> objectId;           // -1: no hit
+  std::vector<int32_t> materialId;         // -1: emitter or no hit
+  std::vector<int32_t> lightId;            // emitter hit: light triangle; else -1
+  std::vector<float> depth;                // view depth (distance along the camera's forward axis); 0 on a miss
+  std::vector<float> prevX, prevY;         // continuous pixel coordinates of this point in the previous frame
+  std::vector<uint8_t> prevValid;          // reprojection succeeded: on screen and the same surface there
+  std::vector<uint8_t> disoccluded;        // surface hit whose reprojection failed (off screen or another surface)
+
+  void Resize(int w, int h);
+  size_t Size() const { return static_cast<size_t>(width) * static_cast<size_t>(height); }
+  Vec3 Position(size_t i) const { return Vec3(posX[i], posY[i], posZ[i]); }
+  Vec3 GeometricNormal(size_t i) const { return Vec3(ngX[i], ngY[i], ngZ[i]); }
+  Vec3 ShadingNormal(size_t i) const { return Vec3(nsX[i], nsY[i], nsZ[i]); }
+  bool IsSurface(size_t i) const { return objectId[i] >= 0 && materialId[i] >= 0; }
+};
+
+// Reprojection similarity tests (DESIGN §4 temporal reuse; seed 003 validation list).
+struct ReprojectionParams {
+  float normalThreshold = 0.9f;   // minimum dot(n, n_prev) of geometric normals
+  float depthThreshold = 0.05f;   // maximum |depth_prev_buffer - depth_expected| / depth_expected
+};
+
+// Traces one primary ray per pixel centre in the current frame of `scene` (parallel over rows).
+void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuffer);
+
+// Fills prevX/prevY/prevValid/disoccluded of `current`: each hit point is carried back through its object's
+// previous transform and projected into the previous camera, then checked against `previous` at the nearest
+// pixel (same object, view depth within threshold, normals within threshold). With no previous frame
+// (`previous` empty) every pixel is invalid and none is disoccluded.
+void Reproject(const FrameState& currentState, const FrameState& previousState, const GBuffer& previous,
+               int32_t lightObjectId, const ReprojectionParams& params, GBuffer& current);
+
+}  // namespace restir

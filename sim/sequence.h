@@ -1,0 +1,133 @@
+// A scripted sequence: the scene (materials, objects, lights), its animation (camera and object keyframes,
+// light on/off intervals) and default render settings, as read from a JSON file (DESIGN §8).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace restir {
+
+// Bad input: one message that names the file and line:column and/or the JSON path. The command line prints
+// what() and exits with status 2.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class MaterialType { kDiffuse, kGgx };
+
+struct Material {
+  std::string name;                     // unique name, referenced by objects
+  MaterialType type = MaterialType::kDiffuse;
+  Vec3 albedo{0.8f};                    // diffuse reflectance, or the GGX Fresnel F0 colour
+  float roughness = 0.5f;               // GGX alpha = roughness^2 (only for kGgx)
+};
+
+// Triangle mesh in object space. Normals are optional per-vertex shading normals (empty: flat shading).
+struct Mesh {
+  std::vector<Vec3> positions;
+  std::vector<glm::uvec3> triangles;
+  std::vector<Vec3> normals;
+};
+
+enum class Interpolation { kLinear, kSmooth };
+
+// Object transform keyframe: world = T(translate) * R(rotate, degrees, applied X then Y then Z) * S(scale).
+struct TransformKey {
+  int frame = 0;
+  Vec3 translate{0.0f};
+  Vec3 rotateDegrees{0.0f};
+  Vec3 scale{1.0f};
+  Interpolation interpolation = Interpolation::kLinear;  // how to move from this key to the next
+};
+
+struct Object {
+  std::string name;                 // unique
+  uint32_t material = 0;            // index into Sequence::materials
+  Mesh mesh;                        // object space, already generated (quad, box, sphere, bars, OBJ)
+  std::vector<TransformKey> keys;   // sorted by frame; at least one (identity when the file gives none)
+  bool animated = false;            // true when the keys differ, so the transform changes over time
+};
+
+// A named group of emissive triangles (a quad light is two; a grid generator gives many groups).
+struct Light {
+  std::string name;                           // unique
+  std::vector<Vec3> vertices;                 // world space, 3 per triangle, counter-clockwise seen from the lit side
+  Vec3 radiance{1.0f};                        // colour * intensity
+  std::vector<std::pair<int, int>> onRanges;  // frames [first, last) during which it is on; empty: always on
+};
+
+struct CameraKey {
+  int frame = 0;
+  Vec3 position{0.0f};
+  Vec3 lookAt{0.0f, 0.0f, -1.0f};
+  float vfovDegrees = 45.0f;
+  Interpolation interpolation = Interpolation::kLinear;  // how to move from this key to the next
+};
+
+struct RenderDefaults {
+  std::vector<std::string> presets{"ris"};  // presets a plain `restir-sim run FILE` replays
+  int referenceSpp = 1024;                  // reference samples per pixel
+};
+
+struct Sequence {
+  std::string path;          // the file it was read from
+  std::string name;
+  std::string description;
+  int width = 640;
+  int height = 360;
+  int frameCount = 1;
+  float frameRate = 30.0f;
+  uint32_t seed = 1;
+  std::vector<Material> materials;
+  std::vector<Object> objects;
+  std::vector<Light> lights;
+  std::vector<CameraKey> cameraKeys;  // sorted by frame; at least one
+  RenderDefaults defaults;
+  std::string contentHash;  // hex hash of the file's bytes and of every mesh file it loads
+};
+
+// Pinhole camera at one frame. Up is +Y.
+struct Camera {
+  Vec3 position{0.0f};
+  Vec3 forward{0.0f, 0.0f, -1.0f};  // unit
+  Vec3 right{1.0f, 0.0f, 0.0f};     // unit
+  Vec3 up{0.0f, 1.0f, 0.0f};        // unit
+  float vfovDegrees = 45.0f;
+  int width = 1;
+  int height = 1;
+
+  // Primary ray direction (unit) through continuous pixel coordinates (px, py); pixel centres are at +0.5,
+  // y grows downwards in the image.
+  Vec3 RayDirection(float px, float py) const;
+  // Inverse of RayDirection: continuous pixel coordinates of a world point; false when behind the camera.
+  bool Project(const Vec3& world, float& px, float& py) const;
+  // Distance along the forward axis (view depth).
+  float ViewDepth(const Vec3& world) const { return glm::dot(world - position, forward); }
+};
+
+// Everything that changes per frame (DESIGN §2 state_t).
+struct FrameState {
+  int frame = 0;
+  Camera camera;
+  std::vector<Mat4> objectToWorld;  // one per Sequence::objects
+  std::vector<uint8_t> lightOn;     // one per Sequence::lights
+};
+
+// Reads and validates a sequence file. Throws InputError with file:line:column and JSON path on any problem
+// (syntax, wrong type, unknown key with a suggestion, out-of-range value, missing mesh, zero-area light ...).
+Sequence LoadSequence(const std::string& path);
+// Same, from text (path only names it in messages; relative mesh paths resolve against baseDir).
+Sequence ParseSequence(const std::string& text, const std::string& path, const std::string& baseDir);
+
+// Camera, transforms and light states at a frame (clamped to the first/last key outside the keyed range).
+FrameState Evaluate(const Sequence& sequence, int frame, int width, int height);
+
+// One-screen summary for `restir-sim validate`: objects, lights, emitter triangles, frames, camera path length.
+std::string SummarizeSequence(const Sequence& sequence);
+
+}  // namespace restir
