@@ -1,0 +1,76 @@
+// Statistical helpers for Monte Carlo tests. Every test states its false-failure rate; with a fixed seed the
+// outcome is deterministic, so a failure means the distribution changed, not bad luck on this run.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace restir::test {
+
+// Upper quantile z of the standard normal for a one-sided tail probability, by bisection on erfc: exact to
+// ~1e-10 and dependency-free.
+inline double NormalQuantileUpper(double tail) {
+  double lo = 0.0, hi = 40.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    const double p = 0.5 * std::erfc(mid / std::sqrt(2.0));
+    (p > tail ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Upper critical value of chi-square with k degrees of freedom at tail probability `tail`
+// (Wilson–Hilferty cube approximation; within 1% for k >= 10).
+inline double ChiSquareCritical(int k, double tail) {
+  const double z = NormalQuantileUpper(tail);
+  const double h = 2.0 / (9.0 * k);
+  const double c = 1.0 - h + z * std::sqrt(h);
+  return k * c * c * c;
+}
+
+// Pearson chi-square statistic of observed counts against expected counts; bins with expected < 5 are pooled
+// into one (a standard rule) before the statistic is formed. Returns the statistic and the degrees of freedom.
+struct ChiSquareResult {
+  double statistic = 0.0;
+  int dof = 0;
+};
+inline ChiSquareResult ChiSquare(const std::vector<double>& observed, const std::vector<double>& expected) {
+  ChiSquareResult r;
+  double pooledObs = 0.0, pooledExp = 0.0;
+  int bins = 0;
+  for (size_t i = 0; i < observed.size(); ++i) {
+    if (expected[i] < 5.0) {
+      pooledObs += observed[i];
+      pooledExp += expected[i];
+      continue;
+    }
+    const double d = observed[i] - expected[i];
+    r.statistic += d * d / expected[i];
+    ++bins;
+  }
+  if (pooledExp >= 5.0) {
+    const double d = pooledObs - pooledExp;
+    r.statistic += d * d / pooledExp;
+    ++bins;
+  } else if (pooledObs > 0.0 && pooledExp == 0.0) {
+    r.statistic = INFINITY;  // mass where none may be
+  }
+  r.dof = bins - 1;
+  return r;
+}
+
+// Running mean and variance (Welford), for t-tests of sample means.
+struct RunningStats {
+  double n = 0, mean = 0, m2 = 0;
+  void Add(double x) {
+    n += 1;
+    const double d = x - mean;
+    mean += d / n;
+    m2 += d * (x - mean);
+  }
+  double Variance() const { return n > 1 ? m2 / (n - 1) : 0.0; }
+  double StdError() const { return std::sqrt(Variance() / n); }
+};
+
+}  // namespace restir::test
