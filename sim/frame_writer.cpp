@@ -1,0 +1,113 @@
+#include "sim/frame_writer.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "sim/atomic_file.h"
+
+namespace restir {
+
+namespace {
+
+void AddRgbLayer(Imf::Header& header, Imf::FrameBuffer& fb, const std::string& prefix, const ImageRgb& img) {
+  const char* names[3] = {"R", "G", "B"};
+  for (int c = 0; c < 3; ++c) {
+    const std::string name = prefix.empty() ? names[c] : prefix + "." + names[c];
+    header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    char* base = reinterpret_cast<char*>(const_cast<Vec3*>(img.pixels.data())) + c * sizeof(float);
+    fb.insert(name, Imf::Slice(Imf::FLOAT, base, sizeof(Vec3), sizeof(Vec3) * img.width));
+  }
+}
+
+void AddScalarLayer(Imf::Header& header, Imf::FrameBuffer& fb, const std::string& name,
+                    const std::vector<float>& values, int width) {
+  header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+  fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(values.data())),
+                             sizeof(float), sizeof(float) * width));
+}
+
+float SrgbEncode(float v) {
+  v = std::clamp(v, 0.0f, 1.0f);
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+}  // namespace
+
+void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
+  const ImageRgb& est = *layers.estimate;
+  const int w = est.width, h = est.height;
+  const GBuffer& g = *layers.gbuffer;
+  Imf::Header header(w, h);
+  header.compression() = Imf::ZIP_COMPRESSION;
+  Imf::FrameBuffer fb;
+  AddRgbLayer(header, fb, "", est);
+  ImageRgb error;
+  if (layers.reference) {
+    AddRgbLayer(header, fb, "reference", *layers.reference);
+    if (layers.referenceStdError) AddRgbLayer(header, fb, "reference_stderr", *layers.referenceStdError);
+    error = ImageRgb(w, h);
+    for (size_t i = 0; i < est.Size(); ++i) error.pixels[i] = est.pixels[i] - layers.reference->pixels[i];
+    AddRgbLayer(header, fb, "error", error);
+  }
+  std::vector<float> disocc(g.Size()), nx(g.Size()), ny(g.Size()), nz(g.Size());
+  for (size_t i = 0; i < g.Size(); ++i) {
+    disocc[i] = g.disoccluded[i] ? 1.0f : 0.0f;
+    nx[i] = g.nsX[i], ny[i] = g.nsY[i], nz[i] = g.nsZ[i];
+  }
+  AddScalarLayer(header, fb, "disocclusion.Y", disocc, w);
+  AddScalarLayer(header, fb, "depth.Z", g.depth, w);
+  AddScalarLayer(header, fb, "normal.X", nx, w);
+  AddScalarLayer(header, fb, "normal.Y", ny, w);
+  AddScalarLayer(header, fb, "normal.Z", nz, w);
+  WriteViaTemporary(path, [&](const std::string& tmp) {
+    Imf::OutputFile file(tmp.c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(h);
+  });
+}
+
+void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference) {
+  const ImageRgb& exposureSource = reference ? *reference : estimate;
+  std::vector<float> lum;
+  lum.reserve(exposureSource.Size());
+  for (const Vec3& p : exposureSource.pixels) {
+    const float y = Luminance(p);
+    if (y > 0.0f && std::isfinite(y)) lum.push_back(y);
+  }
+  float exposure = 1.0f;
+  if (!lum.empty()) {
+    const size_t k = std::min(lum.size() - 1, static_cast<size_t>(0.99 * double(lum.size())));
+    std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(k), lum.end());
+    if (lum[k] > 0.0f) exposure = 0.9f / lum[k];
+  }
+  const int w = estimate.width, h = estimate.height;
+  const int panels = reference ? 2 : 1;
+  const int outW = w * panels;
+  std::vector<unsigned char> rgb(static_cast<size_t>(outW) * h * 3);
+  for (int p = 0; p < panels; ++p) {
+    const ImageRgb& img = p == 0 ? estimate : *reference;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const Vec3 v = img.pixels[static_cast<size_t>(y) * w + x] * exposure;
+        unsigned char* o = &rgb[(static_cast<size_t>(y) * outW + static_cast<size_t>(p * w + x)) * 3];
+        for (int c = 0; c < 3; ++c)
+          o[c] = static_cast<unsigned char>(std::lround(255.0f * SrgbEncode(std::isfinite(v[c]) ? v[c] : 0.0f)));
+      }
+  }
+  WriteViaTemporary(path, [&](const std::string& tmp) {
+    auto out = OIIO::ImageOutput::create(tmp);
+    if (!out) throw std::runtime_error("cannot create PNG writer for " + tmp + ": " + OIIO::geterror());
+    OIIO::ImageSpec spec(outW, h, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+      throw std::runtime_error("cannot write " + tmp + ": " + out->geterror());
+  });
+}
+
+}  // namespace restir

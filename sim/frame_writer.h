@@ -1,0 +1,27 @@
+// Per-frame image outputs: a single-part multi-layer EXR and a tone-mapped PNG preview.
+#pragma once
+
+#include <string>
+
+#include "sim/gbuffer.h"
+#include "sim/image.h"
+
+namespace restir {
+
+// The layers of one frame's EXR. The estimate is the unnamed default layer (R, G, B); the rest are named
+// layers: reference.{R,G,B}, reference_stderr.{R,G,B}, error.{R,G,B} (estimate - reference),
+// disocclusion.Y (1 where reprojection failed), depth.Z (view depth) and normal.{X,Y,Z} (shading normal).
+struct FrameLayers {
+  const ImageRgb* estimate = nullptr;
+  const ImageRgb* reference = nullptr;      // may be null (--no-reference): reference and error layers omitted
+  const ImageRgb* referenceStdError = nullptr;
+  const GBuffer* gbuffer = nullptr;
+};
+
+void WriteFrameExr(const std::string& path, const FrameLayers& layers);
+
+// Estimate beside reference (or the estimate alone), both with one exposure chosen from the reference
+// (or estimate) so that its 99th luminance percentile maps to 0.9, clamped, sRGB-encoded, 8 bits.
+void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference);
+
+}  // namespace restir

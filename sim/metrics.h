@@ -1,0 +1,27 @@
+// Per-frame error metrics against the reference (DESIGN §6). Sums run sequentially in pixel order in double
+// precision, so the numbers are the same whatever the thread count.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "sim/image.h"
+
+namespace restir {
+
+struct AccuracyMetrics {
+  double rmse = 0.0;        // sqrt(mean over pixels and RGB of (I - R)^2)
+  double lumaRmse = 0.0;    // sqrt(mean (Y(I) - Y(R))^2), seed 003 "LumaRMSE"
+  double relmse = 0.0;      // mean over pixels and RGB of (I - R)^2 / (R^2 + 0.01)
+  double lumaRatio = 0.0;   // sum Y(I) / sum Y(R); 1 means no bias in total brightness
+  size_t pixels = 0;        // pixels the averages ran over
+};
+
+// Over every pixel, or over the pixels where mask[i] != 0 when a mask is given.
+AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
+                                const std::vector<uint8_t>* mask = nullptr);
+
+// Fraction of pixels set in a mask.
+double MaskFraction(const std::vector<uint8_t>& mask);
+
+}  // namespace restir

@@ -1,0 +1,24 @@
+// Named presets (DESIGN §5): bundles of pass settings with the source they follow.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sim/pipeline.h"
+
+namespace restir {
+
+struct Preset {
+  std::string name;         // what --preset takes
+  std::string description;  // one line
+  std::string source;       // the paper or note it follows
+  PipelineSettings settings;
+};
+
+const std::vector<Preset>& AllPresets();
+// nullptr when unknown.
+const Preset* FindPreset(const std::string& name);
+// Human-readable listing for `restir-sim presets`.
+std::string DescribePresets();
+
+}  // namespace restir

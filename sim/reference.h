@@ -1,0 +1,40 @@
+// The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with light selection
+// by power, uniform area sampling and one shadow ray per sample, combined by MIS with BSDF sampling on glossy
+// surfaces. It also reports its own noise (per-pixel standard error) and is cached on disk.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "sim/embree_scene.h"
+#include "sim/gbuffer.h"
+#include "sim/image.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+struct ReferenceParams {
+  int samplesPerPixel = 1024;  // independent direct-lighting samples per pixel
+  std::string cacheDir;        // where converged frames are kept; empty: no cache
+};
+
+struct ReferenceImage {
+  ImageRgb mean;            // the reference radiance
+  ImageRgb standardError;   // per pixel and channel: sample standard deviation / sqrt(spp)
+  bool fromCache = false;   // read from the cache rather than rendered
+  double ms = 0.0;          // wall time (render or cache read)
+  uint64_t rays = 0;        // rays traced (0 when cached)
+};
+
+// Renders (or reads from the cache) the reference of the scene's current frame, at the G-buffer's pixels.
+ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                               const GBuffer& gbuffer, const ReferenceParams& params);
+
+// The cache key: a hash of everything that changes the reference image.
+std::string ReferenceCacheKey(const Sequence& sequence, int frame, int width, int height, int spp);
+
+// Mean over lit pixels (reference luminance > 1e-4) of standard error / value, by luminance: the reference's
+// own relative noise.
+double MeanRelativeStandardError(const ReferenceImage& ref);
+
+}  // namespace restir

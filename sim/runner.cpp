@@ -1,0 +1,238 @@
+#include "sim/runner.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "sim/atomic_file.h"
+#include "sim/embree_scene.h"
+#include "sim/frame_writer.h"
+#include "sim/gbuffer.h"
+#include "sim/metrics.h"
+#include "sim/pipeline.h"
+#include "sim/presets.h"
+#include "sim/reference.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::string FormatCsvNumber(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.9g", v);
+  return buf;
+}
+
+std::string MetricsCsv(const std::vector<FrameMetricsRow>& rows) {
+  std::ostringstream o;
+  if (rows.empty()) return "";
+  o << "frame,preset";
+  for (const auto& [name, value] : rows.front().values) o << "," << name;
+  o << ",image_hash\n";
+  for (const FrameMetricsRow& r : rows) {
+    o << r.frame << "," << r.preset;
+    for (const auto& [name, value] : r.values) o << "," << FormatCsvNumber(value);
+    o << "," << r.imageHash << "\n";
+  }
+  return o.str();
+}
+
+nlohmann::json SettingsJson(const PipelineSettings& s) {
+  return {{"initial",
+           {{"candidates", s.initial.candidates},
+            {"lightSelection", s.initial.lightSelection == LightSelection::kPower ? "power" : "uniform"},
+            {"initialVisibility", s.initial.initialVisibility}}},
+          {"shade", {{"finalVisibility", s.shade.finalVisibility}}}};
+}
+
+void CheckWritableDirectory(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  const std::string probe = (std::filesystem::path(dir) / ".write-test").string();
+  FILE* f = ec ? nullptr : std::fopen(probe.c_str(), "wb");
+  if (!f) throw InputError(dir + ": error: output directory is not writable");
+  std::fclose(f);
+  std::filesystem::remove(probe, ec);
+}
+
+std::string FormatDuration(double seconds) {
+  const int s = static_cast<int>(seconds + 0.5);
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%d:%02d:%02d", s / 3600, (s / 60) % 60, s % 60);
+  return buf;
+}
+
+}  // namespace
+
+RunResult Run(const RunOptions& opt) {
+  const auto tRun = Clock::now();
+  const Sequence seq = LoadSequence(opt.sequencePath);
+  const int width = opt.width > 0 ? opt.width : seq.width;
+  const int height = opt.height > 0 ? opt.height : seq.height;
+  const int frameEnd = opt.frameEnd < 0 ? seq.frameCount : opt.frameEnd;
+  if (opt.frameBegin < 0 || opt.frameBegin >= frameEnd || frameEnd > seq.frameCount)
+    throw InputError(opt.sequencePath + ": error: frame range " + std::to_string(opt.frameBegin) + ":" +
+                     std::to_string(frameEnd) + " is outside the sequence's frames 0:" +
+                     std::to_string(seq.frameCount));
+  const std::vector<std::string> presetNames = opt.presets.empty() ? seq.defaults.presets : opt.presets;
+  std::vector<const Preset*> presets;
+  for (const std::string& name : presetNames) {
+    const Preset* p = FindPreset(name);
+    if (!p) {
+      std::string known;
+      for (const Preset& q : AllPresets()) known += (known.empty() ? "" : ", ") + q.name;
+      throw InputError("--preset: error: unknown preset '" + name + "' (known: " + known + ")");
+    }
+    presets.push_back(p);
+  }
+  const uint32_t seed = opt.seed.value_or(seq.seed);
+  ReferenceParams refParams;
+  refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
+  refParams.cacheDir = opt.cacheDir;
+  CheckWritableDirectory(opt.outDir);
+
+  const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
+  tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+
+  // run.json first, so an interrupted run still says what it was.
+  nlohmann::json runJson = {
+      {"program", "restir-sim"},
+      {"version", RESTIR_VERSION},
+      {"commandLine", opt.commandLine},
+      {"sequence", {{"path", opt.sequencePath}, {"name", seq.name}, {"contentHash", seq.contentHash}}},
+      {"resolution", {width, height}},
+      {"frames", {opt.frameBegin, frameEnd}},
+      {"seed", seed},
+      {"threads", threads},
+      {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
+                                                    {"cacheDir", refParams.cacheDir}}
+                                  : nlohmann::json(nullptr)},
+      {"status", "running"}};
+  for (const Preset* p : presets)
+    runJson["presets"][p->name] = {{"source", p->source}, {"settings", SettingsJson(p->settings)}};
+  const std::string runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
+  const std::string csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
+  WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
+
+  EmbreeScene scene(seq);
+  const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
+  std::vector<std::unique_ptr<Pipeline>> pipelines;
+  for (const Preset* p : presets) pipelines.push_back(std::make_unique<Pipeline>(p->settings));
+  GBuffer current, previous;
+  FrameState previousState;
+  RunResult result;
+  const bool showProgress = opt.progress && ::isatty(STDERR_FILENO);
+  const int totalFrames = frameEnd - opt.frameBegin;
+
+  for (int frame = opt.frameBegin; frame < frameEnd; ++frame) {
+    const auto tFrame = Clock::now();
+    const FrameState state = Evaluate(seq, frame, width, height);
+    auto t0 = Clock::now();
+    scene.Update(state);
+    const double msSceneUpdate = MsSince(t0);
+    t0 = Clock::now();
+    TracePrimary(scene, state.camera, current);
+    const double msPrimary = MsSince(t0);
+    t0 = Clock::now();
+    Reproject(state, previousState, previous, scene.LightObjectId(), ReprojectionParams{}, current);
+    const double msReproject = MsSince(t0);
+    const double disoccFraction = MaskFraction(current.disoccluded);
+    const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
+
+    ReferenceImage ref;
+    if (opt.reference) ref = RenderReference(seq, state, scene, current, refParams);
+    const double refRelStdErr = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
+
+    for (size_t p = 0; p < presets.size(); ++p) {
+      FrameInputs in;
+      in.sequence = &seq;
+      in.state = &state;
+      in.scene = &scene;
+      in.gbuffer = &current;
+      in.lights = &lights;
+      in.materials = &bsdfs;
+      in.seed = seed;
+      in.frame = static_cast<uint32_t>(frame);
+      const FrameResult fr = pipelines[p]->RenderFrame(in);
+
+      FrameMetricsRow row;
+      row.frame = frame;
+      row.preset = presets[p]->name;
+      double msPasses = 0.0;
+      uint64_t rays = static_cast<uint64_t>(current.Size());  // primary rays
+      row.values.emplace_back("ms_scene_update", msSceneUpdate);
+      row.values.emplace_back("ms_primary", msPrimary);
+      row.values.emplace_back("ms_reproject", msReproject);
+      for (const PassStats& ps : fr.passes) {
+        row.values.emplace_back("ms_" + ps.name, ps.ms);
+        msPasses += ps.ms;
+        rays += ps.rays;
+      }
+      row.values.emplace_back("ms_frame", msSceneUpdate + msPrimary + msReproject + msPasses);
+      row.values.emplace_back("ms_reference", opt.reference ? ref.ms : 0.0);
+      row.values.emplace_back("reference_cached", ref.fromCache ? 1.0 : 0.0);
+      row.values.emplace_back("rays", static_cast<double>(rays));
+      for (const PassStats& ps : fr.passes)
+        row.values.emplace_back("rays_per_pixel_" + ps.name, double(ps.rays) / double(current.Size()));
+      if (opt.reference) {
+        const AccuracyMetrics m = MeasureAccuracy(fr.image, ref.mean);
+        row.values.emplace_back("rmse", m.rmse);
+        row.values.emplace_back("luma_rmse", m.lumaRmse);
+        row.values.emplace_back("relmse", m.relmse);
+        row.values.emplace_back("luma_ratio", m.lumaRatio);
+        row.values.emplace_back("reference_rel_stderr", refRelStdErr);
+      }
+      row.values.emplace_back("disocc_fraction", disoccFraction);
+      row.values.emplace_back("guarded", static_cast<double>(fr.guardedEvents));
+      row.imageHash = HexHash(HashImage(fr.image));
+      result.rows.push_back(row);
+
+      if (opt.writeImages) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "%04d", frame);
+        const auto dir = std::filesystem::path(opt.outDir) / "frames" / presets[p]->name;
+        FrameLayers layers;
+        layers.estimate = &fr.image;
+        layers.reference = opt.reference ? &ref.mean : nullptr;
+        layers.referenceStdError = opt.reference ? &ref.standardError : nullptr;
+        layers.gbuffer = &current;
+        WriteFrameExr((dir / (std::string(name) + ".exr")).string(), layers);
+        WritePreviewPng((dir / (std::string(name) + ".png")).string(), fr.image, layers.reference);
+      }
+    }
+    // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame.
+    WriteFileAtomic(csvPath, MetricsCsv(result.rows));
+    std::swap(current, previous);
+    previousState = state;
+
+    if (showProgress) {
+      const int done = frame - opt.frameBegin + 1;
+      const double elapsed = std::chrono::duration<double>(Clock::now() - tRun).count();
+      std::fprintf(stderr, "\r%s: frame %d/%d (%.0f ms)  elapsed %s  ETA %s   ", seq.name.c_str(), done,
+                   totalFrames, MsSince(tFrame), FormatDuration(elapsed).c_str(),
+                   FormatDuration(elapsed / done * (totalFrames - done)).c_str());
+      if (done == totalFrames) std::fprintf(stderr, "\n");
+    }
+  }
+  result.wallSeconds = std::chrono::duration<double>(Clock::now() - tRun).count();
+  runJson["status"] = "complete";
+  runJson["wallSeconds"] = result.wallSeconds;
+  WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
+  return result;
+}
+
+}  // namespace restir

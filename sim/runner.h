@@ -1,0 +1,46 @@
+// `restir-sim run`: replays a sequence through one or more presets on the same frames and references, and
+// writes frames, metrics.csv and run.json under the output directory.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace restir {
+
+struct RunOptions {
+  std::string sequencePath;              // the sequence file
+  std::vector<std::string> presets;      // empty: the sequence's render.presets
+  int frameBegin = 0;                    // first frame
+  int frameEnd = -1;                     // one past the last frame; -1: the sequence's frame count
+  int width = 0;                         // 0: the sequence's resolution
+  int height = 0;
+  int threads = 0;                       // 0: every core
+  std::optional<uint32_t> seed;          // unset: the sequence's seed
+  int referenceSpp = 0;                  // 0: the sequence's render.referenceSpp
+  bool reference = true;                 // false: no reference, no error metrics
+  std::string outDir = "out";            // where frames, metrics.csv and run.json go
+  std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
+  bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
+  bool progress = true;                  // progress line on stderr when stderr is a terminal
+  std::string commandLine;               // recorded in run.json
+};
+
+// One row of metrics.csv.
+struct FrameMetricsRow {
+  int frame = 0;
+  std::string preset;
+  std::vector<std::pair<std::string, double>> values;  // column name -> value, in column order
+  std::string imageHash;
+};
+
+struct RunResult {
+  std::vector<FrameMetricsRow> rows;
+  double wallSeconds = 0.0;
+};
+
+// Throws InputError for bad input (unknown preset, frame range, unreadable sequence, unwritable output).
+RunResult Run(const RunOptions& options);
+
+}  // namespace restir

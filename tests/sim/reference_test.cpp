@@ -1,0 +1,120 @@
+#include "sim/reference.h"
+
+#include <gtest/gtest.h>
+
+#include "core/polygon_irradiance.h"
+#include "scene_fixtures.h"
+#include "sim/pipeline.h"
+#include "sim/presets.h"
+#include "stats.h"
+
+namespace restir {
+namespace {
+
+// Closed form for the floor fixture: Lambertian outgoing radiance albedo/π · E(x), E from Lambert's polygon
+// formula.
+double ExactRadiance(const Sequence& seq, const Vec3& x, float albedo) {
+  const Light& l = seq.lights.front();
+  const std::vector<Vec3> quad{l.vertices[0], l.vertices[1], l.vertices[2], l.vertices[5]};
+  return albedo / M_PI * PolygonIrradiance(x, Vec3(0, 1, 0), quad, l.radiance.x);
+}
+
+struct Rendered {
+  Sequence seq;
+  FrameState state;
+  std::unique_ptr<EmbreeScene> scene;
+  GBuffer gbuffer;
+};
+
+Rendered Setup(int w, int h) {
+  Rendered r;
+  r.seq = test::FloorUnderQuadLight(w, h, 1.0f, 0.6f);
+  r.state = test::StaticState(r.seq);
+  r.scene = std::make_unique<EmbreeScene>(r.seq);
+  r.scene->Update(r.state);
+  TracePrimary(*r.scene, r.state.camera, r.gbuffer);
+  return r;
+}
+
+// The reference matches Lambert's formula within its own standard error. Test: sum over floor pixels of
+// z² = ((ref - exact) / stderr)² against the chi-square upper critical value with (pixels) degrees of
+// freedom; false-failure rate 1e-4 (fixed seed, so deterministic).
+TEST(Reference, MatchesLambertPolygonFormulaChiSquare) {
+  Rendered r = Setup(24, 16);
+  ReferenceParams params;
+  params.samplesPerPixel = 2048;
+  const ReferenceImage ref = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  double chi2 = 0;
+  int k = 0;
+  for (size_t i = 0; i < r.gbuffer.Size(); ++i) {
+    if (!r.gbuffer.IsSurface(i)) continue;
+    const double exact = ExactRadiance(r.seq, r.gbuffer.Position(i), 0.6f);
+    const double se = ref.standardError.pixels[i].x;
+    ASSERT_GT(se, 0.0);
+    const double z = (ref.mean.pixels[i].x - exact) / se;
+    chi2 += z * z;
+    ++k;
+  }
+  ASSERT_GT(k, 300);
+  EXPECT_LT(chi2, test::ChiSquareCritical(k, 1e-4)) << "pixels " << k;
+  // And the reference is far from trivially loose: its mean relative error is a few percent at most.
+  EXPECT_LT(MeanRelativeStandardError(ref), 0.05);
+}
+
+// The `ris` preset's mean over 96 independent seeds matches Lambert's formula: per pixel the seed mean's
+// z-score against the closed form (standard error from the seeds' spread); sum of z² over pixels tested against
+// chi-square with (pixels) dof, false-failure rate 1e-4.
+TEST(Reference, RisMeanOverSeedsMatchesLambertChiSquare) {
+  Rendered r = Setup(16, 12);
+  const std::vector<Bsdf> bsdfs = MaterialBsdfs(r.seq);
+  const LightSampler lights(r.scene->LightTriangles(), LightSelection::kPower);
+  Pipeline pipeline(FindPreset("ris")->settings);
+  std::vector<test::RunningStats> stats(r.gbuffer.Size());
+  for (uint32_t seed = 0; seed < 96; ++seed) {
+    FrameInputs in;
+    in.sequence = &r.seq;
+    in.state = &r.state;
+    in.scene = r.scene.get();
+    in.gbuffer = &r.gbuffer;
+    in.lights = &lights;
+    in.materials = &bsdfs;
+    in.seed = 1000 + seed;
+    const FrameResult fr = pipeline.RenderFrame(in);
+    for (size_t i = 0; i < stats.size(); ++i) stats[i].Add(fr.image.pixels[i].x);
+  }
+  double chi2 = 0;
+  int k = 0;
+  for (size_t i = 0; i < stats.size(); ++i) {
+    if (!r.gbuffer.IsSurface(i)) continue;
+    const double exact = ExactRadiance(r.seq, r.gbuffer.Position(i), 0.6f);
+    if (stats[i].StdError() == 0) {
+      EXPECT_NEAR(stats[i].mean, exact, 1e-5 * exact);
+      continue;
+    }
+    const double z = (stats[i].mean - exact) / stats[i].StdError();
+    chi2 += z * z;
+    ++k;
+  }
+  ASSERT_GT(k, 100);
+  // Student-t z² has heavier tails than χ²(1) with 95 dof; the mean of t²(95) is 95/93, so scale the statistic.
+  EXPECT_LT(chi2 * 93.0 / 95.0, test::ChiSquareCritical(k, 1e-4)) << "pixels " << k;
+}
+
+TEST(Reference, CacheRoundTripsBitExactly) {
+  Rendered r = Setup(12, 8);
+  ReferenceParams params;
+  params.samplesPerPixel = 16;
+  params.cacheDir = ::testing::TempDir() + "/restir-ref-cache-test";
+  std::filesystem::remove_all(params.cacheDir);
+  const ReferenceImage a = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  const ReferenceImage b = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  EXPECT_FALSE(a.fromCache);
+  EXPECT_TRUE(b.fromCache);
+  EXPECT_EQ(HashImage(a.mean), HashImage(b.mean));
+  EXPECT_EQ(HashImage(a.standardError), HashImage(b.standardError));
+  // A different sample count is a different key.
+  EXPECT_NE(ReferenceCacheKey(r.seq, 0, 12, 8, 16), ReferenceCacheKey(r.seq, 0, 12, 8, 17));
+}
+
+}  // namespace
+}  // namespace restir

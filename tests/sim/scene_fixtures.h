@@ -1,0 +1,77 @@
+// Small scenes built in code for sim/ tests (no JSON parser involved).
+#pragma once
+
+#include "sim/sequence.h"
+
+namespace restir::test {
+
+// Adds a quad (two triangles, corners c ± u ± v) as an object with the given material.
+inline void AddQuadObject(Sequence& seq, const std::string& name, uint32_t material, const Vec3& c, const Vec3& u,
+                          const Vec3& v) {
+  Object o;
+  o.name = name;
+  o.material = material;
+  o.mesh.positions = {c - u - v, c + u - v, c + u + v, c - u + v};
+  o.mesh.triangles = {glm::uvec3(0, 1, 2), glm::uvec3(0, 2, 3)};
+  o.keys.push_back(TransformKey{});
+  seq.objects.push_back(o);
+}
+
+// Adds a quad light with corners c ± u ± v, emitting towards cross(u, v).
+inline void AddQuadLight(Sequence& seq, const std::string& name, const Vec3& c, const Vec3& u, const Vec3& v,
+                         const Vec3& radiance) {
+  Light l;
+  l.name = name;
+  const Vec3 p0 = c - u - v, p1 = c + u - v, p2 = c + u + v, p3 = c - u + v;
+  l.vertices = {p0, p1, p2, p0, p2, p3};
+  l.radiance = radiance;
+  seq.lights.push_back(l);
+}
+
+// A diffuse floor (y = 0, 4 x 4 m) under one square light at height h, camera looking down at the floor.
+inline Sequence FloorUnderQuadLight(int width, int height, float lightHeight, float albedo) {
+  Sequence seq;
+  seq.name = "floor_under_quad_light";
+  seq.width = width;
+  seq.height = height;
+  seq.frameCount = 1;
+  seq.contentHash = "fixture-floor-under-quad-light";
+  Material m;
+  m.name = "floor";
+  m.albedo = Vec3(albedo);
+  seq.materials.push_back(m);
+  AddQuadObject(seq, "floor", 0, Vec3(0), Vec3(2, 0, 0), Vec3(0, 0, -2));
+  // cross(u, v) with u = +x, v = +z points down (-y): the light faces the floor.
+  AddQuadLight(seq, "light", Vec3(0.3f, lightHeight, -0.2f), Vec3(0.25f, 0, 0), Vec3(0, 0, 0.25f), Vec3(5.0f));
+  CameraKey k;
+  k.position = Vec3(0.0f, 3.0f, 1.2f);
+  k.lookAt = Vec3(0.0f, 0.0f, -0.2f);
+  k.vfovDegrees = 40.0f;
+  seq.cameraKeys.push_back(k);
+  return seq;
+}
+
+// Camera basis for a position/look-at pair (mirrors Evaluate's convention: up is +Y).
+inline Camera MakeCamera(const Vec3& position, const Vec3& lookAt, float vfov, int width, int height) {
+  Camera c;
+  c.position = position;
+  c.forward = glm::normalize(lookAt - position);
+  c.right = glm::normalize(glm::cross(c.forward, Vec3(0, 1, 0)));
+  c.up = glm::cross(c.right, c.forward);
+  c.vfovDegrees = vfov;
+  c.width = width;
+  c.height = height;
+  return c;
+}
+
+inline FrameState StaticState(const Sequence& seq, int frame = 0) {
+  FrameState s;
+  s.frame = frame;
+  const CameraKey& k = seq.cameraKeys.front();
+  s.camera = MakeCamera(k.position, k.lookAt, k.vfovDegrees, seq.width, seq.height);
+  s.objectToWorld.assign(seq.objects.size(), Mat4(1.0f));
+  s.lightOn.assign(seq.lights.size(), 1);
+  return s;
+}
+
+}  // namespace restir::test
