@@ -27,4 +27,19 @@ inline double PolygonIrradiance(const Vec3& x, const Vec3& n, const std::vector<
   return 0.5 * radiance * std::abs(sum);
 }
 
+// Clips a convex polygon to the closed half-space n·(p - x) >= 0 (Sutherland–Hodgman against one plane), so
+// that PolygonIrradiance can be applied to emitters that cross the receiver's horizon.
+inline std::vector<Vec3> ClipPolygonToHemisphere(const Vec3& x, const Vec3& n, const std::vector<Vec3>& polygon) {
+  std::vector<Vec3> out;
+  const size_t k = polygon.size();
+  for (size_t i = 0; i < k; ++i) {
+    const Vec3& a = polygon[i];
+    const Vec3& b = polygon[(i + 1) % k];
+    const float da = glm::dot(n, a - x), db = glm::dot(n, b - x);
+    if (da >= 0.0f) out.push_back(a);
+    if ((da >= 0.0f) != (db >= 0.0f)) out.push_back(a + (b - a) * (da / (da - db)));
+  }
+  return out;
+}
+
 }  // namespace restir

@@ -82,9 +82,9 @@ void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const Im
   }
   float exposure = 1.0f;
   if (!lum.empty()) {
-    const size_t k = std::min(lum.size() - 1, static_cast<size_t>(0.99 * double(lum.size())));
+    const size_t k = std::min(lum.size() - 1, static_cast<size_t>(0.9 * double(lum.size())));
     std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(k), lum.end());
-    if (lum[k] > 0.0f) exposure = 0.9f / lum[k];
+    if (lum[k] > 0.0f) exposure = 0.8f / lum[k];
   }
   const int w = estimate.width, h = estimate.height;
   const int panels = reference ? 2 : 1;

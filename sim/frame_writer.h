@@ -21,7 +21,7 @@ struct FrameLayers {
 void WriteFrameExr(const std::string& path, const FrameLayers& layers);
 
 // Estimate beside reference (or the estimate alone), both with one exposure chosen from the reference
-// (or estimate) so that its 99th luminance percentile maps to 0.9, clamped, sRGB-encoded, 8 bits.
+// (or estimate) so that its 90th luminance percentile maps to 0.8 (emitters saturate), clamped, sRGB, 8 bits.
 void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference);
 
 }  // namespace restir

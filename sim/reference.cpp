@@ -4,6 +4,7 @@
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -12,6 +13,7 @@
 #include <fstream>
 
 #include "core/light_sampler.h"
+#include "core/polygon_irradiance.h"
 #include "core/rng.h"
 #include "core/shading.h"
 #include "sim/atomic_file.h"
@@ -22,25 +24,118 @@ namespace restir {
 namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching.
-constexpr uint32_t kReferenceVersion = 1;
+constexpr uint32_t kReferenceVersion = 3;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 constexpr char kCacheMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '1'};
+
+// Randomised quasi-Monte Carlo: each pixel's samples are kReplicates independent randomly shifted copies of
+// the additive-recurrence (Roberts "R_d") low-discrepancy sequence in kSampleDims dimensions. Each sample is
+// still uniformly distributed (so every replicate mean is unbiased), the points are stratified across light
+// selection and area (so the error falls much faster than with independent samples), and the spread of the
+// independent replicate means gives an honest standard error (Owen 2013, "Monte Carlo theory, methods and
+// examples", ch. 17: randomized QMC).
+constexpr int kSampleDims = 5;  // light selection, two area coordinates, two BSDF coordinates
+constexpr int kReplicates = 16;
+
+struct RdSequence {
+  double alpha[kSampleDims];
+  RdSequence() {
+    // phi_d: the positive root of x^(d+1) = x + 1 (Newton from 2).
+    double phi = 2.0;
+    for (int i = 0; i < 64; ++i)
+      phi -= (std::pow(phi, kSampleDims + 1) - phi - 1.0) / ((kSampleDims + 1) * std::pow(phi, kSampleDims) - 1.0);
+    for (int j = 0; j < kSampleDims; ++j) alpha[j] = std::fmod(std::pow(1.0 / phi, j + 1), 1.0);
+  }
+};
 
 float PowerHeuristic(float a, float b) {
   const float a2 = a * a, b2 = b * b;
   return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
+// Light selection for one receiver. Power alone spends most samples on lights that barely reach the pixel
+// (the flagship's facade is lit through a window by a few of 72 lights), so the reference mixes, per pixel,
+// selection proportional to each light's unshadowed contribution there with a defensive share by power:
+// P(l) = (1 - δ) u_l / Σ u + δ Φ_l / Σ Φ. Every light with power keeps P > 0, so the estimator stays unbiased;
+// only visibility and the variation across a light remain as noise. u_l is exact for diffuse receivers (Lambert's
+// polygon formula on the emitter clipped to the receiver's hemisphere) and a centroid estimate plus a diffuse
+// term for glossy ones. Above kMaxPerPixelLights, selection by power alone (per-pixel tables would cost more
+// than the rays they save).
+constexpr float kDefensivePowerShare = 0.1f;
+constexpr size_t kMaxPerPixelLights = 4096;
+
+class PixelLightDistribution {
+ public:
+  void Build(const ShadingPoint& sp, const LightSampler& power) {
+    const std::vector<LightTriangle>& lights = power.Lights();
+    const size_t n = lights.size();
+    pmf_.resize(n);
+    cdf_.resize(n);
+    double total = 0.0;
+    perPixel_ = n <= kMaxPerPixelLights;
+    if (perPixel_) {
+      std::vector<Vec3>& tri = scratch_;
+      for (size_t l = 0; l < n; ++l) {
+        const LightTriangle& t = lights[l];
+        double u = 0.0;
+        const float lum = Luminance(t.radiance);
+        if (lum > 0.0f && glm::dot(t.normal, sp.position - t.p0) > 0.0f) {
+          tri.assign({t.p0, t.p0 + t.e1, t.p0 + t.e2});
+          const std::vector<Vec3> clipped = ClipPolygonToHemisphere(sp.position, sp.shadingNormal, tri);
+          const double e = clipped.size() >= 3 ? PolygonIrradiance(sp.position, sp.shadingNormal, clipped, lum) : 0.0;
+          u = e * Luminance(sp.bsdf.albedo) * kInvPi;
+          if (sp.bsdf.type == BsdfType::kGgx) {
+            LightSample c;
+            c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
+            c.normal = t.normal;
+            c.radiance = t.radiance;
+            u = 0.1 * u + double(TargetFunction(UnshadowedContribution(sp, c))) * t.area;
+          }
+        }
+        pmf_[l] = u;
+        total += u;
+      }
+    }
+    const double mix = total > 0.0 ? kDefensivePowerShare : 1.0;
+    double c = 0.0;
+    for (size_t l = 0; l < n; ++l) {
+      const double p = (total > 0.0 ? (1.0 - mix) * pmf_[l] / total : 0.0) + mix * power.SelectionPmf(uint32_t(l));
+      pmf_[l] = p;
+      c += p;
+      cdf_[l] = c;
+    }
+  }
+  // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified).
+  uint32_t Sample(float u) const {
+    const double target = double(u) * cdf_.back();
+    auto it = std::upper_bound(cdf_.begin(), cdf_.end(), target);
+    size_t l = std::min(static_cast<size_t>(it - cdf_.begin()), cdf_.size() - 1);
+    while (pmf_[l] <= 0.0 && l + 1 < cdf_.size()) ++l;  // never return a zero-probability light
+    return static_cast<uint32_t>(l);
+  }
+  float Pmf(uint32_t l) const { return static_cast<float>(pmf_[l] / cdf_.back()); }
+
+ private:
+  std::vector<double> pmf_, cdf_;
+  std::vector<Vec3> scratch_;
+  bool perPixel_ = true;
+};
+
 // One direct-lighting sample at a receiver: light sampling, plus BSDF sampling with the power heuristic on
 // glossy surfaces (pbrt-v4 PathIntegrator::SampleLd style, restricted to direct light).
-Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const LightSampler& lights, Sampler& s,
-                  uint64_t& rays) {
+Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+                  const PixelLightDistribution& dist, const float (&u)[kSampleDims], uint64_t& rays) {
   Vec3 sum(0.0f);
   const bool glossy = sp.bsdf.type == BsdfType::kGgx;
-  const float u0 = s.Next(), u1 = s.Next(), u2 = s.Next(), u3 = s.Next();
-  const float b0 = s.Next(), b1 = s.Next();
-  const LightSample y = lights.Sample(u0, u1, u2, u3);
+  LightSample y;
+  y.lightId = dist.Sample(u[0]);
+  const LightTriangle& lt = lights[y.lightId];
+  y.position = SampleTrianglePoint(lt, u[1], u[2]);
+  y.normal = lt.normal;
+  y.radiance = lt.radiance;
+  y.pdfArea = dist.Pmf(y.lightId) / lt.area;
+  const float b0 = u[3], b1 = u[4];
   const Vec3 f = UnshadowedContribution(sp, y);
   if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
     ++rays;
@@ -62,9 +157,9 @@ Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const LightS
       const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, bs.wi), bs.wi,
                                              std::numeric_limits<float>::infinity());
       if (hit.hit && hit.lightId >= 0 && hit.frontFace) {
-        const LightTriangle& t = lights.Lights()[static_cast<size_t>(hit.lightId)];
+        const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
         const float cosY = -glm::dot(t.normal, bs.wi);
-        const float pLight = lights.PdfArea(static_cast<uint32_t>(hit.lightId)) * hit.t * hit.t / cosY;
+        const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) / t.area * hit.t * hit.t / cosY;
         const float cosX = glm::dot(sp.shadingNormal, bs.wi);
         const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
         if (cosY > 0.0f) sum += t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
@@ -133,29 +228,44 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const std::vector<LightTriangle>& lightList = scene.LightTriangles();
   const LightSampler lights(lightList, LightSelection::kPower);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(sequence);
-  const int spp = std::max(1, params.samplesPerPixel);
+  static const RdSequence rd;
+  const int perReplicate = (std::max(1, params.samplesPerPixel) + kReplicates - 1) / kReplicates;
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
     uint64_t& localRays = rays.local();
+    PixelLightDistribution dist;
     for (int y = range.begin(); y < range.end(); ++y) {
       for (int x = 0; x < w; ++x) {
         const size_t i = static_cast<size_t>(y) * w + x;
         ref.mean.pixels[i] = DirectEmission(g, i, lightList);
         if (!g.IsSurface(i) || lights.Empty()) continue;
         const ShadingPoint sp = ShadingPointAt(g, i, state.camera, bsdfs);
-        Sampler s(RngKey{kReferenceSeed, static_cast<uint32_t>(state.frame), static_cast<uint32_t>(i),
-                         static_cast<uint32_t>(RngPass::kReference)});
-        glm::dvec3 sum(0.0), sum2(0.0);
-        for (int k = 0; k < spp; ++k) {
-          const glm::dvec3 v(DirectSample(sp, scene, lights, s, localRays));
-          sum += v;
-          sum2 += v * v;
+        dist.Build(sp, lights);
+        const RngKey key{kReferenceSeed, static_cast<uint32_t>(state.frame), static_cast<uint32_t>(i),
+                         static_cast<uint32_t>(RngPass::kReference)};
+        glm::dvec3 replicateMean[kReplicates];
+        for (int rep = 0; rep < kReplicates; ++rep) {
+          double shift[kSampleDims];
+          for (int j = 0; j < kSampleDims; ++j)
+            shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * kSampleDims + j));
+          glm::dvec3 sum(0.0);
+          for (int k = 0; k < perReplicate; ++k) {
+            float u[kSampleDims];
+            for (int j = 0; j < kSampleDims; ++j) {
+              const double v = shift[j] + double(k) * rd.alpha[j];
+              u[j] = std::min(static_cast<float>(v - std::floor(v)), 0x1.fffffep-1f);
+            }
+            sum += glm::dvec3(DirectSample(sp, scene, lightList, dist, u, localRays));
+          }
+          replicateMean[rep] = sum / double(perReplicate);
         }
-        const glm::dvec3 mean = sum / double(spp);
-        const glm::dvec3 var = glm::max(sum2 / double(spp) - mean * mean, glm::dvec3(0.0)) *
-                               (spp > 1 ? double(spp) / double(spp - 1) : 0.0);
+        glm::dvec3 mean(0.0), var(0.0);
+        for (const glm::dvec3& m : replicateMean) mean += m;
+        mean /= double(kReplicates);
+        for (const glm::dvec3& m : replicateMean) var += (m - mean) * (m - mean);
+        var /= double(kReplicates - 1);
         ref.mean.pixels[i] += Vec3(mean);
-        ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(spp)));
+        ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
       }
     }
   });

@@ -1,6 +1,7 @@
 // The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with light selection
 // by power, uniform area sampling and one shadow ray per sample, combined by MIS with BSDF sampling on glossy
-// surfaces. It also reports its own noise (per-pixel standard error) and is cached on disk.
+// surfaces. Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also
+// reports an honest per-pixel standard error. Cached on disk.
 #pragma once
 
 #include <cstdint>
@@ -14,13 +15,13 @@
 namespace restir {
 
 struct ReferenceParams {
-  int samplesPerPixel = 1024;  // independent direct-lighting samples per pixel
+  int samplesPerPixel = 1024;  // direct-lighting samples per pixel, rounded up to a multiple of 16 (replicates)
   std::string cacheDir;        // where converged frames are kept; empty: no cache
 };
 
 struct ReferenceImage {
   ImageRgb mean;            // the reference radiance
-  ImageRgb standardError;   // per pixel and channel: sample standard deviation / sqrt(spp)
+  ImageRgb standardError;   // per pixel and channel: spread of 16 independent replicate means / sqrt(16)
   bool fromCache = false;   // read from the cache rather than rendered
   double ms = 0.0;          // wall time (render or cache read)
   uint64_t rays = 0;        // rays traced (0 when cached)

@@ -39,3 +39,20 @@ TEST(PolygonIrradiance, OrientationDoesNotMatter) {
 
 }  // namespace
 }  // namespace restir
+
+namespace restir {
+namespace {
+
+// A square straddling the horizon: the clipped part's irradiance equals that of the half above the plane.
+TEST(PolygonIrradiance, ClippingKeepsOnlyTheUpperHemisphere) {
+  const std::vector<Vec3> square{Vec3(-1, -1, 2), Vec3(1, -1, 2), Vec3(1, 1, 2), Vec3(-1, 1, 2)};
+  // Receiver normal +y: only the y >= 0 half of the square is above the horizon.
+  const std::vector<Vec3> clipped = ClipPolygonToHemisphere(Vec3(0), Vec3(0, 1, 0), square);
+  const std::vector<Vec3> upperHalf{Vec3(-1, 0, 2), Vec3(1, 0, 2), Vec3(1, 1, 2), Vec3(-1, 1, 2)};
+  EXPECT_NEAR(PolygonIrradiance(Vec3(0), Vec3(0, 1, 0), clipped, 1.0),
+              PolygonIrradiance(Vec3(0), Vec3(0, 1, 0), upperHalf, 1.0), 1e-6);
+  EXPECT_TRUE(ClipPolygonToHemisphere(Vec3(0), Vec3(0, 0, -1), square).empty());
+}
+
+}  // namespace
+}  // namespace restir

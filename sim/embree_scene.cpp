@@ -1,0 +1,465 @@
+#include "sim/embree_scene.h"
+
+#include <embree3/rtcore.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace restir {
+
+namespace {
+
+// Embree selects its kernels per ISA, and the AVX2/AVX-512 triangle and box tests are compiled with FMA while
+// the SSE kernels are not: the same ray can get a different t, u, v (in the last bits) and even a different
+// hit/miss verdict at an edge on different machines. DESIGN §3 wants the same bits everywhere, so the ISA is
+// pinned to SSE4.2, which every x86-64 CPU this runs on supports. Thread count is deliberately NOT set here:
+// Embree's "threads=N" installs a process-wide tbb::global_control that would throttle every TBB pass of the
+// simulator; builds are serialised per commit instead (see CommitSerial).
+constexpr const char* kDeviceConfig = "isa=sse4.2";
+
+// Embree's parallel builders partition primitives into a number of tasks that depends on the arena's
+// concurrency, so the leaf order (hence which of two primitives at exactly the same t wins) could depend on the
+// machine's core count. Committing inside a one-thread arena makes the BVH a function of the input only. The
+// scenes are small (prototypes are built once, the per-frame commit only covers a handful of instances), so the
+// lost build parallelism does not matter.
+void CommitSerial(RTCScene scene) {
+  tbb::task_arena arena(1);
+  arena.execute([&] { rtcCommitScene(scene); });
+}
+
+// ROBUST: Embree otherwise may use intersection tests that miss rays through shared edges and vertices, which
+// would let light leak through the seams of a closed box (window bars); robust mode also makes the box tests
+// conservative, so only the triangle test decides a hit. Build quality stays at the default: quality changes
+// the tree, not the per-triangle test, so it only matters for exact ties, which the serial build pins anyway.
+RTCScene NewScene(RTCDevice device) {
+  RTCScene scene = rtcNewScene(device);
+  rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+  return scene;
+}
+
+void ThrowOnDeviceError(RTCDevice device, const char* what) {
+  const RTCError err = rtcGetDeviceError(device);
+  if (err != RTC_ERROR_NONE) {
+    throw std::runtime_error(std::string("Embree error ") + std::to_string(static_cast<int>(err)) + " while " +
+                             what);
+  }
+}
+
+// Triangle geometry from positions already in the space the geometry lives in.
+RTCGeometry NewTriangleGeometry(RTCDevice device, const std::vector<Vec3>& positions,
+                                const std::vector<glm::uvec3>& triangles) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  // Embree-owned buffers are padded for its SIMD loads, so nothing depends on the caller's allocation.
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                        3 * sizeof(float), positions.size()));
+  auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                             3 * sizeof(uint32_t), triangles.size()));
+  if (v == nullptr || idx == nullptr) {
+    rtcReleaseGeometry(geom);
+    return nullptr;
+  }
+  for (size_t i = 0; i < positions.size(); ++i) {
+    v[3 * i + 0] = positions[i].x;
+    v[3 * i + 1] = positions[i].y;
+    v[3 * i + 2] = positions[i].z;
+  }
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    idx[3 * i + 0] = triangles[i].x;
+    idx[3 * i + 1] = triangles[i].y;
+    idx[3 * i + 2] = triangles[i].z;
+  }
+  rtcCommitGeometry(geom);
+  return geom;
+}
+
+glm::mat3 NormalMatrix(const Mat4& m) { return glm::transpose(glm::inverse(glm::mat3(m))); }
+
+Vec3 TransformPoint(const Mat4& m, const Vec3& p) { return Vec3(m * Vec4(p, 1.0f)); }
+
+std::vector<LightTriangle> BuildLightTrianglesFrom(const std::vector<Light>& lights,
+                                                   const std::vector<uint8_t>& lightOn,
+                                                   std::vector<uint32_t>* groupOf) {
+  std::vector<LightTriangle> out;
+  if (groupOf) groupOf->clear();
+  for (size_t l = 0; l < lights.size(); ++l) {
+    const Light& light = lights[l];
+    // A light missing from the state counts as on: only an explicit 0 switches it off.
+    const bool on = l >= lightOn.size() || lightOn[l] != 0;
+    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
+      LightTriangle tri;
+      if (!MakeLightTriangle(light.vertices[v], light.vertices[v + 1], light.vertices[v + 2],
+                             on ? light.radiance : Vec3(0.0f), tri)) {
+        // Load rejects degenerate lights; should one slip through, it still occupies its slot so that light
+        // ids keep matching Embree's primIDs, but it can never be sampled.
+        tri.normal = Vec3(0.0f);
+        tri.area = 0.0f;
+        tri.radiance = Vec3(0.0f);
+      }
+      out.push_back(tri);
+      if (groupOf) groupOf->push_back(static_cast<uint32_t>(l));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// Scene layout (every hit goes through exactly one instance level, the only one this Embree build supports):
+//   top-level scene (one per frame slot)
+//     geomID o < numObjects : instance of animated object o's prototype (object space)
+//     geomID numObjects     : instance, identity transform, of the static scene
+//   static scene (shared by both slots, built at the first Update)
+//     geomID o < numObjects : static object o, baked to world space
+//     geomID numObjects     : all emitter triangles, world space, primID = light-triangle index
+// Putting static geometry and emitters under one identity instance keeps the per-frame top-level rebuild over a
+// few instances only; identity instance transforms are exact in floating point, so static hits are computed
+// on the world-space vertices exactly as if the geometry were in the top-level scene.
+struct EmbreeScene::Impl {
+  struct ObjectRecord {
+    bool animated = false;
+    int32_t material = 0;
+    std::vector<glm::uvec3> triangles;
+    std::vector<Vec3> normals;      // object space for animated objects, world space once a static one is baked
+    std::vector<Vec3> positions;    // object space; kept until a static object is baked
+    RTCScene prototype = nullptr;   // animated objects only
+  };
+  struct Slot {
+    RTCScene top = nullptr;
+    std::vector<RTCGeometry> instances;  // per object; null for static objects
+    std::vector<glm::mat3> normalToWorld;  // per object: inverse transpose of objectToWorld (animated only)
+  };
+
+  RTCDevice device = nullptr;
+  RTCScene staticScene = nullptr;
+  bool staticHasGeometry = false;
+  std::vector<ObjectRecord> objects;
+  std::vector<Light> lights;
+  std::vector<Vec3> lightNormals;  // per light triangle (zero for a degenerate one)
+  Slot slots[2];
+  int current = -1;
+  int previous = -1;
+  uint32_t staticInstanceId = 0;
+
+  ~Impl() {
+    for (auto& s : slots) {
+      for (RTCGeometry g : s.instances)
+        if (g) rtcReleaseGeometry(g);
+      if (s.top) rtcReleaseScene(s.top);
+    }
+    for (auto& o : objects)
+      if (o.prototype) rtcReleaseScene(o.prototype);
+    if (staticScene) rtcReleaseScene(staticScene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  RTCScene SceneFor(SceneFrame frame) const {
+    const int slot = frame == SceneFrame::kCurrent ? current : previous;
+    return slot < 0 ? nullptr : slots[slot].top;
+  }
+  const Slot* SlotFor(SceneFrame frame) const {
+    const int slot = frame == SceneFrame::kCurrent ? current : previous;
+    return slot < 0 ? nullptr : &slots[slot];
+  }
+
+  void BuildStatic(const FrameState& state) {
+    staticScene = NewScene(device);
+    const uint32_t n = static_cast<uint32_t>(objects.size());
+    for (uint32_t o = 0; o < n; ++o) {
+      ObjectRecord& rec = objects[o];
+      if (rec.animated) continue;
+      const Mat4 m = o < state.objectToWorld.size() ? state.objectToWorld[o] : Mat4(1.0f);
+      std::vector<Vec3> world(rec.positions.size());
+      for (size_t i = 0; i < world.size(); ++i) world[i] = TransformPoint(m, rec.positions[i]);
+      const glm::mat3 nm = NormalMatrix(m);
+      for (Vec3& nrm : rec.normals) nrm = nm * nrm;
+      rec.positions.clear();
+      rec.positions.shrink_to_fit();
+      if (rec.triangles.empty()) continue;
+      RTCGeometry g = NewTriangleGeometry(device, world, rec.triangles);
+      if (!g) continue;
+      rtcAttachGeometryByID(staticScene, g, o);
+      rtcReleaseGeometry(g);
+      staticHasGeometry = true;
+      if (rec.normals.empty()) rec.triangles = {};
+    }
+    std::vector<Vec3> lightPositions;
+    std::vector<glm::uvec3> lightTris;
+    for (const Light& light : lights) {
+      for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
+        const uint32_t base = static_cast<uint32_t>(lightPositions.size());
+        lightPositions.push_back(light.vertices[v]);
+        lightPositions.push_back(light.vertices[v + 1]);
+        lightPositions.push_back(light.vertices[v + 2]);
+        lightTris.emplace_back(base, base + 1, base + 2);
+      }
+    }
+    if (!lightTris.empty()) {
+      RTCGeometry g = NewTriangleGeometry(device, lightPositions, lightTris);
+      if (g) {
+        rtcAttachGeometryByID(staticScene, g, n);
+        rtcReleaseGeometry(g);
+        staticHasGeometry = true;
+      }
+    }
+    CommitSerial(staticScene);
+    ThrowOnDeviceError(device, "building the static scene");
+  }
+
+  void BuildSlot(Slot& slot) {
+    slot.top = NewScene(device);
+    const uint32_t n = static_cast<uint32_t>(objects.size());
+    slot.instances.assign(n, nullptr);
+    slot.normalToWorld.assign(n, glm::mat3(1.0f));
+    for (uint32_t o = 0; o < n; ++o) {
+      if (!objects[o].animated || !objects[o].prototype) continue;
+      RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(inst, objects[o].prototype);
+      rtcSetGeometryTimeStepCount(inst, 1);
+      rtcAttachGeometryByID(slot.top, inst, o);
+      slot.instances[o] = inst;  // keep our reference: transforms change every frame
+    }
+    if (staticHasGeometry) {
+      RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(inst, staticScene);
+      rtcSetGeometryTimeStepCount(inst, 1);
+      const Mat4 identity(1.0f);
+      rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &identity[0][0]);
+      rtcCommitGeometry(inst);
+      rtcAttachGeometryByID(slot.top, inst, staticInstanceId);
+      rtcReleaseGeometry(inst);
+    }
+  }
+
+  void SetSlot(Slot& slot, const FrameState& state) {
+    const uint32_t n = static_cast<uint32_t>(objects.size());
+    for (uint32_t o = 0; o < n; ++o) {
+      if (!slot.instances[o]) continue;
+      const Mat4 m = o < state.objectToWorld.size() ? state.objectToWorld[o] : Mat4(1.0f);
+      rtcSetGeometryTransform(slot.instances[o], 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &m[0][0]);
+      rtcCommitGeometry(slot.instances[o]);
+      slot.normalToWorld[o] = NormalMatrix(m);
+    }
+    CommitSerial(slot.top);
+    ThrowOnDeviceError(device, "committing a frame's top-level scene");
+  }
+
+  static RTCRay MakeRay(const Vec3& org, const Vec3& dir, float tmax) {
+    RTCRay r;
+    r.org_x = org.x;
+    r.org_y = org.y;
+    r.org_z = org.z;
+    r.tnear = 0.0f;
+    r.dir_x = dir.x;
+    r.dir_y = dir.y;
+    r.dir_z = dir.z;
+    r.time = 0.0f;
+    r.tfar = tmax;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+    return r;
+  }
+};
+
+EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl>()) {
+  Impl& im = *impl_;
+  im.device = rtcNewDevice(kDeviceConfig);
+  if (!im.device) {
+    throw std::runtime_error(std::string("cannot create the Embree device (config \"") + kDeviceConfig +
+                             "\"): error " + std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))));
+  }
+  const uint32_t n = static_cast<uint32_t>(sequence.objects.size());
+  lightObjectId_ = static_cast<int32_t>(n);
+  im.staticInstanceId = n;
+  im.objects.resize(n);
+  for (uint32_t o = 0; o < n; ++o) {
+    const Object& obj = sequence.objects[o];
+    Impl::ObjectRecord& rec = im.objects[o];
+    rec.animated = obj.animated;
+    rec.material = static_cast<int32_t>(obj.material);
+    rec.triangles = obj.mesh.triangles;
+    // Normals only count when there is one per vertex; anything else falls back to flat shading.
+    if (!obj.mesh.normals.empty() && obj.mesh.normals.size() == obj.mesh.positions.size())
+      rec.normals = obj.mesh.normals;
+    if (obj.animated) {
+      if (rec.triangles.empty()) continue;
+      rec.prototype = NewScene(im.device);
+      RTCGeometry g = NewTriangleGeometry(im.device, obj.mesh.positions, rec.triangles);
+      if (g) {
+        rtcAttachGeometryByID(rec.prototype, g, 0);
+        rtcReleaseGeometry(g);
+      }
+      CommitSerial(rec.prototype);
+      // Triangles are only looked up again to interpolate vertex normals.
+      if (rec.normals.empty()) rec.triangles = {};
+    } else {
+      rec.positions = obj.mesh.positions;  // baked at the first Update, when the transform is known
+    }
+  }
+  ThrowOnDeviceError(im.device, "building object prototypes");
+  im.lights = sequence.lights;
+  FrameState allOn;
+  lights_ = BuildLightTrianglesFrom(im.lights, allOn.lightOn, &lightGroup_);
+  im.lightNormals.reserve(lights_.size());
+  for (const LightTriangle& t : lights_) im.lightNormals.push_back(t.normal);
+}
+
+EmbreeScene::~EmbreeScene() = default;
+
+// Not thread-safe against queries: the frame loop calls Update between passes, never while one is tracing.
+void EmbreeScene::Update(const FrameState& state) {
+  Impl& im = *impl_;
+  if (im.current < 0) {
+    im.BuildStatic(state);
+    im.BuildSlot(im.slots[0]);
+    im.BuildSlot(im.slots[1]);
+    im.SetSlot(im.slots[0], state);
+    // Before a second frame exists, "previous" is defined to be the current frame.
+    im.current = 0;
+    im.previous = 0;
+  } else {
+    im.previous = im.current;
+    im.current ^= 1;
+    im.SetSlot(im.slots[im.current], state);
+  }
+  lights_ = BuildLightTrianglesFrom(im.lights, state.lightOn, &lightGroup_);
+}
+
+SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  SurfaceHit out;
+  const Impl& im = *impl_;
+  const Impl::Slot* slot = im.SlotFor(frame);
+  if (!slot || !(tmax > 0.0f)) return out;
+
+  RTCRayHit rh;
+  rh.ray = Impl::MakeRay(org, dir, tmax);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  for (unsigned l = 0; l < RTC_MAX_INSTANCE_LEVEL_COUNT; ++l) rh.hit.instID[l] = RTC_INVALID_GEOMETRY_ID;
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  rtcIntersect1(slot->top, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
+
+  const uint32_t inst = rh.hit.instID[0];
+  const uint32_t n = static_cast<uint32_t>(im.objects.size());
+  const bool isStatic = inst == im.staticInstanceId;
+  const uint32_t objectOrLights = isStatic ? rh.hit.geomID : inst;
+
+  out.hit = true;
+  out.t = rh.ray.tfar;
+  out.position = org + out.t * dir;
+
+  // Embree 3 reports Ng in the object space of the instanced geometry (unnormalised); static geometry and
+  // emitters are world space under an identity instance, so only animated instances need the normal matrix.
+  Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  if (!isStatic && objectOrLights < n) ng = slot->normalToWorld[objectOrLights] * ng;
+  ng = glm::normalize(ng);
+  if (glm::dot(ng, dir) > 0.0f) ng = -ng;
+  out.geometricNormal = ng;
+  out.shadingNormal = ng;
+
+  if (objectOrLights >= n) {  // emitter
+    const uint32_t prim = rh.hit.primID;
+    out.objectId = lightObjectId_;
+    out.materialId = -1;
+    out.lightId = static_cast<int32_t>(prim);
+    const Vec3 ln = prim < im.lightNormals.size() ? im.lightNormals[prim] : Vec3(0.0f);
+    out.frontFace = glm::dot(dir, ln) < 0.0f;
+    return out;
+  }
+
+  const Impl::ObjectRecord& rec = im.objects[objectOrLights];
+  out.objectId = static_cast<int32_t>(objectOrLights);
+  out.materialId = rec.material;
+  out.lightId = -1;
+  out.frontFace = true;
+  if (!rec.normals.empty() && rh.hit.primID < rec.triangles.size()) {
+    const glm::uvec3 tri = rec.triangles[rh.hit.primID];
+    const float u = rh.hit.u;
+    const float v = rh.hit.v;
+    // Embree's barycentrics: u weighs vertex 1, v weighs vertex 2.
+    Vec3 ns = (1.0f - u - v) * rec.normals[tri.x] + u * rec.normals[tri.y] + v * rec.normals[tri.z];
+    if (!isStatic) ns = slot->normalToWorld[objectOrLights] * ns;
+    const float len = glm::length(ns);
+    if (len > 0.0f && std::isfinite(len)) {
+      ns /= len;
+      // Two-sided shading: the shading normal lives on the side of the surface the ray sees.
+      out.shadingNormal = glm::dot(ns, ng) < 0.0f ? -ns : ns;
+    }
+  }
+  return out;
+}
+
+bool EmbreeScene::Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  RTCScene scene = impl_->SceneFor(frame);
+  if (!scene || !(tmax > 0.0f)) return false;
+  RTCRay ray = Impl::MakeRay(org, dir, tmax);
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  rtcOccluded1(scene, &ctx, &ray);
+  // Embree marks a blocked ray by setting tfar to -inf.
+  return ray.tfar == -std::numeric_limits<float>::infinity();
+}
+
+void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count, SceneFrame frame) const {
+  RTCScene scene = impl_->SceneFor(frame);
+  if (!scene) {
+    std::fill(occluded, occluded + count, uint8_t{0});
+    return;
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  // Shadow rays of one pass are incoherent (different pixels, different lights).
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  for (size_t base = 0; base < count; base += 16) {
+    alignas(64) RTCRay16 packet;
+    alignas(64) int valid[16];
+    const size_t lanes = std::min<size_t>(16, count - base);
+    for (size_t i = 0; i < 16; ++i) {
+      const bool active = i < lanes && rays[base + i].tmax > 0.0f;
+      const ShadowRay& r = rays[base + (i < lanes ? i : 0)];
+      valid[i] = active ? -1 : 0;
+      packet.org_x[i] = active ? r.org.x : 0.0f;
+      packet.org_y[i] = active ? r.org.y : 0.0f;
+      packet.org_z[i] = active ? r.org.z : 0.0f;
+      packet.tnear[i] = 0.0f;
+      packet.dir_x[i] = active ? r.dir.x : 0.0f;
+      packet.dir_y[i] = active ? r.dir.y : 0.0f;
+      packet.dir_z[i] = active ? r.dir.z : 1.0f;
+      packet.time[i] = 0.0f;
+      packet.tfar[i] = active ? r.tmax : 0.0f;
+      packet.mask[i] = 0xffffffffu;
+      packet.id[i] = static_cast<unsigned>(i);
+      packet.flags[i] = 0;
+    }
+    rtcOccluded16(valid, scene, &ctx, &packet);
+    for (size_t i = 0; i < lanes; ++i) {
+      occluded[base + i] = valid[i] != 0 && packet.tfar[i] == -std::numeric_limits<float>::infinity() ? 1 : 0;
+    }
+  }
+}
+
+std::vector<LightTriangle> BuildLightTriangles(const Sequence& sequence, const FrameState& state,
+                                               std::vector<uint32_t>* groupOf) {
+  return BuildLightTrianglesFrom(sequence.lights, state.lightOn, groupOf);
+}
+
+// Contract for callers tracing a shadow ray from a surface point x (geometric normal ng) to a light point y:
+//   org  = OffsetRayOrigin(x, ng, dir), dir = normalize(y - org), tmax = (1 - 1e-3f) * length(y - org)
+// The relative shortening keeps the ray from hitting the emitter triangle that y lies on (or a surface y sits
+// on); a relative rather than absolute epsilon stays valid at any scene scale.
+Vec3 OffsetRayOrigin(const Vec3& p, const Vec3& geometricNormal, const Vec3& dir) {
+  // Float error in a hit position grows with its magnitude, so the offset does too.
+  const float scale = std::max(std::fabs(p.x), std::max(std::fabs(p.y), std::fabs(p.z)));
+  const float eps = 1e-4f * (1.0f + scale);
+  const float side = glm::dot(geometricNormal, dir) >= 0.0f ? 1.0f : -1.0f;
+  return p + (side * eps) * geometricNormal;
+}
+
+}  // namespace restir

@@ -1,0 +1,1139 @@
+// Sequence files (DESIGN §8): JSON → validated Sequence, evaluation of the animation at a frame, and the
+// `validate` summary. Every problem becomes one InputError line "file:line:col: error at /json/path: what"
+// (DESIGN §10); the format itself is documented in docs/sequence-format.md.
+#include "sim/sequence.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string_view>
+#include <unordered_map>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/json_locator.h"
+
+namespace restir {
+namespace {
+
+using Json = nlohmann::json;
+
+// --- small helpers ------------------------------------------------------------------------------------------
+
+// Error messages must stay on one line whatever the offending text contains.
+std::string OneLine(std::string s) {
+  for (char& c : s) {
+    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+  }
+  return s;
+}
+
+std::string FormatNumber(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+
+std::string FormatVec(const Vec3& v) {
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "[%g, %g, %g]", v.x, v.y, v.z);
+  return buf;
+}
+
+size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// " (did you mean 'x'?)" for a close candidate, else " (expected one of: a, b, c)" so the user always learns
+// what is accepted.
+std::string Suggestion(const std::string& given, const std::vector<std::string>& candidates) {
+  if (candidates.empty()) return "";
+  const std::string* best = nullptr;
+  size_t bestDistance = 0;
+  for (const std::string& c : candidates) {
+    const size_t d = EditDistance(given, c);
+    if (!best || d < bestDistance) {
+      best = &c;
+      bestDistance = d;
+    }
+  }
+  const size_t limit = std::max<size_t>(2, std::min(given.size(), best->size()) / 3);
+  if (bestDistance <= limit) return " (did you mean '" + *best + "'?)";
+  std::string list;
+  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
+  return " (expected one of: " + list + ")";
+}
+
+uint64_t Fnv1a(uint64_t h, std::string_view bytes) {
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string TypeName(const Json& v) {
+  switch (v.type()) {
+    case Json::value_t::null: return "null";
+    case Json::value_t::boolean: return "boolean";
+    case Json::value_t::string: return "string";
+    case Json::value_t::array: return "array";
+    case Json::value_t::object: return "object";
+    case Json::value_t::binary: return "binary";
+    case Json::value_t::discarded: return "nothing";
+    default: return "number";
+  }
+}
+
+bool ReadFileBytes(const std::string& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) return false;
+  out = ss.str();
+  return true;
+}
+
+// --- geometry -----------------------------------------------------------------------------------------------
+
+// Appends a triangle whose winding makes its geometric normal point away from `inside`, so generated solids
+// are consistently outward-facing without hand-ordering every face.
+void AddTriangleOutward(Mesh& mesh, uint32_t a, uint32_t b, uint32_t c, const Vec3& inside) {
+  const Vec3& pa = mesh.positions[a];
+  const Vec3 n = glm::cross(mesh.positions[b] - pa, mesh.positions[c] - pa);
+  const Vec3 centroid = (pa + mesh.positions[b] + mesh.positions[c]) / 3.0f;
+  if (glm::dot(n, centroid - inside) < 0.0f) std::swap(b, c);
+  mesh.triangles.emplace_back(a, b, c);
+}
+
+// Corners center-u-v, center+u-v, center+u+v, center-u+v: counter-clockwise seen from the cross(u, v) side.
+void QuadCorners(const Vec3& c, const Vec3& u, const Vec3& v, Vec3 out[4]) {
+  out[0] = c - u - v;
+  out[1] = c + u - v;
+  out[2] = c + u + v;
+  out[3] = c - u + v;
+}
+
+void AppendBox(Mesh& mesh, const Vec3& lo, const Vec3& hi) {
+  const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+  for (int i = 0; i < 8; ++i) {
+    mesh.positions.emplace_back((i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z);
+  }
+  const Vec3 center = 0.5f * (lo + hi);
+  // Each face as four corner indices (bit 0 = x, bit 1 = y, bit 2 = z) going round the face.
+  static constexpr int kFaces[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                       {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+  for (const auto& f : kFaces) {
+    AddTriangleOutward(mesh, base + f[0], base + f[1], base + f[2], center);
+    AddTriangleOutward(mesh, base + f[0], base + f[2], base + f[3], center);
+  }
+}
+
+Mesh MakeSphere(const Vec3& center, float radius, int segments) {
+  Mesh mesh;
+  const int rings = std::max(2, segments / 2);
+  auto addVertex = [&](const Vec3& n) {
+    mesh.positions.push_back(center + radius * n);
+    mesh.normals.push_back(n);
+  };
+  addVertex(Vec3(0.0f, 1.0f, 0.0f));
+  for (int r = 1; r < rings; ++r) {
+    const float theta = kPi * static_cast<float>(r) / static_cast<float>(rings);
+    for (int s = 0; s < segments; ++s) {
+      const float phi = 2.0f * kPi * static_cast<float>(s) / static_cast<float>(segments);
+      addVertex(Vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)));
+    }
+  }
+  addVertex(Vec3(0.0f, -1.0f, 0.0f));
+  const uint32_t bottom = static_cast<uint32_t>(mesh.positions.size() - 1);
+  auto ringVertex = [&](int r, int s) { return static_cast<uint32_t>(1 + (r - 1) * segments + s % segments); };
+  for (int s = 0; s < segments; ++s) {
+    AddTriangleOutward(mesh, 0, ringVertex(1, s), ringVertex(1, s + 1), center);
+    AddTriangleOutward(mesh, bottom, ringVertex(rings - 1, s), ringVertex(rings - 1, s + 1), center);
+    for (int r = 1; r + 1 < rings; ++r) {
+      AddTriangleOutward(mesh, ringVertex(r, s), ringVertex(r + 1, s), ringVertex(r + 1, s + 1), center);
+      AddTriangleOutward(mesh, ringVertex(r, s), ringVertex(r + 1, s + 1), ringVertex(r, s + 1), center);
+    }
+  }
+  return mesh;
+}
+
+// Exact values at multiples of 90 degrees, so a quarter turn maps axes onto axes without 1e-8 residue.
+void SinCosDegrees(float degrees, float& s, float& c) {
+  const float quarter = degrees / 90.0f;
+  if (quarter == std::floor(quarter) && std::fabs(quarter) < 1e6f) {
+    static constexpr float kSin[4] = {0.0f, 1.0f, 0.0f, -1.0f};
+    static constexpr float kCos[4] = {1.0f, 0.0f, -1.0f, 0.0f};
+    const int q = ((static_cast<int>(quarter) % 4) + 4) % 4;
+    s = kSin[q];
+    c = kCos[q];
+    return;
+  }
+  const float r = glm::radians(degrees);
+  s = std::sin(r);
+  c = std::cos(r);
+}
+
+Mat4 TransformMatrix(const Vec3& translate, const Vec3& rotateDegrees, const Vec3& scale) {
+  float sx, cx, sy, cy, sz, cz;
+  SinCosDegrees(rotateDegrees.x, sx, cx);
+  SinCosDegrees(rotateDegrees.y, sy, cy);
+  SinCosDegrees(rotateDegrees.z, sz, cz);
+  // GLM matrices are column-major: m[column][row].
+  Mat4 rx(1.0f), ry(1.0f), rz(1.0f), s(1.0f), t(1.0f);
+  rx[1][1] = cx; rx[1][2] = sx; rx[2][1] = -sx; rx[2][2] = cx;
+  ry[0][0] = cy; ry[0][2] = -sy; ry[2][0] = sy; ry[2][2] = cy;
+  rz[0][0] = cz; rz[0][1] = sz; rz[1][0] = -sz; rz[1][1] = cz;
+  s[0][0] = scale.x; s[1][1] = scale.y; s[2][2] = scale.z;
+  t[3] = Vec4(translate, 1.0f);
+  return t * rz * ry * rx * s;
+}
+
+// --- interpolation ------------------------------------------------------------------------------------------
+
+// Finds the segment containing frame and the (eased) parameter within it; clamps outside the keyed range.
+template <typename Key>
+void FindSegment(const std::vector<Key>& keys, int frame, size_t& i, float& t) {
+  i = 0;
+  t = 0.0f;
+  if (keys.size() < 2 || frame <= keys.front().frame) return;
+  if (frame >= keys.back().frame) {
+    i = keys.size() - 1;
+    return;
+  }
+  while (i + 1 < keys.size() && keys[i + 1].frame <= frame) ++i;
+  t = static_cast<float>(frame - keys[i].frame) / static_cast<float>(keys[i + 1].frame - keys[i].frame);
+  if (keys[i].interpolation == Interpolation::kSmooth) t = t * t * (3.0f - 2.0f * t);  // smoothstep
+}
+
+CameraKey InterpolateCamera(const std::vector<CameraKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const CameraKey& a = keys[i];
+  const CameraKey& b = keys[i + 1];
+  CameraKey k = a;
+  k.frame = frame;
+  k.position = glm::mix(a.position, b.position, t);
+  k.lookAt = glm::mix(a.lookAt, b.lookAt, t);
+  k.vfovDegrees = glm::mix(a.vfovDegrees, b.vfovDegrees, t);
+  return k;
+}
+
+TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const TransformKey& a = keys[i];
+  const TransformKey& b = keys[i + 1];
+  TransformKey k = a;
+  k.frame = frame;
+  k.translate = glm::mix(a.translate, b.translate, t);
+  k.rotateDegrees = glm::mix(a.rotateDegrees, b.rotateDegrees, t);
+  k.scale = glm::mix(a.scale, b.scale, t);
+  return k;
+}
+
+// The camera's view distance below which position and lookAt count as the same point.
+constexpr float kMinLookDistance = 1e-6f;
+
+Camera MakeCamera(const CameraKey& key, int width, int height) {
+  Camera cam;
+  cam.position = key.position;
+  cam.vfovDegrees = key.vfovDegrees;
+  cam.width = width;
+  cam.height = height;
+  const Vec3 d = key.lookAt - key.position;
+  const float len = glm::length(d);
+  cam.forward = len > kMinLookDistance ? d / len : Vec3(0.0f, 0.0f, -1.0f);
+  Vec3 side = glm::cross(cam.forward, Vec3(0.0f, 1.0f, 0.0f));
+  if (glm::length(side) < 1e-6f) {
+    // Looking straight up or down: take image-up along -z / +z so that right stays +x.
+    side = glm::cross(cam.forward, Vec3(0.0f, 0.0f, cam.forward.y > 0.0f ? 1.0f : -1.0f));
+  }
+  cam.right = glm::normalize(side);
+  cam.up = glm::cross(cam.right, cam.forward);
+  return cam;
+}
+
+// --- the reader ---------------------------------------------------------------------------------------------
+
+class Reader {
+ public:
+  Reader(const std::string& file, const std::string& text, const std::string& baseDir)
+      : file_(file), locator_(text), baseDir_(baseDir), hash_(Fnv1a(14695981039346656037ull, text)) {}
+
+  Sequence Read(const Json& root);
+
+ private:
+  [[noreturn]] void FailAt(const SourcePos& pos, const std::string& pointer, const std::string& message) const {
+    throw InputError(OneLine(file_ + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
+                             ": error at " + (pointer.empty() ? std::string("(top level)") : pointer) + ": " +
+                             message));
+  }
+  // Problem with the value at pointer.
+  [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const {
+    FailAt(locator_.ValuePos(pointer), pointer, message);
+  }
+  // Problem with the key of the member at pointer (unknown or duplicate key).
+  [[noreturn]] void FailKey(const std::string& pointer, const std::string& message) const {
+    FailAt(locator_.KeyPos(pointer), pointer, message);
+  }
+
+  // Typed access. Each checks the JSON type and reports "expected ..., got ..." at the value.
+  const Json& AsObject(const Json& v, const std::string& p) const {
+    if (!v.is_object()) Fail(p, "expected an object, got " + TypeName(v));
+    return v;
+  }
+  const Json& AsArray(const Json& v, const std::string& p, bool nonEmpty) const {
+    if (!v.is_array()) Fail(p, "expected an array, got " + TypeName(v));
+    if (nonEmpty && v.empty()) Fail(p, "expected a non-empty array");
+    return v;
+  }
+  void CheckKeys(const Json& obj, const std::string& p, const std::vector<std::string>& known) const {
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+      if (std::find(known.begin(), known.end(), it.key()) == known.end()) {
+        FailKey(PointerChild(p, it.key()), "unknown key '" + it.key() + "'" + Suggestion(it.key(), known));
+      }
+    }
+  }
+  const Json* Find(const Json& obj, const std::string& key) const {
+    auto it = obj.find(key);
+    return it == obj.end() ? nullptr : &*it;
+  }
+  const Json& Need(const Json& obj, const std::string& p, const std::string& key) const {
+    const Json* v = Find(obj, key);
+    if (!v) Fail(p, "missing required key '" + key + "'");
+    return *v;
+  }
+  double Number(const Json& v, const std::string& p) const {
+    if (!v.is_number()) Fail(p, "expected a number, got " + TypeName(v));
+    return v.get<double>();
+  }
+  float Float(const Json& v, const std::string& p) const {
+    const float f = static_cast<float>(Number(v, p));
+    if (!std::isfinite(f)) Fail(p, "number " + v.dump() + " is out of single-precision range");
+    return f;
+  }
+  int64_t Integer(const Json& v, const std::string& p, int64_t lo, int64_t hi, const std::string& what) const {
+    if (!v.is_number()) Fail(p, "expected an integer, got " + TypeName(v));
+    int64_t value = 0;
+    if (v.is_number_integer()) {
+      value = v.is_number_unsigned() ? static_cast<int64_t>(std::min<uint64_t>(v.get<uint64_t>(), INT64_MAX))
+                                     : v.get<int64_t>();
+    } else {
+      const double d = v.get<double>();
+      if (d != std::floor(d) || std::fabs(d) > 9e15) Fail(p, "expected an integer, got " + v.dump());
+      value = static_cast<int64_t>(d);
+    }
+    if (value < lo || value > hi) {
+      Fail(p, what + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                  std::to_string(value));
+    }
+    return value;
+  }
+  std::string String(const Json& v, const std::string& p) const {
+    if (!v.is_string()) Fail(p, "expected a string, got " + TypeName(v));
+    return v.get<std::string>();
+  }
+  std::string Name(const Json& v, const std::string& p) const {
+    std::string s = String(v, p);
+    if (s.empty()) Fail(p, "name must not be empty");
+    return s;
+  }
+  Vec3 Vector(const Json& v, const std::string& p) const {
+    if (!v.is_array() || v.size() != 3) {
+      Fail(p, "expected an array of 3 numbers, got " +
+                  (v.is_array() ? "an array of " + std::to_string(v.size()) : TypeName(v)));
+    }
+    return Vec3(Float(v[0], PointerChild(p, 0)), Float(v[1], PointerChild(p, 1)), Float(v[2], PointerChild(p, 2)));
+  }
+  Vec3 Color(const Json& v, const std::string& p, const std::string& what, bool allowBlack) const {
+    const Vec3 c = Vector(v, p);
+    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) Fail(p, what + " components must be >= 0, got " + FormatVec(c));
+    if (!allowBlack && std::max({c.x, c.y, c.z}) <= 0.0f) Fail(p, what + " must not be black");
+    return c;
+  }
+  float Positive(const Json& v, const std::string& p, const std::string& what) const {
+    const float f = Float(v, p);
+    if (!(f > 0.0f)) Fail(p, what + " must be > 0, got " + FormatNumber(f));
+    return f;
+  }
+  // One of a closed set of strings; suggests the nearest on a typo.
+  size_t Choice(const Json& v, const std::string& p, const std::string& what,
+                const std::vector<std::string>& options) const {
+    const std::string s = String(v, p);
+    auto it = std::find(options.begin(), options.end(), s);
+    if (it == options.end()) Fail(p, "unknown " + what + " '" + s + "'" + Suggestion(s, options));
+    return static_cast<size_t>(it - options.begin());
+  }
+  Interpolation ReadInterpolation(const Json& key, const std::string& p) const {
+    const Json* v = Find(key, "interpolation");
+    if (!v) return Interpolation::kLinear;
+    return Choice(*v, PointerChild(p, "interpolation"), "interpolation", {"linear", "smooth"}) == 0
+               ? Interpolation::kLinear
+               : Interpolation::kSmooth;
+  }
+  int ReadKeyFrame(const Json& key, const std::string& p) const {
+    return static_cast<int>(Integer(Need(key, p, "frame"), PointerChild(p, "frame"), 0, frameCount_ - 1, "frame"));
+  }
+
+  // Sorts keys by frame and rejects two keys on one frame. paths[i] is the pointer of keys[i] as written.
+  template <typename Key>
+  void SortKeys(std::vector<Key>& keys, std::vector<std::string>& paths) const {
+    std::vector<size_t> order(keys.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return keys[a].frame < keys[b].frame; });
+    for (size_t i = 1; i < order.size(); ++i) {
+      if (keys[order[i]].frame == keys[order[i - 1]].frame) {
+        const size_t later = std::max(order[i], order[i - 1]);
+        const size_t earlier = std::min(order[i], order[i - 1]);
+        Fail(PointerChild(paths[later], "frame"),
+             "duplicate keyframe at frame " + std::to_string(keys[later].frame) + " (also at " + paths[earlier] + ")");
+      }
+    }
+    std::vector<Key> sortedKeys;
+    std::vector<std::string> sortedPaths;
+    for (size_t i : order) {
+      sortedKeys.push_back(keys[i]);
+      sortedPaths.push_back(paths[i]);
+    }
+    keys.swap(sortedKeys);
+    paths.swap(sortedPaths);
+  }
+
+  void CheckUniqueName(std::map<std::string, std::string>& seen, const std::string& name, const std::string& p,
+                       const std::string& what) const {
+    auto [it, inserted] = seen.emplace(name, p);
+    if (!inserted) Fail(p, "duplicate " + what + " name '" + name + "' (first used at " + it->second + ")");
+  }
+
+  void ReadMaterials(const Json& list, const std::string& p, Sequence& seq);
+  void ReadObjects(const Json& list, const std::string& p, Sequence& seq);
+  Mesh ReadShape(const Json& shape, const std::string& p);
+  Mesh LoadObjMesh(const std::string& file, const std::string& p);
+  std::vector<TransformKey> ReadTransformKeys(const Json& list, const std::string& p);
+  void ReadLights(const Json& list, const std::string& p, Sequence& seq);
+  void AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices, const Vec3& radiance,
+                const std::vector<std::pair<int, int>>& onRanges, const std::string& p);
+  std::vector<std::pair<int, int>> ReadOnRanges(const Json& v, const std::string& p) const;
+  void ReadCamera(const Json& camera, const std::string& p, Sequence& seq);
+  void ReadRender(const Json& render, const std::string& p, Sequence& seq);
+
+  std::string file_;
+  JsonLocator locator_;
+  std::string baseDir_;
+  uint64_t hash_;
+  int frameCount_ = 1;
+  std::map<std::string, std::string> lightNames_;
+  std::unordered_map<std::string, Mesh> meshCache_;  // resolved OBJ path → mesh, so a file is read once
+
+ public:
+  const JsonLocator& Locator() const { return locator_; }
+  void CheckDuplicateKeys() const {
+    const std::string& dup = locator_.DuplicateKeyPointer();
+    if (!dup.empty()) FailKey(dup, "duplicate key '" + dup.substr(dup.rfind('/') + 1) + "'");
+  }
+  std::string Hash() const {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(hash_));
+    return buf;
+  }
+};
+
+Sequence Reader::Read(const Json& root) {
+  Sequence seq;
+  AsObject(root, "");
+  CheckKeys(root, "", {"name", "description", "resolution", "frames", "frameRate", "seed", "materials", "objects",
+                       "lights", "camera", "render"});
+  seq.name = Name(Need(root, "", "name"), "/name");
+  if (const Json* v = Find(root, "description")) seq.description = String(*v, "/description");
+
+  const Json& res = Need(root, "", "resolution");
+  if (!res.is_array() || res.size() != 2) {
+    Fail("/resolution", "expected [width, height], got " +
+                            (res.is_array() ? "an array of " + std::to_string(res.size()) : TypeName(res)));
+  }
+  seq.width = static_cast<int>(Integer(res[0], "/resolution/0", 1, 16384, "width"));
+  seq.height = static_cast<int>(Integer(res[1], "/resolution/1", 1, 16384, "height"));
+  seq.frameCount = static_cast<int>(Integer(Need(root, "", "frames"), "/frames", 1, 100000, "frames"));
+  frameCount_ = seq.frameCount;
+  if (const Json* v = Find(root, "frameRate")) {
+    seq.frameRate = Float(*v, "/frameRate");
+    if (!(seq.frameRate > 0.0f && seq.frameRate <= 1000.0f)) {
+      Fail("/frameRate", "frameRate must be in (0, 1000], got " + FormatNumber(seq.frameRate));
+    }
+  }
+  if (const Json* v = Find(root, "seed")) seq.seed = static_cast<uint32_t>(Integer(*v, "/seed", 0, 4294967295ll, "seed"));
+
+  ReadMaterials(AsArray(Need(root, "", "materials"), "/materials", true), "/materials", seq);
+  ReadObjects(AsArray(Need(root, "", "objects"), "/objects", true), "/objects", seq);
+  ReadLights(AsArray(Need(root, "", "lights"), "/lights", true), "/lights", seq);
+  ReadCamera(AsObject(Need(root, "", "camera"), "/camera"), "/camera", seq);
+  if (const Json* v = Find(root, "render")) ReadRender(AsObject(*v, "/render"), "/render", seq);
+  seq.contentHash = Hash();
+  return seq;
+}
+
+void Reader::ReadMaterials(const Json& list, const std::string& p, Sequence& seq) {
+  std::map<std::string, std::string> names;
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string mp = PointerChild(p, i);
+    const Json& m = AsObject(list[i], mp);
+    CheckKeys(m, mp, {"name", "type", "albedo", "roughness"});
+    Material mat;
+    mat.name = Name(Need(m, mp, "name"), mp + "/name");
+    CheckUniqueName(names, mat.name, mp + "/name", "material");
+    mat.type = Choice(Need(m, mp, "type"), mp + "/type", "material type", {"diffuse", "ggx"}) == 0
+                   ? MaterialType::kDiffuse
+                   : MaterialType::kGgx;
+    mat.albedo = Color(Need(m, mp, "albedo"), mp + "/albedo", "albedo", true);
+    if (std::max({mat.albedo.x, mat.albedo.y, mat.albedo.z}) > 1.0f) {
+      Fail(mp + "/albedo", "albedo components must be <= 1 (energy conservation), got " + FormatVec(mat.albedo));
+    }
+    if (const Json* r = Find(m, "roughness")) {
+      if (mat.type != MaterialType::kGgx) Fail(mp + "/roughness", "roughness applies only to 'ggx' materials");
+      mat.roughness = Float(*r, mp + "/roughness");
+      if (!(mat.roughness > 0.0f && mat.roughness <= 1.0f)) {
+        Fail(mp + "/roughness", "roughness must be in (0, 1], got " + FormatNumber(mat.roughness));
+      }
+    }
+    seq.materials.push_back(mat);
+  }
+}
+
+void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) {
+  std::map<std::string, std::string> names;
+  std::vector<std::string> materialNames;
+  for (const Material& m : seq.materials) materialNames.push_back(m.name);
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string op = PointerChild(p, i);
+    const Json& o = AsObject(list[i], op);
+    CheckKeys(o, op, {"name", "material", "shape", "keyframes"});
+    Object obj;
+    obj.name = Name(Need(o, op, "name"), op + "/name");
+    CheckUniqueName(names, obj.name, op + "/name", "object");
+    const std::string material = String(Need(o, op, "material"), op + "/material");
+    auto it = std::find(materialNames.begin(), materialNames.end(), material);
+    if (it == materialNames.end()) {
+      Fail(op + "/material", "unknown material '" + material + "'" + Suggestion(material, materialNames));
+    }
+    obj.material = static_cast<uint32_t>(it - materialNames.begin());
+    obj.mesh = ReadShape(AsObject(Need(o, op, "shape"), op + "/shape"), op + "/shape");
+    if (const Json* k = Find(o, "keyframes")) {
+      obj.keys = ReadTransformKeys(AsArray(*k, op + "/keyframes", true), op + "/keyframes");
+    } else {
+      obj.keys.push_back(TransformKey{});
+    }
+    for (const TransformKey& k : obj.keys) {
+      if (k.translate != obj.keys[0].translate || k.rotateDegrees != obj.keys[0].rotateDegrees ||
+          k.scale != obj.keys[0].scale) {
+        obj.animated = true;
+      }
+    }
+    seq.objects.push_back(std::move(obj));
+  }
+}
+
+Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
+  static const std::vector<std::string> kTypes = {"quad", "box", "sphere", "window_bars", "mesh"};
+  const size_t type = Choice(Need(shape, p, "type"), p + "/type", "shape type", kTypes);
+  Mesh mesh;
+  auto vec = [&](const char* key) { return Vector(Need(shape, p, key), p + "/" + key); };
+  auto positive = [&](const char* key) { return Positive(Need(shape, p, key), p + "/" + key, key); };
+  switch (type) {
+    case 0: {  // quad
+      CheckKeys(shape, p, {"type", "center", "u", "v"});
+      const Vec3 c = vec("center"), u = vec("u"), v = vec("v");
+      if (!(glm::length(glm::cross(u, v)) > 0.0f)) Fail(p, "degenerate quad: u and v are zero or parallel");
+      Vec3 corners[4];
+      QuadCorners(c, u, v, corners);
+      mesh.positions.assign(corners, corners + 4);
+      mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+      break;
+    }
+    case 1: {  // box
+      CheckKeys(shape, p, {"type", "min", "max"});
+      const Vec3 lo = vec("min"), hi = vec("max");
+      if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z)) {
+        Fail(p + "/max", "box max must exceed min on every axis, got min " + FormatVec(lo) + " max " + FormatVec(hi));
+      }
+      AppendBox(mesh, lo, hi);
+      break;
+    }
+    case 2: {  // sphere
+      CheckKeys(shape, p, {"type", "center", "radius", "segments"});
+      const Vec3 c = vec("center");
+      const float radius = positive("radius");
+      int segments = 32;
+      if (const Json* s = Find(shape, "segments")) {
+        segments = static_cast<int>(Integer(*s, p + "/segments", 3, 1024, "segments"));
+      }
+      mesh = MakeSphere(c, radius, segments);
+      break;
+    }
+    case 3: {  // window_bars
+      CheckKeys(shape, p, {"type", "origin", "count", "spacing", "thickness", "height", "depth"});
+      const Vec3 origin = vec("origin");
+      const int count = static_cast<int>(Integer(Need(shape, p, "count"), p + "/count", 1, 10000, "count"));
+      const float spacing = positive("spacing");
+      const float thickness = positive("thickness");
+      const float height = positive("height");
+      const float depth = positive("depth");
+      if (count > 1 && !(spacing > thickness)) {
+        Fail(p + "/spacing", "spacing must exceed thickness so bars do not overlap, got spacing " +
+                                 FormatNumber(spacing) + " thickness " + FormatNumber(thickness));
+      }
+      for (int i = 0; i < count; ++i) {
+        const Vec3 lo = origin + Vec3(static_cast<float>(i) * spacing, 0.0f, 0.0f);
+        AppendBox(mesh, lo, lo + Vec3(thickness, height, depth));
+      }
+      break;
+    }
+    default: {  // mesh
+      CheckKeys(shape, p, {"type", "file"});
+      const std::string file = String(Need(shape, p, "file"), p + "/file");
+      if (file.empty()) Fail(p + "/file", "mesh file name must not be empty");
+      mesh = LoadObjMesh(file, p + "/file");
+      break;
+    }
+  }
+  return mesh;
+}
+
+// Minimal Wavefront OBJ: v, vn and f (v, v/vt, v//vn, v/vt/vn; negative indices; polygons fan-triangulated).
+// Other statements (vt, o, g, s, usemtl, mtllib, l ...) are ignored. Errors name the OBJ file, line and column.
+Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
+  namespace fs = std::filesystem;
+  fs::path resolved = fs::path(file);
+  if (resolved.is_relative()) resolved = fs::path(baseDir_.empty() ? "." : baseDir_) / resolved;
+  const std::string objPath = resolved.lexically_normal().string();
+  if (auto it = meshCache_.find(objPath); it != meshCache_.end()) return it->second;
+
+  std::string bytes;
+  if (fs::is_directory(resolved) || !ReadFileBytes(objPath, bytes)) {
+    Fail(p, "cannot read mesh file '" + objPath + "'");
+  }
+  hash_ = Fnv1a(hash_, objPath);  // the name matters too: the same bytes from another file are another input
+  hash_ = Fnv1a(hash_, bytes);
+
+  const SourcePos from = locator_.ValuePos(p);
+  const std::string origin =
+      " (mesh of " + file_ + ":" + std::to_string(from.line) + ":" + std::to_string(from.column) + " " + p + ")";
+  auto fail = [&](int line, size_t column, const std::string& message) {
+    throw InputError(
+        OneLine(objPath + ":" + std::to_string(line) + ":" + std::to_string(column) + ": error: " + message + origin));
+  };
+
+  std::vector<Vec3> positions, normals;
+  struct Corner {
+    int position;
+    int normal;  // -1: none
+  };
+  std::vector<std::vector<Corner>> faces;
+  std::istringstream in(bytes);
+  std::string line;
+  int lineNo = 0;
+  while (std::getline(in, line)) {
+    ++lineNo;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    // Tokens with their 1-based columns.
+    std::vector<std::pair<std::string_view, size_t>> tokens;
+    for (size_t i = 0; i < line.size();) {
+      if (line[i] == '#') break;
+      if (line[i] == ' ' || line[i] == '\t') {
+        ++i;
+        continue;
+      }
+      const size_t start = i;
+      while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '#') ++i;
+      tokens.emplace_back(std::string_view(line).substr(start, i - start), start + 1);
+    }
+    if (tokens.empty()) continue;
+    const std::string_view cmd = tokens[0].first;
+    auto number = [&](size_t t) {
+      if (t >= tokens.size()) fail(lineNo, line.size() + 1, "expected a number");
+      const std::string_view s = tokens[t].first;
+      float v = 0.0f;
+      const char* first = s.data() + (s.size() > 1 && s[0] == '+' ? 1 : 0);
+      auto [ptr, ec] = std::from_chars(first, s.data() + s.size(), v);
+      if (ec != std::errc() || ptr != s.data() + s.size() || !std::isfinite(v)) {
+        fail(lineNo, tokens[t].second, "expected a number, got '" + std::string(s) + "'");
+      }
+      return v;
+    };
+    if (cmd == "v" || cmd == "vn") {
+      if (tokens.size() < 4 || tokens.size() > (cmd == "v" ? 5u : 4u)) {
+        fail(lineNo, tokens[0].second, "'" + std::string(cmd) + "' needs 3 coordinates");
+      }
+      const Vec3 value(number(1), number(2), number(3));
+      if (cmd == "v") {
+        positions.push_back(value);
+      } else {
+        if (!(glm::length(value) > 0.0f)) fail(lineNo, tokens[1].second, "zero-length normal");
+        normals.push_back(glm::normalize(value));
+      }
+    } else if (cmd == "f") {
+      if (tokens.size() < 4) fail(lineNo, tokens[0].second, "a face needs at least 3 vertices");
+      std::vector<Corner> face;
+      for (size_t t = 1; t < tokens.size(); ++t) {
+        const std::string_view tok = tokens[t].first;
+        // Up to three '/'-separated indices: position, texture (ignored), normal.
+        int idx[3] = {0, 0, 0};
+        bool has[3] = {false, false, false};
+        size_t field = 0, start = 0;
+        for (size_t k = 0; k <= tok.size(); ++k) {
+          if (k < tok.size() && tok[k] != '/') continue;
+          if (field > 2) fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
+          const std::string_view part = tok.substr(start, k - start);
+          if (!part.empty()) {
+            auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), idx[field]);
+            if (ec != std::errc() || ptr != part.data() + part.size() || idx[field] == 0) {
+              fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
+            }
+            has[field] = true;
+          } else if (field == 0) {
+            fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
+          }
+          ++field;
+          start = k + 1;
+        }
+        // OBJ indices are 1-based; negative ones count back from the latest element.
+        auto resolve = [&](int index, size_t count, const char* what) {
+          const long long r = index > 0 ? index - 1LL : static_cast<long long>(count) + index;
+          if (r < 0 || r >= static_cast<long long>(count)) {
+            fail(lineNo, tokens[t].second,
+                 std::string(what) + " index " + std::to_string(index) + " out of range (" + std::to_string(count) +
+                     " defined so far)");
+          }
+          return static_cast<int>(r);
+        };
+        Corner c{resolve(idx[0], positions.size(), "vertex"), -1};
+        if (has[2]) c.normal = resolve(idx[2], normals.size(), "normal");
+        face.push_back(c);
+      }
+      faces.push_back(std::move(face));
+    }
+  }
+  if (faces.empty()) fail(std::max(lineNo, 1), 1, "the mesh has no faces");
+
+  // Mesh normals are per vertex: split positions by (position, normal) pair when every corner has a normal,
+  // otherwise use flat shading, since a partly-normalled mesh has no consistent per-vertex answer.
+  bool allNormals = true;
+  for (const auto& face : faces) {
+    for (const Corner& c : face) allNormals = allNormals && c.normal >= 0;
+  }
+  Mesh mesh;
+  std::map<std::pair<int, int>, uint32_t> vertexOf;
+  auto vertex = [&](const Corner& c) {
+    const std::pair<int, int> key(c.position, allNormals ? c.normal : -1);
+    auto [it, inserted] = vertexOf.emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+    if (inserted) {
+      mesh.positions.push_back(positions[c.position]);
+      if (allNormals) mesh.normals.push_back(normals[c.normal]);
+    }
+    return it->second;
+  };
+  for (const auto& face : faces) {
+    const uint32_t first = vertex(face[0]);
+    for (size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.emplace_back(first, vertex(face[k]), vertex(face[k + 1]));
+  }
+  meshCache_.emplace(objPath, mesh);
+  return mesh;
+}
+
+std::vector<TransformKey> Reader::ReadTransformKeys(const Json& list, const std::string& p) {
+  std::vector<TransformKey> keys;
+  std::vector<std::string> paths;
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string kp = PointerChild(p, i);
+    const Json& k = AsObject(list[i], kp);
+    CheckKeys(k, kp, {"frame", "translate", "rotate", "scale", "interpolation"});
+    TransformKey key;
+    key.frame = ReadKeyFrame(k, kp);
+    if (const Json* v = Find(k, "translate")) key.translate = Vector(*v, kp + "/translate");
+    if (const Json* v = Find(k, "rotate")) key.rotateDegrees = Vector(*v, kp + "/rotate");
+    if (const Json* v = Find(k, "scale")) {
+      key.scale = v->is_number() ? Vec3(Float(*v, kp + "/scale")) : Vector(*v, kp + "/scale");
+      if (!(key.scale.x > 0.0f && key.scale.y > 0.0f && key.scale.z > 0.0f)) {
+        // Mirroring would flip triangle winding (and so which side counts as the front).
+        Fail(kp + "/scale", "scale must be > 0 on every axis, got " + FormatVec(key.scale));
+      }
+    }
+    key.interpolation = ReadInterpolation(k, kp);
+    keys.push_back(key);
+    paths.push_back(kp);
+  }
+  SortKeys(keys, paths);
+  return keys;
+}
+
+std::vector<std::pair<int, int>> Reader::ReadOnRanges(const Json& v, const std::string& p) const {
+  AsArray(v, p, false);
+  if (v.empty()) Fail(p, "'on' needs at least one [first, last) range (leave it out for a light that is always on)");
+  std::vector<std::pair<int, int>> ranges;
+  for (size_t i = 0; i < v.size(); ++i) {
+    const std::string rp = PointerChild(p, i);
+    const Json& r = v[i];
+    if (!r.is_array() || r.size() != 2) Fail(rp, "expected a [first, last) frame range");
+    const int first = static_cast<int>(Integer(r[0], rp + "/0", 0, frameCount_ - 1, "first frame"));
+    const int last = static_cast<int>(Integer(r[1], rp + "/1", 0, frameCount_, "last frame (exclusive)"));
+    if (last <= first) Fail(rp, "empty range: last (" + std::to_string(last) + ") must exceed first (" +
+                                    std::to_string(first) + ")");
+    ranges.emplace_back(first, last);
+  }
+  return ranges;
+}
+
+void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices, const Vec3& radiance,
+                      const std::vector<std::pair<int, int>>& onRanges, const std::string& p) {
+  for (size_t t = 0; t + 2 < vertices.size(); t += 3) {
+    const Vec3 e1 = vertices[t + 1] - vertices[t];
+    const Vec3 e2 = vertices[t + 2] - vertices[t];
+    const float twiceArea = glm::length(glm::cross(e1, e2));
+    // Absolute floor for tiny emitters, relative one for collinear corners of any size.
+    if (!(twiceArea > 1e-12f) || !(twiceArea > 1e-7f * glm::length(e1) * glm::length(e2))) {
+      Fail(p, "zero-area light '" + name + "'");
+    }
+  }
+  CheckUniqueName(lightNames_, name, p + "/name", "light");
+  Light light;
+  light.name = std::move(name);
+  light.vertices = vertices;
+  light.radiance = radiance;
+  light.onRanges = onRanges;
+  seq.lights.push_back(std::move(light));
+}
+
+void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string lp = PointerChild(p, i);
+    const Json& l = AsObject(list[i], lp);
+    const size_t type = Choice(Need(l, lp, "type"), lp + "/type", "light type", {"quad", "triangle", "grid"});
+    const std::string name = Name(Need(l, lp, "name"), lp + "/name");
+    auto vec = [&](const char* key) { return Vector(Need(l, lp, key), lp + "/" + key); };
+    std::vector<std::pair<int, int>> on;
+    if (const Json* v = Find(l, "on")) on = ReadOnRanges(*v, lp + "/on");
+    auto radiance = [&](bool optional) {
+      // For grids either may come from the cycled lists instead; white and 1 are then only placeholders.
+      Vec3 color(1.0f);
+      float intensity = 1.0f;
+      if (const Json* c = optional ? Find(l, "color") : &Need(l, lp, "color")) {
+        color = Color(*c, lp + "/color", "color", false);
+      }
+      if (const Json* k = optional ? Find(l, "intensity") : &Need(l, lp, "intensity")) {
+        intensity = Positive(*k, lp + "/intensity", "intensity");
+      }
+      return color * intensity;
+    };
+    if (type == 0) {  // quad
+      CheckKeys(l, lp, {"name", "type", "center", "u", "v", "color", "intensity", "on"});
+      const Vec3 c = vec("center"), u = vec("u"), v = vec("v");
+      const Vec3 rad = radiance(false);
+      Vec3 q[4];
+      QuadCorners(c, u, v, q);
+      AddLight(seq, name, {q[0], q[1], q[2], q[0], q[2], q[3]}, rad, on, lp);
+    } else if (type == 1) {  // triangle
+      CheckKeys(l, lp, {"name", "type", "vertices", "color", "intensity", "on"});
+      const Json& vs = Need(l, lp, "vertices");
+      if (!vs.is_array() || vs.size() != 3) Fail(lp + "/vertices", "expected an array of 3 points");
+      std::vector<Vec3> tri;
+      for (size_t k = 0; k < 3; ++k) tri.push_back(Vector(vs[k], PointerChild(lp + "/vertices", k)));
+      const Vec3 rad = radiance(false);
+      AddLight(seq, name, tri, rad, on, lp);
+    } else {  // grid
+      CheckKeys(l, lp, {"name", "type", "origin", "u", "v", "count", "pitch", "color", "colors", "intensity",
+                        "intensities", "on"});
+      const Vec3 origin = vec("origin"), u = vec("u"), v = vec("v");
+      const Json& count = Need(l, lp, "count");
+      if (!count.is_array() || count.size() != 2) Fail(lp + "/count", "expected [nx, ny]");
+      const int nx = static_cast<int>(Integer(count[0], lp + "/count/0", 1, 1024, "nx"));
+      const int ny = static_cast<int>(Integer(count[1], lp + "/count/1", 1, 1024, "ny"));
+      if (nx * ny > 65536) Fail(lp + "/count", "a grid may hold at most 65536 lights");
+      const Json& pitch = Need(l, lp, "pitch");
+      if (!pitch.is_array() || pitch.size() != 2) {
+        Fail(lp + "/pitch", "expected [pitchU, pitchV]: two numbers (distances along u and v) or two vectors");
+      }
+      Vec3 step[2];
+      for (size_t k = 0; k < 2; ++k) {
+        const std::string pp = PointerChild(lp + "/pitch", k);
+        const Vec3& axis = k == 0 ? u : v;
+        if (pitch[k].is_number()) {
+          if (!(glm::length(axis) > 0.0f)) Fail(lp, "zero-area light '" + name + "'");
+          step[k] = glm::normalize(axis) * Float(pitch[k], pp);
+        } else {
+          step[k] = Vector(pitch[k], pp);
+        }
+      }
+      if (Find(l, "color") && Find(l, "colors")) Fail(lp + "/colors", "give either 'color' or 'colors', not both");
+      if (Find(l, "intensity") && Find(l, "intensities")) {
+        Fail(lp + "/intensities", "give either 'intensity' or 'intensities', not both");
+      }
+      if (!Find(l, "colors")) Need(l, lp, "color");
+      if (!Find(l, "intensities")) Need(l, lp, "intensity");
+      const Vec3 base = radiance(true);
+      std::vector<Vec3> colors;
+      std::vector<float> intensities;
+      if (const Json* cs = Find(l, "colors")) {
+        AsArray(*cs, lp + "/colors", true);
+        for (size_t k = 0; k < cs->size(); ++k) {
+          colors.push_back(Color((*cs)[k], PointerChild(lp + "/colors", k), "color", false));
+        }
+      }
+      if (const Json* ks = Find(l, "intensities")) {
+        AsArray(*ks, lp + "/intensities", true);
+        for (size_t k = 0; k < ks->size(); ++k) {
+          intensities.push_back(Positive((*ks)[k], PointerChild(lp + "/intensities", k), "intensity"));
+        }
+      }
+      for (int j = 0; j < ny; ++j) {
+        for (int i2 = 0; i2 < nx; ++i2) {
+          const size_t index = static_cast<size_t>(j) * static_cast<size_t>(nx) + static_cast<size_t>(i2);
+          Vec3 rad = base;
+          if (!colors.empty()) rad = rad * colors[index % colors.size()];
+          if (!intensities.empty()) rad = rad * intensities[index % intensities.size()];
+          const Vec3 corner = origin + static_cast<float>(i2) * step[0] + static_cast<float>(j) * step[1];
+          const Vec3 q[4] = {corner, corner + u, corner + u + v, corner + v};
+          AddLight(seq, name + "[" + std::to_string(i2) + "," + std::to_string(j) + "]",
+                   {q[0], q[1], q[2], q[0], q[2], q[3]}, rad, on, lp);
+        }
+      }
+    }
+  }
+}
+
+void Reader::ReadCamera(const Json& camera, const std::string& p, Sequence& seq) {
+  CheckKeys(camera, p, {"keyframes"});
+  const std::string lp = p + "/keyframes";
+  const Json& list = AsArray(Need(camera, p, "keyframes"), lp, true);
+  std::vector<std::string> paths;
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string kp = PointerChild(lp, i);
+    const Json& k = AsObject(list[i], kp);
+    CheckKeys(k, kp, {"frame", "position", "lookAt", "fov", "interpolation"});
+    CameraKey key;
+    key.frame = ReadKeyFrame(k, kp);
+    key.position = Vector(Need(k, kp, "position"), kp + "/position");
+    key.lookAt = Vector(Need(k, kp, "lookAt"), kp + "/lookAt");
+    if (!(glm::length(key.lookAt - key.position) > kMinLookDistance)) {
+      Fail(kp + "/lookAt", "camera lookAt equals its position " + FormatVec(key.position));
+    }
+    if (const Json* f = Find(k, "fov")) {
+      key.vfovDegrees = Float(*f, kp + "/fov");
+      if (!(key.vfovDegrees > 0.0f && key.vfovDegrees < 180.0f)) {
+        Fail(kp + "/fov", "fov must be in (0, 180) degrees, got " + FormatNumber(key.vfovDegrees));
+      }
+    }
+    key.interpolation = ReadInterpolation(k, kp);
+    seq.cameraKeys.push_back(key);
+    paths.push_back(kp);
+  }
+  SortKeys(seq.cameraKeys, paths);
+  // Keys can be fine while the path between them passes position through lookAt (e.g. they swap places).
+  for (size_t i = 0; i + 1 < seq.cameraKeys.size(); ++i) {
+    for (int f = seq.cameraKeys[i].frame + 1; f < seq.cameraKeys[i + 1].frame; ++f) {
+      const CameraKey k = InterpolateCamera(seq.cameraKeys, f);
+      if (!(glm::length(k.lookAt - k.position) > kMinLookDistance)) {
+        Fail(paths[i], "the interpolated camera position meets its lookAt at frame " + std::to_string(f));
+      }
+    }
+  }
+}
+
+void Reader::ReadRender(const Json& render, const std::string& p, Sequence& seq) {
+  CheckKeys(render, p, {"presets", "referenceSpp"});
+  if (const Json* v = Find(render, "presets")) {
+    AsArray(*v, p + "/presets", true);
+    seq.defaults.presets.clear();
+    for (size_t i = 0; i < v->size(); ++i) {
+      const std::string pp = PointerChild(p + "/presets", i);
+      const std::string name = String((*v)[i], pp);
+      if (name.empty()) Fail(pp, "preset name must not be empty");
+      if (std::find(seq.defaults.presets.begin(), seq.defaults.presets.end(), name) != seq.defaults.presets.end()) {
+        Fail(pp, "preset '" + name + "' is listed twice");
+      }
+      seq.defaults.presets.push_back(name);
+    }
+  }
+  if (const Json* v = Find(render, "referenceSpp")) {
+    seq.defaults.referenceSpp = static_cast<int>(Integer(*v, p + "/referenceSpp", 1, 1 << 20, "referenceSpp"));
+  }
+}
+
+}  // namespace
+
+Sequence ParseSequence(const std::string& text, const std::string& path, const std::string& baseDir) {
+  Json root;
+  try {
+    root = Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // e.byte counts the characters read, the offending one included.
+    size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+    std::string what = e.what();
+    if (what.find("invalid literal") != std::string::npos) {
+      // The lexer stops after reading part of a bad literal ("tru}"): point at where the literal starts.
+      auto literalChar = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.'; };
+      while (offset > 0 && offset <= text.size() && literalChar(text[offset - 1])) --offset;
+    }
+    const SourcePos pos = PosFromOffset(text, offset);
+    size_t cut = what.find("column ");
+    cut = cut == std::string::npos ? std::string::npos : what.find(": ", cut);
+    if (cut != std::string::npos) what = what.substr(cut + 2);
+    throw InputError(OneLine(path + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
+                             ": error: invalid JSON: " + what));
+  } catch (const Json::exception& e) {
+    // Number overflow (1e999) is nlohmann's out_of_range, without a position: find the literal in the text.
+    std::string what = e.what();
+    const size_t q1 = what.find('\'');
+    const size_t q2 = q1 == std::string::npos ? q1 : what.find('\'', q1 + 1);
+    SourcePos pos;
+    if (q2 != std::string::npos) pos = PosFromOffset(text, text.find(what.substr(q1 + 1, q2 - q1 - 1)));
+    const size_t bracket = what.find("] ");
+    if (bracket != std::string::npos) what = what.substr(bracket + 2);
+    throw InputError(OneLine(path + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
+                             ": error: invalid JSON: " + what));
+  }
+  Reader reader(path, text, baseDir);
+  reader.CheckDuplicateKeys();
+  Sequence seq = reader.Read(root);
+  seq.path = path;
+  return seq;
+}
+
+Sequence LoadSequence(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::string text;
+  std::error_code ec;
+  if (fs::is_directory(path, ec) || !ReadFileBytes(path, text)) {
+    throw InputError(OneLine(path + ": error: cannot read sequence file"));
+  }
+  std::string baseDir = fs::path(path).parent_path().string();
+  if (baseDir.empty()) baseDir = ".";
+  return ParseSequence(text, path, baseDir);
+}
+
+FrameState Evaluate(const Sequence& sequence, int frame, int width, int height) {
+  FrameState state;
+  state.frame = frame;
+  if (!sequence.cameraKeys.empty()) {
+    state.camera = MakeCamera(InterpolateCamera(sequence.cameraKeys, frame), width, height);
+  } else {
+    state.camera.width = width;
+    state.camera.height = height;
+  }
+  state.objectToWorld.reserve(sequence.objects.size());
+  for (const Object& obj : sequence.objects) {
+    if (obj.keys.empty()) {
+      state.objectToWorld.push_back(Mat4(1.0f));
+      continue;
+    }
+    const TransformKey k = InterpolateTransform(obj.keys, frame);
+    state.objectToWorld.push_back(TransformMatrix(k.translate, k.rotateDegrees, k.scale));
+  }
+  state.lightOn.reserve(sequence.lights.size());
+  for (const Light& light : sequence.lights) {
+    bool on = light.onRanges.empty();
+    for (const auto& [first, last] : light.onRanges) on = on || (frame >= first && frame < last);
+    state.lightOn.push_back(on ? 1 : 0);
+  }
+  return state;
+}
+
+std::string SummarizeSequence(const Sequence& seq) {
+  std::ostringstream out;
+  char buf[256];
+  out << seq.name << "  (" << seq.path << ", hash " << seq.contentHash << ")\n";
+  if (!seq.description.empty()) out << "  " << seq.description << "\n";
+  std::snprintf(buf, sizeof(buf), "resolution  %dx%d, %d frames at %g fps (%.2f s), seed %u\n", seq.width, seq.height,
+                seq.frameCount, seq.frameRate, seq.frameCount / seq.frameRate, seq.seed);
+  out << buf;
+
+  out << "materials   " << seq.materials.size() << ":";
+  for (const Material& m : seq.materials) {
+    out << " " << m.name << (m.type == MaterialType::kGgx ? " (ggx)" : " (diffuse)");
+  }
+  out << "\n";
+
+  size_t triangles = 0, animated = 0;
+  for (const Object& o : seq.objects) {
+    triangles += o.mesh.triangles.size();
+    animated += o.animated ? 1 : 0;
+  }
+  out << "objects     " << seq.objects.size() << " (" << animated << " animated), " << triangles << " triangles\n";
+  for (const Object& o : seq.objects) {
+    std::snprintf(buf, sizeof(buf), "  %-22s %-14s %7zu tris  %s\n", o.name.c_str(),
+                  seq.materials[o.material].name.c_str(), o.mesh.triangles.size(),
+                  o.animated ? "animated" : "static");
+    out << buf;
+  }
+
+  // Grid generators name their lights group[i,j]: summarise per group so the screen stays short.
+  std::vector<std::string> groups;
+  std::map<std::string, std::pair<size_t, double>> groupStats;  // lights, power
+  size_t emitters = 0, switched = 0;
+  double totalPower = 0.0;
+  for (const Light& l : seq.lights) {
+    double power = 0.0;
+    for (size_t t = 0; t + 2 < l.vertices.size(); t += 3) {
+      const float area = 0.5f * glm::length(glm::cross(l.vertices[t + 1] - l.vertices[t], l.vertices[t + 2] - l.vertices[t]));
+      power += kPi * area * Luminance(l.radiance);  // one-sided Lambertian emitter: Φ = π L A
+      ++emitters;
+    }
+    totalPower += power;
+    switched += l.onRanges.empty() ? 0 : 1;
+    const std::string group = l.name.substr(0, l.name.find('['));
+    auto [it, inserted] = groupStats.emplace(group, std::make_pair(size_t(0), 0.0));
+    if (inserted) groups.push_back(group);
+    it->second.first += 1;
+    it->second.second += power;
+  }
+  std::snprintf(buf, sizeof(buf), "lights      %zu in %zu groups, %zu emitter triangles, %zu switched, total power %.4g W\n",
+                seq.lights.size(), groups.size(), emitters, switched, totalPower);
+  out << buf;
+  for (const std::string& g : groups) {
+    const size_t n = groupStats[g].first;
+    std::snprintf(buf, sizeof(buf), "  %-22s %4zu light%s %10.4g W\n", g.c_str(), n, n == 1 ? " " : "s",
+                  groupStats[g].second);
+    out << buf;
+  }
+
+  double pathLength = 0.0;
+  float fovMin = 180.0f, fovMax = 0.0f;
+  for (int f = 0; f < seq.frameCount && !seq.cameraKeys.empty(); ++f) {
+    const CameraKey k = InterpolateCamera(seq.cameraKeys, f);
+    fovMin = std::min(fovMin, k.vfovDegrees);
+    fovMax = std::max(fovMax, k.vfovDegrees);
+    if (f > 0) pathLength += glm::length(k.position - InterpolateCamera(seq.cameraKeys, f - 1).position);
+  }
+  std::snprintf(buf, sizeof(buf), "camera      %zu keys, path length %.3f m, vertical fov %g..%g deg\n",
+                seq.cameraKeys.size(), pathLength, fovMin, fovMax);
+  out << buf;
+  out << "render      reference " << seq.defaults.referenceSpp << " spp; presets:";
+  for (const std::string& p : seq.defaults.presets) out << " " << p;
+  out << "\n";
+  return out.str();
+}
+
+}  // namespace restir
