@@ -3,6 +3,7 @@
 // one input; tests check that every family is a partition of unity over the inputs that can produce y.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 namespace restir {
@@ -14,6 +15,9 @@ enum class MisFamily : uint8_t {
   kPairwise,            // defensive pairwise (seed 004 Eq. 11)
   kStochasticPairwise,  // stochastic pairwise over screen-space cells (seed 004 Eq. 15-19)
 };
+
+// Resampling weights must be finite; a NaN or Inf weight is dropped and counted by the caller (DESIGN §10).
+inline bool IsFiniteWeight(float w) { return std::isfinite(w); }
 
 // m_i = c_i / Σ_j c_j (Bitterli 2020, "uniform" weights; biased when some input cannot produce y).
 inline float MisUniform(float confidence, float confidenceSum) {

@@ -69,6 +69,9 @@ int RunCommandLine(int argc, char** argv) {
   run->add_option("--seed", seed, "Override the sequence's seed")->check(CLI::Range(int64_t{0}, int64_t{4294967295}));
   run->add_option("--reference-spp", opt.referenceSpp, "Reference samples per pixel (default: the sequence's)")
       ->check(CLI::Range(1, 1 << 24));
+  run->add_option("--set", opt.settings,
+                  "Override a preset setting for every preset, KEY=VALUE (repeatable), e.g. "
+                  "--set temporal.maxHistory=8; keys: `restir-sim presets`");
   run->add_flag("--no-reference", noReference, "Skip the reference and the error metrics");
   run->add_option("--out,-o", opt.outDir, "Output directory")->capture_default_str();
   run->add_option("--cache-dir", opt.cacheDir, "Reference cache directory ('' disables the cache)")

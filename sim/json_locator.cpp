@@ -35,7 +35,9 @@ std::string PointerChild(const std::string& pointer, const std::string& key) {
   return out;
 }
 
-std::string PointerChild(const std::string& pointer, size_t index) { return pointer + "/" + std::to_string(index); }
+std::string PointerChild(const std::string& pointer, size_t index) {
+  return pointer + "/" + std::to_string(index);
+}
 
 namespace {
 
@@ -93,12 +95,24 @@ size_t ReadString(const std::string& s, size_t i, std::string* decoded) {
       }
       if (decoded) {
         switch (e) {
-          case 'b': *decoded += '\b'; break;
-          case 'f': *decoded += '\f'; break;
-          case 'n': *decoded += '\n'; break;
-          case 'r': *decoded += '\r'; break;
-          case 't': *decoded += '\t'; break;
-          default: *decoded += e; break;  // \" \\ \/
+          case 'b':
+            *decoded += '\b';
+            break;
+          case 'f':
+            *decoded += '\f';
+            break;
+          case 'n':
+            *decoded += '\n';
+            break;
+          case 'r':
+            *decoded += '\r';
+            break;
+          case 't':
+            *decoded += '\t';
+            break;
+          default:
+            *decoded += e;
+            break;  // \" \\ \/
         }
       }
       i += 2;
@@ -110,7 +124,9 @@ size_t ReadString(const std::string& s, size_t i, std::string* decoded) {
   return i + 1;
 }
 
-bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+bool IsSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
 
 }  // namespace
 
@@ -125,13 +141,18 @@ JsonLocator::JsonLocator(const std::string& text) : text_(text) {
   auto skipSpace = [&] {
     while (i < text.size() && IsSpace(text[i])) ++i;
   };
-  // Records the value starting at i and either skips it (scalars) or opens it (containers).
-  auto startValue = [&](const std::string& pointer) {
+  // Records the value starting at i and either skips it (scalars) or opens it (containers); false when the
+  // container would nest too deep.
+  auto startValue = [&](const std::string& pointer) -> bool {
     skipSpace();
     valueOffsets_.emplace(pointer, i);
-    if (i >= text.size()) return;
+    if (i >= text.size()) return true;
     const char c = text[i];
     if (c == '{' || c == '[') {
+      if (stack.size() >= kMaxDepth) {
+        tooDeepOffset_ = i;
+        return false;
+      }
       stack.push_back({c == '{', 0, pointer});
       ++i;
     } else if (c == '"') {
@@ -139,9 +160,10 @@ JsonLocator::JsonLocator(const std::string& text) : text_(text) {
     } else {
       while (i < text.size() && !IsSpace(text[i]) && text[i] != ',' && text[i] != ']' && text[i] != '}') ++i;
     }
+    return true;
   };
 
-  startValue("");
+  if (!startValue("")) return;
   while (!stack.empty() && i < text.size()) {
     skipSpace();
     if (i >= text.size()) break;
@@ -169,9 +191,9 @@ JsonLocator::JsonLocator(const std::string& text) : text_(text) {
       }
       skipSpace();
       if (i < text.size() && text[i] == ':') ++i;
-      startValue(child);  // may push: do not use top afterwards
+      if (!startValue(child)) return;  // may push: do not use top afterwards
     } else {
-      startValue(PointerChild(top.pointer, index));
+      if (!startValue(PointerChild(top.pointer, index))) return;
     }
   }
 }

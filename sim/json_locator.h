@@ -40,10 +40,22 @@ class JsonLocator {
   // its pointer names the second occurrence.
   const std::string& DuplicateKeyPointer() const { return duplicateKey_; }
 
+  // Containers nested deeper than this stop the scan: paths of every level would take memory quadratic in
+  // the depth, and no sequence file needs more than a handful of levels.
+  static constexpr size_t kMaxDepth = 64;
+  // True when the text nests deeper than kMaxDepth; pos is where the first too-deep container starts.
+  bool TooDeep(SourcePos& pos) const {
+    if (tooDeepOffset_ == kNone) return false;
+    pos = PosFromOffset(text_, tooDeepOffset_);
+    return true;
+  }
+
  private:
   std::unordered_map<std::string, size_t> valueOffsets_;
   std::unordered_map<std::string, size_t> keyOffsets_;
   std::string duplicateKey_;
+  static constexpr size_t kNone = ~size_t(0);
+  size_t tooDeepOffset_ = kNone;
   const std::string& text_;
 };
 

@@ -33,6 +33,26 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
   return m;
 }
 
+double StabilityLumaRmse(const ImageRgb& current, const ImageRgb& previous) {
+  double sum = 0.0;
+  for (size_t i = 0; i < current.Size(); ++i) {
+    const double d = double(Luminance(current.pixels[i])) - double(Luminance(previous.pixels[i]));
+    sum += d * d;
+  }
+  return current.Size() ? std::sqrt(sum / double(current.Size())) : 0.0;
+}
+
+double Flicker(const ImageRgb& current, const ImageRgb& previous, const ImageRgb& reference,
+               const ImageRgb& previousReference) {
+  double sum = 0.0;
+  for (size_t i = 0; i < current.Size(); ++i) {
+    const double d = (double(Luminance(current.pixels[i])) - double(Luminance(previous.pixels[i]))) -
+                     (double(Luminance(reference.pixels[i])) - double(Luminance(previousReference.pixels[i])));
+    sum += d * d;
+  }
+  return current.Size() ? std::sqrt(sum / double(current.Size())) : 0.0;
+}
+
 double MaskFraction(const std::vector<uint8_t>& mask) {
   if (mask.empty()) return 0.0;
   size_t n = 0;

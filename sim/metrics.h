@@ -21,6 +21,13 @@ struct AccuracyMetrics {
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
                                 const std::vector<uint8_t>* mask = nullptr);
 
+// Per-frame stability (seed 003): sqrt(mean (Y(I_t) - Y(I_{t-1}))^2).
+double StabilityLumaRmse(const ImageRgb& current, const ImageRgb& previous);
+
+// Flicker net of real change: sqrt(mean ((Y(I_t) - Y(I_{t-1})) - (Y(R_t) - Y(R_{t-1})))^2).
+double Flicker(const ImageRgb& current, const ImageRgb& previous, const ImageRgb& reference,
+               const ImageRgb& previousReference);
+
 // Fraction of pixels set in a mask.
 double MaskFraction(const std::vector<uint8_t>& mask);
 

@@ -4,8 +4,10 @@
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 
+#include "core/gris.h"
 #include "core/rng.h"
 
 namespace restir {
@@ -68,6 +70,77 @@ bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const V
   return scene.Occluded(org, dir, tmax, frame);
 }
 
+namespace {
+
+// A resampling domain: a surface in a frame, with that frame's lights and scene (DESIGN §4 "p̂ from i").
+struct Domain {
+  ShadingPoint sp;
+  const std::vector<LightTriangle>* lights = nullptr;
+  SceneFrame frame = SceneFrame::kCurrent;
+};
+
+// p̂_d(y): the domain's unshadowed target with the emitter radiance of the domain's frame (a light switched
+// off in that frame gives 0), times visibility traced in that frame when requested.
+float DomainTarget(const Domain& d, const LightSample& y, bool withVisibility, const EmbreeScene& scene,
+                   uint64_t& rays) {
+  if (y.lightId >= d.lights->size()) return 0.0f;
+  LightSample lit = y;
+  lit.radiance = (*d.lights)[y.lightId].radiance;
+  float t = TargetFunction(UnshadowedContribution(d.sp, lit));
+  if (t > 0.0f && withVisibility) {
+    ++rays;
+    if (ShadowRayOccluded(scene, d.sp, y.position, d.frame)) t = 0.0f;
+  }
+  return t;
+}
+
+// Lazily evaluated, memoised p̂_j(Y_i) for up to kMaxGrisInputs inputs, so that a family pays only for the
+// entries (and, ray traced, the rays) it uses.
+class TargetMatrix {
+ public:
+  TargetMatrix(const Domain* domains, const LightSample* samples, int count, bool visibility,
+               const EmbreeScene& scene, uint64_t& rays)
+      : domains_(domains), samples_(samples), count_(count), visibility_(visibility), scene_(scene), rays_(rays) {
+    for (int k = 0; k < count * count; ++k) cache_[k] = -1.0f;
+  }
+  float operator()(int j, int i) {
+    float& v = cache_[j * count_ + i];
+    if (v < 0.0f) v = DomainTarget(domains_[j], samples_[i], visibility_, scene_, rays_);
+    return v;
+  }
+
+ private:
+  const Domain* domains_;
+  const LightSample* samples_;
+  int count_;
+  bool visibility_;
+  const EmbreeScene& scene_;
+  uint64_t& rays_;
+  float cache_[kMaxGrisInputs * kMaxGrisInputs];
+};
+
+MisFamily EffectiveFamily(MisFamily family, BiasCorrection bias) {
+  return bias == BiasCorrection::kNone ? MisFamily::kUniform : family;
+}
+
+VisibilityCarry CarryFor(VisibilityReuse v) {
+  return v == VisibilityReuse::kWeighted ? VisibilityCarry::kWeighted : VisibilityCarry::kSelected;
+}
+
+bool SimilarSurface(const GBuffer& a, size_t i, const GBuffer& b, size_t j, float normalThreshold,
+                    float depthThreshold) {
+  if (b.objectId[j] < 0 || b.materialId[j] < 0) return false;
+  if (glm::dot(a.GeometricNormal(i), b.GeometricNormal(j)) < normalThreshold) return false;
+  const float da = a.depth[i], db = b.depth[j];
+  return std::abs(da - db) <= depthThreshold * std::max(da, db);
+}
+
+bool FiniteReservoir(const Reservoir& r) {
+  return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
+}
+
+}  // namespace
+
 FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const GBuffer& g = *in.gbuffer;
   const int w = g.width, h = g.height;
@@ -75,8 +148,14 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   reservoirs_.assign(n, Reservoir{});
   FrameResult result;
   result.image = ImageRgb(w, h);
+  result.temporalAccepted.assign(n, 0);
   const Camera& camera = in.state->camera;
   const InitialSamplingParams& ip = settings_.initial;
+  const TemporalParams& tp = settings_.temporal;
+  const SpatialParams& spp = settings_.spatial;
+  const std::vector<LightTriangle>& lights = in.scene->LightTriangles();
+  const bool carryVisibility = settings_.shade.visibility != VisibilityReuse::kNone;
+  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
 
   // Initial sampling: streaming RIS over M candidates from the light sampler (seed 003 §1).
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
@@ -95,30 +174,179 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
         StreamCandidate(r, y, target, RisWeight(target, y.pdfArea), uSel);
       }
       FinalizeRis(r, static_cast<float>(ip.candidates));
-      r.confidence = 1.0f;  // an initial reservoir counts one frame of history (DESIGN §4)
-      if (ip.initialVisibility && r.HasSample()) {
+      // An initial reservoir counts one frame of history (DESIGN §4), or its candidates (seed 003).
+      if (!ip.countCandidates) r.confidence = 1.0f;
+      if (ip.visibility && r.HasSample()) {
         rays.local() += 1;
         if (ShadowRayOccluded(*in.scene, sp, r.sample.position)) r.W = 0.0f, r.visibility = 0.0f;
+      }
+      if (!FiniteReservoir(r)) {
+        guarded.local() += 1;
+        r = Reservoir{};
+        r.confidence = ip.countCandidates ? static_cast<float>(ip.candidates) : 1.0f;
       }
       reservoirs_[i] = r;
     }
   });
   result.passes.push_back({"initial", MsSince(t0), rays.combine(std::plus<uint64_t>())});
 
-  // Shading: f(Y) W with a final shadow ray (DESIGN §4), plus what the primary ray sees directly.
+  // Temporal reuse (seed 003 §3-5; DESIGN §4): the previous reservoir at the reprojected pixel, validated,
+  // confidence-capped, combined with the current one by GRIS.
+  const bool haveHistory = tp.enabled && in.previousGbuffer && in.previousState &&
+                           previousReservoirs_.size() == n && in.previousGbuffer->Size() == n;
+  if (tp.enabled) {
+    tbb::combinable<uint64_t> trays([] { return uint64_t{0}; });
+    tbb::combinable<uint64_t> crossObject([] { return uint64_t{0}; });
+    t0 = std::chrono::steady_clock::now();
+    // RTXDI permutation sampling: one XOR pattern per frame, so neighbouring pixels read different history.
+    const RngKey frameKey{in.seed, in.frame, 0xFFFFFFFFu, static_cast<uint32_t>(RngPass::kTemporal)};
+    const uint32_t permBits = tp.permutation ? (RandomBits(frameKey, 0) & 3u) : 0u;
+    const MisFamily family = EffectiveFamily(tp.mis, tp.bias);
+    if (haveHistory) {
+      const GBuffer& pg = *in.previousGbuffer;
+      ForEachRow(h, [&](int y) {
+        uint64_t& localRays = trays.local();
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!g.IsSurface(i) || !g.prevValid[i]) continue;
+          int px = std::clamp(static_cast<int>(std::floor(g.prevX[i])), 0, w - 1);
+          int py = std::clamp(static_cast<int>(std::floor(g.prevY[i])), 0, h - 1);
+          size_t pi = static_cast<size_t>(py) * w + px;
+          if (permBits) {
+            const int qx = std::clamp(px ^ static_cast<int>(permBits & 1u), 0, w - 1);
+            const int qy = std::clamp(py ^ static_cast<int>(permBits >> 1), 0, h - 1);
+            const size_t qi = static_cast<size_t>(qy) * w + qx;
+            if (pg.objectId[qi] == pg.objectId[pi] && SimilarSurface(pg, pi, pg, qi, 0.9f, 0.1f)) pi = qi;
+          }
+          const Reservoir& prev = previousReservoirs_[pi];
+          if (!FiniteReservoir(prev) || !pg.IsSurface(pi)) continue;
+          Reservoir& cur = reservoirs_[i];
+          Domain domains[2];
+          domains[0] = Domain{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
+          domains[1] = Domain{ShadingPointAt(pg, pi, in.previousState->camera, *in.materials), in.previousLights,
+                              SceneFrame::kPrevious};
+          const LightSample samples[2] = {cur.sample, prev.sample};
+          TargetMatrix target(domains, samples, 2, tp.bias == BiasCorrection::kRayTraced, *in.scene, localRays);
+          if (tp.sampleChecks) {
+            if (!prev.HasSample() || !(target(0, 1) > 0.0f)) continue;
+            if (tp.targetRatioClamp) {
+              const float ratio = prev.targetPdf > 0.0f ? target(0, 1) / prev.targetPdf : 0.0f;
+              if (!(ratio >= 0.1f && ratio <= 10.0f)) continue;
+            }
+          }
+          if (pg.objectId[pi] != g.objectId[i]) crossObject.local() += 1;
+          GrisInput inputs[2];
+          inputs[0] = GrisInput{cur.HasSample(), cur.W, cur.confidence, cur.visibility};
+          inputs[1] = GrisInput{prev.HasSample(), prev.W, std::min(prev.confidence, tp.maxHistory), prev.visibility};
+          const RngKey key{in.seed, in.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
+          const float u[2] = {UniformFloat(key, 0), UniformFloat(key, 1)};
+          const GrisResult gr = GrisCombine(family, inputs, 2, target, u, CarryFor(settings_.shade.visibility));
+          guarded.local() += static_cast<uint64_t>(gr.guarded);
+          Reservoir out;
+          out.confidence = gr.confidence;
+          if (gr.selected >= 0) {
+            out.sample = samples[gr.selected];
+            out.targetPdf = target(0, gr.selected);
+            out.W = gr.W;
+            out.weightSum = gr.weightSum;
+            out.visibility = gr.visibility;
+          }
+          cur = out;
+          result.temporalAccepted[i] = 1;
+        }
+      });
+    }
+    result.crossObjectReuse = crossObject.combine(std::plus<uint64_t>());
+    result.passes.push_back({"temporal", MsSince(t0), trays.combine(std::plus<uint64_t>())});
+  }
+
+  // Spatial reuse (DESIGN §4): k random neighbours in a disk, similarity-tested, combined by GRIS with the
+  // pixel's own reservoir as the canonical input; more neighbours where temporal reuse failed.
+  if (spp.enabled) {
+    tbb::combinable<uint64_t> srays([] { return uint64_t{0}; });
+    t0 = std::chrono::steady_clock::now();
+    const MisFamily family = EffectiveFamily(spp.mis, spp.bias);
+    for (int iteration = 0; iteration < spp.iterations; ++iteration) {
+      spatialInput_ = reservoirs_;
+      ForEachRow(h, [&](int y) {
+        uint64_t& localRays = srays.local();
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!g.IsSurface(i)) continue;
+          const bool boost = tp.enabled && !result.temporalAccepted[i];
+          const int k = std::min(boost ? spp.disocclusionNeighbours : spp.neighbours, kMaxGrisInputs - 1);
+          Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
+                           static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+          Domain domains[kMaxGrisInputs];
+          LightSample samples[kMaxGrisInputs];
+          GrisInput inputs[kMaxGrisInputs];
+          domains[0] = Domain{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
+          const Reservoir& self = spatialInput_[i];
+          samples[0] = self.sample;
+          inputs[0] = GrisInput{self.HasSample(), self.W, self.confidence, self.visibility};
+          int count = 1;
+          for (int t = 0; t < k; ++t) {
+            // Uniform point in a disk of the given radius (polar map), rounded to a pixel.
+            const float r = spp.radius * std::sqrt(s.Next());
+            const float phi = 2.0f * kPi * s.Next();
+            const int nx = x + static_cast<int>(std::lround(r * std::cos(phi)));
+            const int ny = y + static_cast<int>(std::lround(r * std::sin(phi)));
+            if (nx < 0 || ny < 0 || nx >= w || ny >= h || (nx == x && ny == y)) continue;
+            const size_t ni = static_cast<size_t>(ny) * w + nx;
+            if (!g.IsSurface(ni) || !SimilarSurface(g, i, g, ni, spp.normalThreshold, spp.depthThreshold)) continue;
+            const Reservoir& nr = spatialInput_[ni];
+            if (!FiniteReservoir(nr)) continue;
+            domains[count] = Domain{ShadingPointAt(g, ni, camera, *in.materials), &lights, SceneFrame::kCurrent};
+            samples[count] = nr.sample;
+            inputs[count] = GrisInput{nr.HasSample(), nr.W, nr.confidence, nr.visibility};
+            // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
+            if (carryVisibility && nr.HasSample()) {
+              localRays += 1;
+              inputs[count].visibility =
+                  ShadowRayOccluded(*in.scene, domains[0].sp, nr.sample.position) ? 0.0f : 1.0f;
+            }
+            ++count;
+          }
+          if (count == 1) continue;
+          TargetMatrix target(domains, samples, count, spp.bias == BiasCorrection::kRayTraced, *in.scene,
+                              localRays);
+          float u[kMaxGrisInputs];
+          for (int t = 0; t < count; ++t) u[t] = s.Next();
+          const GrisResult gr = GrisCombine(family, inputs, count, target, u, CarryFor(settings_.shade.visibility));
+          guarded.local() += static_cast<uint64_t>(gr.guarded);
+          Reservoir out;
+          out.confidence = gr.confidence;
+          if (gr.selected >= 0) {
+            out.sample = samples[gr.selected];
+            out.targetPdf = target(0, gr.selected);
+            out.W = gr.W;
+            out.weightSum = gr.weightSum;
+            out.visibility = gr.visibility;
+          }
+          reservoirs_[i] = out;
+        }
+      });
+    }
+    result.passes.push_back({"spatial", MsSince(t0), srays.combine(std::plus<uint64_t>())});
+  }
+
+  // Shading: f(Y) W with a final shadow ray, or f_unshadowed(Y) V W with the carried visibility (seed 000
+  // Algorithm 1), plus what the primary ray sees directly.
   tbb::combinable<uint64_t> shadeRays([] { return uint64_t{0}; });
-  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
   t0 = std::chrono::steady_clock::now();
-  const std::vector<LightTriangle>& lights = in.scene->LightTriangles();
   ForEachRow(h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
       Vec3 c = DirectEmission(g, i, lights);
       const Reservoir& r = reservoirs_[i];
-      if (g.IsSurface(i) && r.HasSample()) {
+      if (g.IsSurface(i) && r.HasSample() && r.sample.lightId < lights.size()) {
         const ShadingPoint sp = ShadingPointAt(g, i, camera, *in.materials);
-        Vec3 f = UnshadowedContribution(sp, r.sample);
-        if (settings_.shade.finalVisibility && (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) {
+        LightSample lit = r.sample;
+        lit.radiance = lights[lit.lightId].radiance;
+        Vec3 f = UnshadowedContribution(sp, lit);
+        if (carryVisibility) {
+          f *= r.visibility;
+        } else if (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) {
           shadeRays.local() += 1;
           if (ShadowRayOccluded(*in.scene, sp, r.sample.position)) f = Vec3(0.0f);
         }
@@ -133,6 +361,19 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   });
   result.passes.push_back({"shade", MsSince(t0), shadeRays.combine(std::plus<uint64_t>())});
   result.guardedEvents = guarded.combine(std::plus<uint64_t>());
+
+  // Counters, in pixel order (deterministic).
+  size_t surfaces = 0, accepted = 0;
+  double confidence = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!g.IsSurface(i)) continue;
+    ++surfaces;
+    accepted += result.temporalAccepted[i];
+    confidence += reservoirs_[i].confidence;
+  }
+  result.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
+  result.meanConfidence = surfaces ? confidence / double(surfaces) : 0.0;
+  std::swap(previousReservoirs_, reservoirs_);
   return result;
 }
 

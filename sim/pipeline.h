@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/bsdf.h"
+#include "core/mis.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
 #include "core/shading.h"
@@ -17,36 +18,82 @@
 
 namespace restir {
 
+// How the ReSTIR passes evaluate the targets p̂_i that enter MIS weights (DESIGN §4 "Bias correction").
+enum class BiasCorrection : uint8_t {
+  kNone,       // uniform MIS weights whatever the family, unshadowed targets: fast, darkens
+  kBasic,      // the family's weights with unshadowed targets of each input's own surface
+  kRayTraced,  // targets include visibility traced from each input's surface, in that input's frame
+};
+
+// What visibility the shading pass uses (DESIGN §4 "Visibility").
+enum class VisibilityReuse : uint8_t {
+  kNone,      // trace a final shadow ray for the selected sample
+  kSelected,  // shade with the carried V of the selected sample, no final ray (Wyman & Panteleev 2021)
+  kWeighted,  // shade with V_X = Σ V_i w_i / Σ w_i, no final ray (seed 000 Eq. 4, Algorithm 1)
+};
+
 struct InitialSamplingParams {
-  int candidates = 32;                               // M light candidates per pixel (streaming RIS)
+  int candidates = 32;                                     // M light candidates per pixel (streaming RIS)
   LightSelection lightSelection = LightSelection::kPower;  // source distribution over lights
-  bool initialVisibility = false;                    // trace the selected sample; occluded -> W = 0 (Bitterli 2020)
+  bool visibility = false;                                 // trace the selected sample; occluded -> W = 0, V = 0
+  bool countCandidates = false;  // confidence counts candidates (seed 003 representedM) instead of 1 per frame
+};
+
+struct TemporalParams {
+  bool enabled = false;                          // reuse the previous frame's reservoir
+  MisFamily mis = MisFamily::kUniform;           // MIS family of the two-input combination
+  BiasCorrection bias = BiasCorrection::kBasic;  // how targets enter the MIS weights
+  float maxHistory = 20.0f;                      // cap on the previous reservoir's confidence (seed 003 §4.3)
+  bool sampleChecks = true;    // seed 003's sample tests: reject an empty previous reservoir or p̂_c(Y_prev) = 0
+                               // (they depend on the sample, so unbiased presets turn them off)
+  bool targetRatioClamp = false;  // also reject unless p̂_c(Y_prev) / p̂_prev(Y_prev) is in [0.1, 10]
+  bool permutation = false;       // RTXDI permutation sampling: read a per-frame XOR-permuted previous pixel
+};
+
+struct SpatialParams {
+  bool enabled = false;                          // reuse from screen-space neighbours
+  MisFamily mis = MisFamily::kUniform;           // MIS family of the (1 + k)-input combination
+  BiasCorrection bias = BiasCorrection::kBasic;  // how targets enter the MIS weights
+  int neighbours = 5;                            // k neighbours per pixel
+  int disocclusionNeighbours = 10;               // k where temporal reuse failed (disocclusion boost)
+  float radius = 30.0f;                          // neighbour radius in pixels
+  int iterations = 1;                            // passes, each reading a copy of the previous one's output
+  float normalThreshold = 0.9f;                  // minimum dot of the neighbour's and the pixel's normals
+  float depthThreshold = 0.1f;                   // maximum relative view-depth difference
 };
 
 struct ShadeParams {
-  bool finalVisibility = true;  // trace a shadow ray for the final sample (off: shade unshadowed)
+  VisibilityReuse visibility = VisibilityReuse::kNone;  // final shadow ray, or the carried visibility
 };
 
 struct PipelineSettings {
   InitialSamplingParams initial;  // the initial-sampling pass
+  TemporalParams temporal;        // the temporal-reuse pass
+  SpatialParams spatial;          // the spatial-reuse pass
   ShadeParams shade;              // the shading pass
 };
 
-// Everything a pass reads about the current frame. Owned by the runner; passes never write it.
+// Everything a pass reads about the current and previous frame. Owned by the runner; passes never write it.
 struct FrameInputs {
   const Sequence* sequence = nullptr;
   const FrameState* state = nullptr;
-  const EmbreeScene* scene = nullptr;
+  const EmbreeScene* scene = nullptr;              // current frame; the previous one via SceneFrame::kPrevious
   const GBuffer* gbuffer = nullptr;
   const LightSampler* lights = nullptr;
-  const std::vector<Bsdf>* materials = nullptr;  // one per Sequence::materials
+  const std::vector<Bsdf>* materials = nullptr;    // one per Sequence::materials
+  const FrameState* previousState = nullptr;       // null on the first frame of a run
+  const GBuffer* previousGbuffer = nullptr;        // null on the first frame of a run
+  const std::vector<LightTriangle>* previousLights = nullptr;  // the previous frame's light list
   uint32_t seed = 0;
   uint32_t frame = 0;
 };
 
+// The passes of a frame in order; metrics.csv has a column per pass for every preset.
+inline constexpr const char* kPassNames[] = {"initial", "temporal", "spatial", "shade"};
+
 // What one pass did, for metrics.csv.
 struct PassStats {
-  std::string name;     // initial, shade, ...
+  std::string name;     // initial, temporal, spatial, shade
   double ms = 0.0;      // wall time of the pass
   uint64_t rays = 0;    // rays traced by the pass
 };
@@ -54,7 +101,11 @@ struct PassStats {
 struct FrameResult {
   ImageRgb image;
   std::vector<PassStats> passes;
-  uint64_t guardedEvents = 0;  // non-finite values caught and reset (DESIGN §10)
+  uint64_t guardedEvents = 0;      // non-finite values caught and reset (DESIGN §10)
+  double temporalAcceptance = 0;   // fraction of surface pixels whose previous reservoir entered the combination
+  double meanConfidence = 0;       // mean output confidence over surface pixels
+  uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
+  std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
 };
 
 // Per-preset estimator state across frames (reservoir buffers are ping-ponged by later passes).
@@ -66,7 +117,9 @@ class Pipeline {
 
  private:
   PipelineSettings settings_;
-  std::vector<Reservoir> reservoirs_;
+  std::vector<Reservoir> reservoirs_;          // this frame's reservoirs
+  std::vector<Reservoir> previousReservoirs_;  // last frame's output (temporal input)
+  std::vector<Reservoir> spatialInput_;        // copy read by a spatial iteration
 };
 
 // Materials of a sequence as BSDFs (GGX alpha = roughness^2).

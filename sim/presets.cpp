@@ -2,24 +2,112 @@
 
 #include <sstream>
 
+#include "sim/settings.h"
+
 namespace restir {
 
+namespace {
+
+Preset Make(const std::string& name, const std::string& description, const std::string& source,
+            void (*configure)(PipelineSettings&)) {
+  Preset p;
+  p.name = name;
+  p.description = description;
+  p.source = source;
+  configure(p.settings);
+  return p;
+}
+
+}  // namespace
+
 const std::vector<Preset>& AllPresets() {
-  static const std::vector<Preset> presets = [] {
-    std::vector<Preset> p;
-    {
-      Preset ris;
-      ris.name = "ris";
-      ris.description = "no reuse: streaming RIS over 32 power-sampled light candidates, one final shadow ray";
-      ris.source = "seed 003 §1 (baseline); Talbot et al. 2005";
-      ris.settings.initial.candidates = 32;
-      ris.settings.initial.lightSelection = LightSelection::kPower;
-      ris.settings.initial.initialVisibility = false;
-      ris.settings.shade.finalVisibility = true;
-      p.push_back(ris);
-    }
-    return p;
-  }();
+  static const std::vector<Preset> presets = {
+      Make("ris", "no reuse: streaming RIS over 32 power-sampled light candidates, one final shadow ray",
+           "seed 003 §1 (baseline); Talbot et al. 2005",
+           [](PipelineSettings&) {}),
+      Make("temporal",
+           "RIS plus temporal reuse of the reprojected reservoir with seed 003's validation list and merge "
+           "weight currentTarget * W_prev * min(c_prev, maxHistory) (uniform MIS), final shadow ray",
+           "seed 003 §3-5 (ReSTIR DI - 02 - Temporal Reuse)",
+           [](PipelineSettings& s) {
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kUniform;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.temporal.targetRatioClamp = true;
+           }),
+      Make("restir-biased",
+           "Bitterli 2020 biased ReSTIR: initial visibility, temporal + 5 spatial neighbours, uniform MIS",
+           "Bitterli et al. 2020, Spatiotemporal reservoir resampling, biased variant",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kUniform;
+             s.temporal.bias = BiasCorrection::kNone;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kUniform;
+             s.spatial.bias = BiasCorrection::kNone;
+             s.spatial.neighbours = 5;
+           }),
+      Make("restir-vis",
+           "seed 000 Algorithm 1, previous method: visibility reuse keeping V of the selected sample, "
+           "confidence-weighted balance MIS, no final shadow ray",
+           "seed 000 Algorithm 1 (Wyman & Panteleev 2021 visibility reuse)",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kBasic;
+             s.spatial.neighbours = 5;
+             s.shade.visibility = VisibilityReuse::kSelected;
+           }),
+      Make("restir-wisvis",
+           "seed 000 Algorithm 1 with the WIS visibility estimate V_X = sum V_i w_i / sum w_i, no final ray",
+           "seed 000 Eq. 4, Algorithm 1",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kBasic;
+             s.spatial.neighbours = 5;
+             s.shade.visibility = VisibilityReuse::kWeighted;
+           }),
+      Make("restir-unbiased",
+           "unbiased ReSTIR: initial visibility, temporal + 5 spatial neighbours, defensive pairwise MIS with "
+           "ray-traced bias correction (previous frame's scene for the temporal input), final shadow ray",
+           "seed 004 Eq. 11 (defensive pairwise MIS); Lin et al. 2022 GRIS",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kPairwise;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kPairwise;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.neighbours = 5;
+           }),
+      Make("restir-balance",
+           "unbiased ReSTIR with the confidence-weighted generalized balance heuristic (O(k^2) targets), "
+           "ray-traced bias correction, final shadow ray",
+           "seed 000 Eq. 3 (generalized balance MIS); Talbot 2005",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.neighbours = 5;
+           }),
+  };
   return presets;
 }
 
@@ -32,12 +120,15 @@ const Preset* FindPreset(const std::string& name) {
 std::string DescribePresets() {
   std::ostringstream o;
   for (const Preset& p : AllPresets()) {
-    const PipelineSettings& s = p.settings;
-    o << p.name << "\n  " << p.description << "\n  source: " << p.source << "\n"
-      << "  initial.candidates=" << s.initial.candidates
-      << " initial.lightSelection=" << (s.initial.lightSelection == LightSelection::kPower ? "power" : "uniform")
-      << " initial.visibility=" << (s.initial.initialVisibility ? "on" : "off")
-      << " shade.finalVisibility=" << (s.shade.finalVisibility ? "on" : "off") << "\n";
+    o << p.name << "\n  " << p.description << "\n  source: " << p.source << "\n ";
+    int col = 2;
+    for (const auto& [key, value] : SettingsToStrings(p.settings)) {
+      const std::string item = " " + key + "=" + value;
+      if (col + item.size() > 110) o << "\n ", col = 2;
+      o << item;
+      col += static_cast<int>(item.size());
+    }
+    o << "\n\n";
   }
   return o.str();
 }

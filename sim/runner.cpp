@@ -20,6 +20,7 @@
 #include "sim/presets.h"
 #include "sim/reference.h"
 #include "sim/sequence.h"
+#include "sim/settings.h"
 
 namespace restir {
 
@@ -52,11 +53,15 @@ std::string MetricsCsv(const std::vector<FrameMetricsRow>& rows) {
 }
 
 nlohmann::json SettingsJson(const PipelineSettings& s) {
-  return {{"initial",
-           {{"candidates", s.initial.candidates},
-            {"lightSelection", s.initial.lightSelection == LightSelection::kPower ? "power" : "uniform"},
-            {"initialVisibility", s.initial.initialVisibility}}},
-          {"shade", {{"finalVisibility", s.shade.finalVisibility}}}};
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [key, value] : SettingsToStrings(s)) j[key] = value;
+  return j;
+}
+
+bool SameSceneState(const FrameState& a, const FrameState& b) {
+  const Camera &ca = a.camera, &cb = b.camera;
+  return ca.position == cb.position && ca.forward == cb.forward && ca.up == cb.up &&
+         ca.vfovDegrees == cb.vfovDegrees && a.objectToWorld == b.objectToWorld && a.lightOn == b.lightOn;
 }
 
 void CheckWritableDirectory(const std::string& dir) {
@@ -89,7 +94,7 @@ RunResult Run(const RunOptions& opt) {
                      std::to_string(frameEnd) + " is outside the sequence's frames 0:" +
                      std::to_string(seq.frameCount));
   const std::vector<std::string> presetNames = opt.presets.empty() ? seq.defaults.presets : opt.presets;
-  std::vector<const Preset*> presets;
+  std::vector<Preset> presets;
   for (const std::string& name : presetNames) {
     const Preset* p = FindPreset(name);
     if (!p) {
@@ -97,7 +102,8 @@ RunResult Run(const RunOptions& opt) {
       for (const Preset& q : AllPresets()) known += (known.empty() ? "" : ", ") + q.name;
       throw InputError("--preset: error: unknown preset '" + name + "' (known: " + known + ")");
     }
-    presets.push_back(p);
+    presets.push_back(*p);
+    for (const std::string& assignment : opt.settings) ApplySettingAssignment(presets.back().settings, assignment);
   }
   const uint32_t seed = opt.seed.value_or(seq.seed);
   ReferenceParams refParams;
@@ -122,8 +128,9 @@ RunResult Run(const RunOptions& opt) {
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
-  for (const Preset* p : presets)
-    runJson["presets"][p->name] = {{"source", p->source}, {"settings", SettingsJson(p->settings)}};
+  for (const Preset& p : presets)
+    runJson["presets"][p.name] = {{"source", p.source}, {"settings", SettingsJson(p.settings)}};
+  runJson["overrides"] = opt.settings;
   const std::string runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
   const std::string csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
@@ -131,9 +138,14 @@ RunResult Run(const RunOptions& opt) {
   EmbreeScene scene(seq);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
   std::vector<std::unique_ptr<Pipeline>> pipelines;
-  for (const Preset* p : presets) pipelines.push_back(std::make_unique<Pipeline>(p->settings));
+  for (const Preset& p : presets) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
   GBuffer current, previous;
   FrameState previousState;
+  std::vector<LightTriangle> previousLights;
+  ImageRgb previousReference;
+  // Per preset: last image, and the running sum since the scene state last changed (accumulated accuracy).
+  std::vector<ImageRgb> previousImages(presets.size()), accumSum(presets.size());
+  int accumFrames = 0;
   RunResult result;
   const bool showProgress = opt.progress && ::isatty(STDERR_FILENO);
   const int totalFrames = frameEnd - opt.frameBegin;
@@ -153,6 +165,9 @@ RunResult Run(const RunOptions& opt) {
     const double disoccFraction = MaskFraction(current.disoccluded);
     const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
 
+    const bool hasPrevious = frame > opt.frameBegin;
+    const bool stateChanged = !hasPrevious || !SameSceneState(state, previousState);
+    accumFrames = stateChanged ? 1 : accumFrames + 1;
     ReferenceImage ref;
     if (opt.reference) ref = RenderReference(seq, state, scene, current, refParams);
     const double refRelStdErr = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
@@ -167,27 +182,47 @@ RunResult Run(const RunOptions& opt) {
       in.materials = &bsdfs;
       in.seed = seed;
       in.frame = static_cast<uint32_t>(frame);
-      const FrameResult fr = pipelines[p]->RenderFrame(in);
+      if (hasPrevious) {
+        in.previousState = &previousState;
+        in.previousGbuffer = &previous;
+        in.previousLights = &previousLights;
+      }
+      FrameResult fr = pipelines[p]->RenderFrame(in);
+      if (stateChanged) {
+        accumSum[p] = fr.image;
+      } else {
+        for (size_t i = 0; i < fr.image.Size(); ++i) accumSum[p].pixels[i] += fr.image.pixels[i];
+      }
 
       FrameMetricsRow row;
       row.frame = frame;
-      row.preset = presets[p]->name;
+      row.preset = presets[p].name;
       double msPasses = 0.0;
       uint64_t rays = static_cast<uint64_t>(current.Size());  // primary rays
       row.values.emplace_back("ms_scene_update", msSceneUpdate);
       row.values.emplace_back("ms_primary", msPrimary);
       row.values.emplace_back("ms_reproject", msReproject);
-      for (const PassStats& ps : fr.passes) {
-        row.values.emplace_back("ms_" + ps.name, ps.ms);
-        msPasses += ps.ms;
-        rays += ps.rays;
+      // Fixed columns for every preset: a pass the preset does not run reports 0.
+      auto findPass = [&](const char* name) -> const PassStats* {
+        for (const PassStats& ps : fr.passes)
+          if (ps.name == name) return &ps;
+        return nullptr;
+      };
+      for (const char* name : kPassNames) {
+        const PassStats* ps = findPass(name);
+        row.values.emplace_back(std::string("ms_") + name, ps ? ps->ms : 0.0);
+        msPasses += ps ? ps->ms : 0.0;
+        rays += ps ? ps->rays : 0;
       }
       row.values.emplace_back("ms_frame", msSceneUpdate + msPrimary + msReproject + msPasses);
       row.values.emplace_back("ms_reference", opt.reference ? ref.ms : 0.0);
       row.values.emplace_back("reference_cached", ref.fromCache ? 1.0 : 0.0);
       row.values.emplace_back("rays", static_cast<double>(rays));
-      for (const PassStats& ps : fr.passes)
-        row.values.emplace_back("rays_per_pixel_" + ps.name, double(ps.rays) / double(current.Size()));
+      for (const char* name : kPassNames) {
+        const PassStats* ps = findPass(name);
+        row.values.emplace_back(std::string("rays_per_pixel_") + name,
+                                ps ? double(ps->rays) / double(current.Size()) : 0.0);
+      }
       if (opt.reference) {
         const AccuracyMetrics m = MeasureAccuracy(fr.image, ref.mean);
         row.values.emplace_back("rmse", m.rmse);
@@ -195,8 +230,22 @@ RunResult Run(const RunOptions& opt) {
         row.values.emplace_back("relmse", m.relmse);
         row.values.emplace_back("luma_ratio", m.lumaRatio);
         row.values.emplace_back("reference_rel_stderr", refRelStdErr);
+        ImageRgb mean(width, height);
+        for (size_t i = 0; i < mean.Size(); ++i) mean.pixels[i] = accumSum[p].pixels[i] / float(accumFrames);
+        const AccuracyMetrics acc = MeasureAccuracy(mean, ref.mean);
+        row.values.emplace_back("accum_frames", accumFrames);
+        row.values.emplace_back("accum_rmse", acc.rmse);
+        row.values.emplace_back("accum_luma_ratio", acc.lumaRatio);
+        row.values.emplace_back("flicker", hasPrevious ? Flicker(fr.image, previousImages[p], ref.mean,
+                                                                 previousReference)
+                                                       : 0.0);
       }
+      row.values.emplace_back("stability_luma_rmse",
+                              hasPrevious ? StabilityLumaRmse(fr.image, previousImages[p]) : 0.0);
       row.values.emplace_back("disocc_fraction", disoccFraction);
+      row.values.emplace_back("temporal_acceptance", fr.temporalAcceptance);
+      row.values.emplace_back("mean_confidence", fr.meanConfidence);
+      row.values.emplace_back("cross_object_reuse", static_cast<double>(fr.crossObjectReuse));
       row.values.emplace_back("guarded", static_cast<double>(fr.guardedEvents));
       row.imageHash = HexHash(HashImage(fr.image));
       result.rows.push_back(row);
@@ -204,7 +253,7 @@ RunResult Run(const RunOptions& opt) {
       if (opt.writeImages) {
         char name[32];
         std::snprintf(name, sizeof(name), "%04d", frame);
-        const auto dir = std::filesystem::path(opt.outDir) / "frames" / presets[p]->name;
+        const auto dir = std::filesystem::path(opt.outDir) / "frames" / presets[p].name;
         FrameLayers layers;
         layers.estimate = &fr.image;
         layers.reference = opt.reference ? &ref.mean : nullptr;
@@ -213,11 +262,14 @@ RunResult Run(const RunOptions& opt) {
         WriteFrameExr((dir / (std::string(name) + ".exr")).string(), layers);
         WritePreviewPng((dir / (std::string(name) + ".png")).string(), fr.image, layers.reference);
       }
+      previousImages[p] = std::move(fr.image);
     }
     // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame.
     WriteFileAtomic(csvPath, MetricsCsv(result.rows));
     std::swap(current, previous);
     previousState = state;
+    previousLights = scene.LightTriangles();
+    if (opt.reference) previousReference = std::move(ref.mean);
 
     if (showProgress) {
       const int done = frame - opt.frameBegin + 1;

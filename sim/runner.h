@@ -24,6 +24,7 @@ struct RunOptions {
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
   bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
   bool progress = true;                  // progress line on stderr when stderr is a terminal
+  std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
   std::string commandLine;               // recorded in run.json
 };
 

@@ -11,12 +11,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <set>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string_view>
 #include <unordered_map>
-
-#include <nlohmann/json.hpp>
 
 #include "sim/json_locator.h"
 
@@ -25,7 +23,8 @@ namespace {
 
 using Json = nlohmann::json;
 
-// --- small helpers ------------------------------------------------------------------------------------------
+// --- small helpers
+// ------------------------------------------------------------------------------------------
 
 // Error messages must stay on one line whatever the offending text contains.
 std::string OneLine(std::string s) {
@@ -93,14 +92,22 @@ uint64_t Fnv1a(uint64_t h, std::string_view bytes) {
 
 std::string TypeName(const Json& v) {
   switch (v.type()) {
-    case Json::value_t::null: return "null";
-    case Json::value_t::boolean: return "boolean";
-    case Json::value_t::string: return "string";
-    case Json::value_t::array: return "array";
-    case Json::value_t::object: return "object";
-    case Json::value_t::binary: return "binary";
-    case Json::value_t::discarded: return "nothing";
-    default: return "number";
+    case Json::value_t::null:
+      return "null";
+    case Json::value_t::boolean:
+      return "boolean";
+    case Json::value_t::string:
+      return "string";
+    case Json::value_t::array:
+      return "array";
+    case Json::value_t::object:
+      return "object";
+    case Json::value_t::binary:
+      return "binary";
+    case Json::value_t::discarded:
+      return "nothing";
+    default:
+      return "number";
   }
 }
 
@@ -114,7 +121,8 @@ bool ReadFileBytes(const std::string& path, std::string& out) {
   return true;
 }
 
-// --- geometry -----------------------------------------------------------------------------------------------
+// --- geometry
+// -----------------------------------------------------------------------------------------------
 
 // Appends a triangle whose winding makes its geometric normal point away from `inside`, so generated solids
 // are consistently outward-facing without hand-ordering every face.
@@ -166,7 +174,9 @@ Mesh MakeSphere(const Vec3& center, float radius, int segments) {
   }
   addVertex(Vec3(0.0f, -1.0f, 0.0f));
   const uint32_t bottom = static_cast<uint32_t>(mesh.positions.size() - 1);
-  auto ringVertex = [&](int r, int s) { return static_cast<uint32_t>(1 + (r - 1) * segments + s % segments); };
+  auto ringVertex = [&](int r, int s) {
+    return static_cast<uint32_t>(1 + (r - 1) * segments + s % segments);
+  };
   for (int s = 0; s < segments; ++s) {
     AddTriangleOutward(mesh, 0, ringVertex(1, s), ringVertex(1, s + 1), center);
     AddTriangleOutward(mesh, bottom, ringVertex(rings - 1, s), ringVertex(rings - 1, s + 1), center);
@@ -201,15 +211,27 @@ Mat4 TransformMatrix(const Vec3& translate, const Vec3& rotateDegrees, const Vec
   SinCosDegrees(rotateDegrees.z, sz, cz);
   // GLM matrices are column-major: m[column][row].
   Mat4 rx(1.0f), ry(1.0f), rz(1.0f), s(1.0f), t(1.0f);
-  rx[1][1] = cx; rx[1][2] = sx; rx[2][1] = -sx; rx[2][2] = cx;
-  ry[0][0] = cy; ry[0][2] = -sy; ry[2][0] = sy; ry[2][2] = cy;
-  rz[0][0] = cz; rz[0][1] = sz; rz[1][0] = -sz; rz[1][1] = cz;
-  s[0][0] = scale.x; s[1][1] = scale.y; s[2][2] = scale.z;
+  rx[1][1] = cx;
+  rx[1][2] = sx;
+  rx[2][1] = -sx;
+  rx[2][2] = cx;
+  ry[0][0] = cy;
+  ry[0][2] = -sy;
+  ry[2][0] = sy;
+  ry[2][2] = cy;
+  rz[0][0] = cz;
+  rz[0][1] = sz;
+  rz[1][0] = -sz;
+  rz[1][1] = cz;
+  s[0][0] = scale.x;
+  s[1][1] = scale.y;
+  s[2][2] = scale.z;
   t[3] = Vec4(translate, 1.0f);
   return t * rz * ry * rx * s;
 }
 
-// --- interpolation ------------------------------------------------------------------------------------------
+// --- interpolation
+// ------------------------------------------------------------------------------------------
 
 // Finds the segment containing frame and the (eased) parameter within it; clamps outside the keyed range.
 template <typename Key>
@@ -278,7 +300,8 @@ Camera MakeCamera(const CameraKey& key, int width, int height) {
   return cam;
 }
 
-// --- the reader ---------------------------------------------------------------------------------------------
+// --- the reader
+// ---------------------------------------------------------------------------------------------
 
 class Reader {
  public:
@@ -288,7 +311,8 @@ class Reader {
   Sequence Read(const Json& root);
 
  private:
-  [[noreturn]] void FailAt(const SourcePos& pos, const std::string& pointer, const std::string& message) const {
+  [[noreturn]] void FailAt(const SourcePos& pos, const std::string& pointer,
+                           const std::string& message) const {
     throw InputError(OneLine(file_ + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
                              ": error at " + (pointer.empty() ? std::string("(top level)") : pointer) + ": " +
                              message));
@@ -337,7 +361,8 @@ class Reader {
     if (!std::isfinite(f)) Fail(p, "number " + v.dump() + " is out of single-precision range");
     return f;
   }
-  int64_t Integer(const Json& v, const std::string& p, int64_t lo, int64_t hi, const std::string& what) const {
+  int64_t Integer(const Json& v, const std::string& p, int64_t lo, int64_t hi,
+                  const std::string& what) const {
     if (!v.is_number()) Fail(p, "expected an integer, got " + TypeName(v));
     int64_t value = 0;
     if (v.is_number_integer()) {
@@ -368,11 +393,13 @@ class Reader {
       Fail(p, "expected an array of 3 numbers, got " +
                   (v.is_array() ? "an array of " + std::to_string(v.size()) : TypeName(v)));
     }
-    return Vec3(Float(v[0], PointerChild(p, 0)), Float(v[1], PointerChild(p, 1)), Float(v[2], PointerChild(p, 2)));
+    return Vec3(Float(v[0], PointerChild(p, 0)), Float(v[1], PointerChild(p, 1)),
+                Float(v[2], PointerChild(p, 2)));
   }
   Vec3 Color(const Json& v, const std::string& p, const std::string& what, bool allowBlack) const {
     const Vec3 c = Vector(v, p);
-    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) Fail(p, what + " components must be >= 0, got " + FormatVec(c));
+    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f)
+      Fail(p, what + " components must be >= 0, got " + FormatVec(c));
     if (!allowBlack && std::max({c.x, c.y, c.z}) <= 0.0f) Fail(p, what + " must not be black");
     return c;
   }
@@ -397,7 +424,8 @@ class Reader {
                : Interpolation::kSmooth;
   }
   int ReadKeyFrame(const Json& key, const std::string& p) const {
-    return static_cast<int>(Integer(Need(key, p, "frame"), PointerChild(p, "frame"), 0, frameCount_ - 1, "frame"));
+    return static_cast<int>(
+        Integer(Need(key, p, "frame"), PointerChild(p, "frame"), 0, frameCount_ - 1, "frame"));
   }
 
   // Sorts keys by frame and rejects two keys on one frame. paths[i] is the pointer of keys[i] as written.
@@ -405,13 +433,15 @@ class Reader {
   void SortKeys(std::vector<Key>& keys, std::vector<std::string>& paths) const {
     std::vector<size_t> order(keys.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return keys[a].frame < keys[b].frame; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return keys[a].frame < keys[b].frame; });
     for (size_t i = 1; i < order.size(); ++i) {
       if (keys[order[i]].frame == keys[order[i - 1]].frame) {
         const size_t later = std::max(order[i], order[i - 1]);
         const size_t earlier = std::min(order[i], order[i - 1]);
-        Fail(PointerChild(paths[later], "frame"),
-             "duplicate keyframe at frame " + std::to_string(keys[later].frame) + " (also at " + paths[earlier] + ")");
+        Fail(PointerChild(paths[later], "frame"), "duplicate keyframe at frame " +
+                                                      std::to_string(keys[later].frame) + " (also at " +
+                                                      paths[earlier] + ")");
       }
     }
     std::vector<Key> sortedKeys;
@@ -424,8 +454,8 @@ class Reader {
     paths.swap(sortedPaths);
   }
 
-  void CheckUniqueName(std::map<std::string, std::string>& seen, const std::string& name, const std::string& p,
-                       const std::string& what) const {
+  void CheckUniqueName(std::map<std::string, std::string>& seen, const std::string& name,
+                       const std::string& p, const std::string& what) const {
     auto [it, inserted] = seen.emplace(name, p);
     if (!inserted) Fail(p, "duplicate " + what + " name '" + name + "' (first used at " + it->second + ")");
   }
@@ -451,7 +481,14 @@ class Reader {
   std::unordered_map<std::string, Mesh> meshCache_;  // resolved OBJ path → mesh, so a file is read once
 
  public:
-  const JsonLocator& Locator() const { return locator_; }
+  void CheckNesting() const {
+    SourcePos pos;
+    if (locator_.TooDeep(pos)) {
+      throw InputError(file_ + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
+                       ": error: JSON nests deeper than " + std::to_string(JsonLocator::kMaxDepth) +
+                       " levels");
+    }
+  }
   void CheckDuplicateKeys() const {
     const std::string& dup = locator_.DuplicateKeyPointer();
     if (!dup.empty()) FailKey(dup, "duplicate key '" + dup.substr(dup.rfind('/') + 1) + "'");
@@ -466,8 +503,9 @@ class Reader {
 Sequence Reader::Read(const Json& root) {
   Sequence seq;
   AsObject(root, "");
-  CheckKeys(root, "", {"name", "description", "resolution", "frames", "frameRate", "seed", "materials", "objects",
-                       "lights", "camera", "render"});
+  CheckKeys(root, "",
+            {"name", "description", "resolution", "frames", "frameRate", "seed", "materials", "objects",
+             "lights", "camera", "render"});
   seq.name = Name(Need(root, "", "name"), "/name");
   if (const Json* v = Find(root, "description")) seq.description = String(*v, "/description");
 
@@ -486,7 +524,8 @@ Sequence Reader::Read(const Json& root) {
       Fail("/frameRate", "frameRate must be in (0, 1000], got " + FormatNumber(seq.frameRate));
     }
   }
-  if (const Json* v = Find(root, "seed")) seq.seed = static_cast<uint32_t>(Integer(*v, "/seed", 0, 4294967295ll, "seed"));
+  if (const Json* v = Find(root, "seed"))
+    seq.seed = static_cast<uint32_t>(Integer(*v, "/seed", 0, 4294967295ll, "seed"));
 
   ReadMaterials(AsArray(Need(root, "", "materials"), "/materials", true), "/materials", seq);
   ReadObjects(AsArray(Need(root, "", "objects"), "/objects", true), "/objects", seq);
@@ -511,10 +550,12 @@ void Reader::ReadMaterials(const Json& list, const std::string& p, Sequence& seq
                    : MaterialType::kGgx;
     mat.albedo = Color(Need(m, mp, "albedo"), mp + "/albedo", "albedo", true);
     if (std::max({mat.albedo.x, mat.albedo.y, mat.albedo.z}) > 1.0f) {
-      Fail(mp + "/albedo", "albedo components must be <= 1 (energy conservation), got " + FormatVec(mat.albedo));
+      Fail(mp + "/albedo",
+           "albedo components must be <= 1 (energy conservation), got " + FormatVec(mat.albedo));
     }
     if (const Json* r = Find(m, "roughness")) {
-      if (mat.type != MaterialType::kGgx) Fail(mp + "/roughness", "roughness applies only to 'ggx' materials");
+      if (mat.type != MaterialType::kGgx)
+        Fail(mp + "/roughness", "roughness applies only to 'ggx' materials");
       mat.roughness = Float(*r, mp + "/roughness");
       if (!(mat.roughness > 0.0f && mat.roughness <= 1.0f)) {
         Fail(mp + "/roughness", "roughness must be in (0, 1], got " + FormatNumber(mat.roughness));
@@ -578,7 +619,8 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
       CheckKeys(shape, p, {"type", "min", "max"});
       const Vec3 lo = vec("min"), hi = vec("max");
       if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z)) {
-        Fail(p + "/max", "box max must exceed min on every axis, got min " + FormatVec(lo) + " max " + FormatVec(hi));
+        Fail(p + "/max",
+             "box max must exceed min on every axis, got min " + FormatVec(lo) + " max " + FormatVec(hi));
       }
       AppendBox(mesh, lo, hi);
       break;
@@ -624,7 +666,8 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
 }
 
 // Minimal Wavefront OBJ: v, vn and f (v, v/vt, v//vn, v/vt/vn; negative indices; polygons fan-triangulated).
-// Other statements (vt, o, g, s, usemtl, mtllib, l ...) are ignored. Errors name the OBJ file, line and column.
+// Other statements (vt, o, g, s, usemtl, mtllib, l ...) are ignored. Errors name the OBJ file, line and
+// column.
 Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   namespace fs = std::filesystem;
   fs::path resolved = fs::path(file);
@@ -636,15 +679,16 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   if (fs::is_directory(resolved) || !ReadFileBytes(objPath, bytes)) {
     Fail(p, "cannot read mesh file '" + objPath + "'");
   }
-  hash_ = Fnv1a(hash_, objPath);  // the name matters too: the same bytes from another file are another input
+  // Only the bytes: the name as written is already in the sequence text, and the resolved path depends on the
+  // working directory, which must not change the hash (it keys the reference cache).
   hash_ = Fnv1a(hash_, bytes);
 
   const SourcePos from = locator_.ValuePos(p);
-  const std::string origin =
-      " (mesh of " + file_ + ":" + std::to_string(from.line) + ":" + std::to_string(from.column) + " " + p + ")";
+  const std::string origin = " (mesh of " + file_ + ":" + std::to_string(from.line) + ":" +
+                             std::to_string(from.column) + " " + p + ")";
   auto fail = [&](int line, size_t column, const std::string& message) {
-    throw InputError(
-        OneLine(objPath + ":" + std::to_string(line) + ":" + std::to_string(column) + ": error: " + message + origin));
+    throw InputError(OneLine(objPath + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                             ": error: " + message + origin));
   };
 
   std::vector<Vec3> positions, normals;
@@ -725,8 +769,8 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
           const long long r = index > 0 ? index - 1LL : static_cast<long long>(count) + index;
           if (r < 0 || r >= static_cast<long long>(count)) {
             fail(lineNo, tokens[t].second,
-                 std::string(what) + " index " + std::to_string(index) + " out of range (" + std::to_string(count) +
-                     " defined so far)");
+                 std::string(what) + " index " + std::to_string(index) + " out of range (" +
+                     std::to_string(count) + " defined so far)");
           }
           return static_cast<int>(r);
         };
@@ -758,7 +802,8 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   };
   for (const auto& face : faces) {
     const uint32_t first = vertex(face[0]);
-    for (size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.emplace_back(first, vertex(face[k]), vertex(face[k + 1]));
+    for (size_t k = 1; k + 1 < face.size(); ++k)
+      mesh.triangles.emplace_back(first, vertex(face[k]), vertex(face[k + 1]));
   }
   meshCache_.emplace(objPath, mesh);
   return mesh;
@@ -792,7 +837,8 @@ std::vector<TransformKey> Reader::ReadTransformKeys(const Json& list, const std:
 
 std::vector<std::pair<int, int>> Reader::ReadOnRanges(const Json& v, const std::string& p) const {
   AsArray(v, p, false);
-  if (v.empty()) Fail(p, "'on' needs at least one [first, last) range (leave it out for a light that is always on)");
+  if (v.empty())
+    Fail(p, "'on' needs at least one [first, last) range (leave it out for a light that is always on)");
   std::vector<std::pair<int, int>> ranges;
   for (size_t i = 0; i < v.size(); ++i) {
     const std::string rp = PointerChild(p, i);
@@ -800,15 +846,17 @@ std::vector<std::pair<int, int>> Reader::ReadOnRanges(const Json& v, const std::
     if (!r.is_array() || r.size() != 2) Fail(rp, "expected a [first, last) frame range");
     const int first = static_cast<int>(Integer(r[0], rp + "/0", 0, frameCount_ - 1, "first frame"));
     const int last = static_cast<int>(Integer(r[1], rp + "/1", 0, frameCount_, "last frame (exclusive)"));
-    if (last <= first) Fail(rp, "empty range: last (" + std::to_string(last) + ") must exceed first (" +
-                                    std::to_string(first) + ")");
+    if (last <= first)
+      Fail(rp, "empty range: last (" + std::to_string(last) + ") must exceed first (" +
+                   std::to_string(first) + ")");
     ranges.emplace_back(first, last);
   }
   return ranges;
 }
 
-void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices, const Vec3& radiance,
-                      const std::vector<std::pair<int, int>>& onRanges, const std::string& p) {
+void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices,
+                      const Vec3& radiance, const std::vector<std::pair<int, int>>& onRanges,
+                      const std::string& p) {
   for (size_t t = 0; t + 2 < vertices.size(); t += 3) {
     const Vec3 e1 = vertices[t + 1] - vertices[t];
     const Vec3 e2 = vertices[t + 2] - vertices[t];
@@ -864,8 +912,9 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       const Vec3 rad = radiance(false);
       AddLight(seq, name, tri, rad, on, lp);
     } else {  // grid
-      CheckKeys(l, lp, {"name", "type", "origin", "u", "v", "count", "pitch", "color", "colors", "intensity",
-                        "intensities", "on"});
+      CheckKeys(l, lp,
+                {"name", "type", "origin", "u", "v", "count", "pitch", "color", "colors", "intensity",
+                 "intensities", "on"});
       const Vec3 origin = vec("origin"), u = vec("u"), v = vec("v");
       const Json& count = Need(l, lp, "count");
       if (!count.is_array() || count.size() != 2) Fail(lp + "/count", "expected [nx, ny]");
@@ -874,7 +923,8 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       if (nx * ny > 65536) Fail(lp + "/count", "a grid may hold at most 65536 lights");
       const Json& pitch = Need(l, lp, "pitch");
       if (!pitch.is_array() || pitch.size() != 2) {
-        Fail(lp + "/pitch", "expected [pitchU, pitchV]: two numbers (distances along u and v) or two vectors");
+        Fail(lp + "/pitch",
+             "expected [pitchU, pitchV]: two numbers (distances along u and v) or two vectors");
       }
       Vec3 step[2];
       for (size_t k = 0; k < 2; ++k) {
@@ -887,7 +937,8 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
           step[k] = Vector(pitch[k], pp);
         }
       }
-      if (Find(l, "color") && Find(l, "colors")) Fail(lp + "/colors", "give either 'color' or 'colors', not both");
+      if (Find(l, "color") && Find(l, "colors"))
+        Fail(lp + "/colors", "give either 'color' or 'colors', not both");
       if (Find(l, "intensity") && Find(l, "intensities")) {
         Fail(lp + "/intensities", "give either 'intensity' or 'intensities', not both");
       }
@@ -971,14 +1022,16 @@ void Reader::ReadRender(const Json& render, const std::string& p, Sequence& seq)
       const std::string pp = PointerChild(p + "/presets", i);
       const std::string name = String((*v)[i], pp);
       if (name.empty()) Fail(pp, "preset name must not be empty");
-      if (std::find(seq.defaults.presets.begin(), seq.defaults.presets.end(), name) != seq.defaults.presets.end()) {
+      if (std::find(seq.defaults.presets.begin(), seq.defaults.presets.end(), name) !=
+          seq.defaults.presets.end()) {
         Fail(pp, "preset '" + name + "' is listed twice");
       }
       seq.defaults.presets.push_back(name);
     }
   }
   if (const Json* v = Find(render, "referenceSpp")) {
-    seq.defaults.referenceSpp = static_cast<int>(Integer(*v, p + "/referenceSpp", 1, 1 << 20, "referenceSpp"));
+    seq.defaults.referenceSpp =
+        static_cast<int>(Integer(*v, p + "/referenceSpp", 1, 1 << 20, "referenceSpp"));
   }
 }
 
@@ -994,7 +1047,9 @@ Sequence ParseSequence(const std::string& text, const std::string& path, const s
     std::string what = e.what();
     if (what.find("invalid literal") != std::string::npos) {
       // The lexer stops after reading part of a bad literal ("tru}"): point at where the literal starts.
-      auto literalChar = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.'; };
+      auto literalChar = [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.';
+      };
       while (offset > 0 && offset <= text.size() && literalChar(text[offset - 1])) --offset;
     }
     const SourcePos pos = PosFromOffset(text, offset);
@@ -1016,6 +1071,7 @@ Sequence ParseSequence(const std::string& text, const std::string& path, const s
                              ": error: invalid JSON: " + what));
   }
   Reader reader(path, text, baseDir);
+  reader.CheckNesting();
   reader.CheckDuplicateKeys();
   Sequence seq = reader.Read(root);
   seq.path = path;
@@ -1066,8 +1122,8 @@ std::string SummarizeSequence(const Sequence& seq) {
   char buf[256];
   out << seq.name << "  (" << seq.path << ", hash " << seq.contentHash << ")\n";
   if (!seq.description.empty()) out << "  " << seq.description << "\n";
-  std::snprintf(buf, sizeof(buf), "resolution  %dx%d, %d frames at %g fps (%.2f s), seed %u\n", seq.width, seq.height,
-                seq.frameCount, seq.frameRate, seq.frameCount / seq.frameRate, seq.seed);
+  std::snprintf(buf, sizeof(buf), "resolution  %dx%d, %d frames at %g fps (%.2f s), seed %u\n", seq.width,
+                seq.height, seq.frameCount, seq.frameRate, seq.frameCount / seq.frameRate, seq.seed);
   out << buf;
 
   out << "materials   " << seq.materials.size() << ":";
@@ -1081,7 +1137,8 @@ std::string SummarizeSequence(const Sequence& seq) {
     triangles += o.mesh.triangles.size();
     animated += o.animated ? 1 : 0;
   }
-  out << "objects     " << seq.objects.size() << " (" << animated << " animated), " << triangles << " triangles\n";
+  out << "objects     " << seq.objects.size() << " (" << animated << " animated), " << triangles
+      << " triangles\n";
   for (const Object& o : seq.objects) {
     std::snprintf(buf, sizeof(buf), "  %-22s %-14s %7zu tris  %s\n", o.name.c_str(),
                   seq.materials[o.material].name.c_str(), o.mesh.triangles.size(),
@@ -1097,7 +1154,8 @@ std::string SummarizeSequence(const Sequence& seq) {
   for (const Light& l : seq.lights) {
     double power = 0.0;
     for (size_t t = 0; t + 2 < l.vertices.size(); t += 3) {
-      const float area = 0.5f * glm::length(glm::cross(l.vertices[t + 1] - l.vertices[t], l.vertices[t + 2] - l.vertices[t]));
+      const float area = 0.5f * glm::length(glm::cross(l.vertices[t + 1] - l.vertices[t],
+                                                       l.vertices[t + 2] - l.vertices[t]));
       power += kPi * area * Luminance(l.radiance);  // one-sided Lambertian emitter: Φ = π L A
       ++emitters;
     }
@@ -1109,7 +1167,8 @@ std::string SummarizeSequence(const Sequence& seq) {
     it->second.first += 1;
     it->second.second += power;
   }
-  std::snprintf(buf, sizeof(buf), "lights      %zu in %zu groups, %zu emitter triangles, %zu switched, total power %.4g W\n",
+  std::snprintf(buf, sizeof(buf),
+                "lights      %zu in %zu groups, %zu emitter triangles, %zu switched, total power %.4g W\n",
                 seq.lights.size(), groups.size(), emitters, switched, totalPower);
   out << buf;
   for (const std::string& g : groups) {

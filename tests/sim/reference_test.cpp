@@ -110,6 +110,54 @@ TEST(Reference, RisMeanOverSeedsMatchesLambertChiSquare) {
   EXPECT_LT(chi2 * 93.0 / 95.0, test::ChiSquareCritical(k, 1e-4)) << "pixels " << k;
 }
 
+// Several lights of very different power, one of them crossing the receiver's horizon: the reference's per-pixel
+// light selection must still converge to the sum of Lambert's formula over the parts above the horizon. Same
+// statistic and band as above (false-failure rate 2e-4).
+TEST(Reference, ManyLightsMatchLambertSumWithinItsStandardError) {
+  Sequence seq = test::FloorUnderQuadLight(24, 16, 1.0f, 0.5f);
+  // Placed so that no light occludes another as seen from the visible floor (emitters are geometry too, and
+  // the closed form knows no occlusion).
+  test::AddQuadLight(seq, "dim_far", Vec3(-1.5f, 0.6f, -1.5f), Vec3(0.3f, 0, 0), Vec3(0, 0, 0.3f), Vec3(0.5f));
+  test::AddQuadLight(seq, "tiny_bright", Vec3(1.2f, 0.4f, -1.6f), Vec3(0.02f, 0, 0), Vec3(0, 0, 0.02f),
+                     Vec3(400.0f));
+  // A vertical panel facing +x that reaches below the floor plane (y from -0.3 to 0.5).
+  test::AddQuadLight(seq, "horizon", Vec3(-1.9f, 0.1f, 0.0f), Vec3(0, 0.4f, 0), Vec3(0, 0, 0.3f), Vec3(3.0f));
+  const FrameState state = test::StaticState(seq);
+  EmbreeScene scene(seq);
+  scene.Update(state);
+  GBuffer g;
+  TracePrimary(scene, state.camera, g);
+  ReferenceParams params;
+  params.samplesPerPixel = 1024;
+  const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
+  double sumZ2 = 0;
+  int k = 0;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    if (!g.IsSurface(i)) continue;
+    const Vec3 x = g.Position(i);
+    double exact = 0;
+    for (const Light& l : seq.lights) {
+      const std::vector<Vec3> quad{l.vertices[0], l.vertices[1], l.vertices[2], l.vertices[5]};
+      // One-sided emitters: only lights whose front faces x contribute.
+      const Vec3 n = glm::normalize(glm::cross(l.vertices[1] - l.vertices[0], l.vertices[2] - l.vertices[0]));
+      if (glm::dot(n, x - l.vertices[0]) <= 0) continue;
+      const auto clipped = ClipPolygonToHemisphere(x, Vec3(0, 1, 0), quad);
+      if (clipped.size() >= 3) exact += 0.5 / M_PI * PolygonIrradiance(x, Vec3(0, 1, 0), clipped, l.radiance.x);
+    }
+    const double se = ref.standardError.pixels[i].x;
+    ASSERT_GT(se, 0.0);
+    const double z = (ref.mean.pixels[i].x - exact) / se;
+    sumZ2 += z * z;
+    ++k;
+  }
+  ASSERT_GT(k, 300);
+  const double band = test::NormalQuantileUpper(1e-4) * std::sqrt(3.389 / k);
+  std::printf("many-light check: %d pixels, mean z^2 = %.3f (expected 1.154 +- %.3f), mean rel. stderr %.4f\n", k,
+              sumZ2 / k, band, MeanRelativeStandardError(ref));
+  EXPECT_LT(sumZ2 / k, 15.0 / 13.0 + band);
+  EXPECT_GT(sumZ2 / k, 15.0 / 13.0 - band);
+}
+
 TEST(Reference, CacheRoundTripsBitExactly) {
   Rendered r = MakeFloorScene(12, 8);
   ReferenceParams params;

@@ -1,0 +1,174 @@
+#include "sim/settings.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+
+#include "core/gris.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+namespace {
+
+template <typename E>
+struct EnumNames {
+  std::vector<std::pair<E, const char*>> names;
+};
+
+const EnumNames<MisFamily> kMisNames{{{MisFamily::kUniform, "uniform"},
+                                      {MisFamily::kZ, "z"},
+                                      {MisFamily::kBalance, "balance"},
+                                      {MisFamily::kPairwise, "pairwise"},
+                                      {MisFamily::kStochasticPairwise, "stochastic-pairwise"}}};
+const EnumNames<BiasCorrection> kBiasNames{
+    {{BiasCorrection::kNone, "none"}, {BiasCorrection::kBasic, "basic"}, {BiasCorrection::kRayTraced, "raytraced"}}};
+const EnumNames<VisibilityReuse> kVisNames{{{VisibilityReuse::kNone, "final-ray"},
+                                            {VisibilityReuse::kSelected, "reuse-selected"},
+                                            {VisibilityReuse::kWeighted, "wis-estimate"}}};
+const EnumNames<LightSelection> kSelNames{{{LightSelection::kPower, "power"}, {LightSelection::kUniform, "uniform"}}};
+
+std::string ToString(int v) { return std::to_string(v); }
+std::string ToString(bool v) { return v ? "true" : "false"; }
+std::string ToString(float v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+template <typename E>
+std::string ToString(E v, const EnumNames<E>& names) {
+  for (const auto& [e, n] : names.names)
+    if (e == v) return n;
+  return "?";
+}
+
+[[noreturn]] void BadValue(const std::string& key, const std::string& value, const std::string& expected) {
+  throw InputError("--set: error at " + key + ": '" + value + "' is not " + expected);
+}
+
+void Parse(const std::string& key, const std::string& text, int& out) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < 0 || v > 1000000) BadValue(key, text, "an integer in [0, 1000000]");
+  out = static_cast<int>(v);
+}
+void Parse(const std::string& key, const std::string& text, float& out) {
+  char* end = nullptr;
+  const float v = std::strtof(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v) || v < 0.0f) BadValue(key, text, "a finite number >= 0");
+  out = v;
+}
+void Parse(const std::string& key, const std::string& text, bool& out) {
+  if (text == "true" || text == "on" || text == "1") out = true;
+  else if (text == "false" || text == "off" || text == "0") out = false;
+  else BadValue(key, text, "true/false");
+}
+template <typename E>
+void Parse(const std::string& key, const std::string& text, E& out, const EnumNames<E>& names) {
+  std::string all;
+  for (const auto& [e, n] : names.names) {
+    if (text == n) {
+      out = e;
+      return;
+    }
+    all += (all.empty() ? "" : ", ") + std::string(n);
+  }
+  BadValue(key, text, "one of " + all);
+}
+
+// The one table: name -> (print, parse) for each field.
+struct Field {
+  std::string name;
+  std::function<std::string(const PipelineSettings&)> get;
+  std::function<void(PipelineSettings&, const std::string&, const std::string&)> set;
+};
+
+#define RESTIR_FIELD(NAME, MEMBER)                                                                    \
+  Field {                                                                                             \
+    NAME, [](const PipelineSettings& s) { return ToString(s.MEMBER); },                              \
+        [](PipelineSettings& s, const std::string& k, const std::string& v) { Parse(k, v, s.MEMBER); } \
+  }
+#define RESTIR_ENUM_FIELD(NAME, MEMBER, TABLE)                                                               \
+  Field {                                                                                                    \
+    NAME, [](const PipelineSettings& s) { return ToString(s.MEMBER, TABLE); },                              \
+        [](PipelineSettings& s, const std::string& k, const std::string& v) { Parse(k, v, s.MEMBER, TABLE); } \
+  }
+
+const std::vector<Field>& Fields() {
+  static const std::vector<Field> fields = {
+      RESTIR_FIELD("initial.candidates", initial.candidates),
+      RESTIR_ENUM_FIELD("initial.lightSelection", initial.lightSelection, kSelNames),
+      RESTIR_FIELD("initial.visibility", initial.visibility),
+      RESTIR_FIELD("initial.countCandidates", initial.countCandidates),
+      RESTIR_FIELD("temporal.enabled", temporal.enabled),
+      RESTIR_ENUM_FIELD("temporal.mis", temporal.mis, kMisNames),
+      RESTIR_ENUM_FIELD("temporal.bias", temporal.bias, kBiasNames),
+      RESTIR_FIELD("temporal.maxHistory", temporal.maxHistory),
+      RESTIR_FIELD("temporal.sampleChecks", temporal.sampleChecks),
+      RESTIR_FIELD("temporal.targetRatioClamp", temporal.targetRatioClamp),
+      RESTIR_FIELD("temporal.permutation", temporal.permutation),
+      RESTIR_FIELD("spatial.enabled", spatial.enabled),
+      RESTIR_ENUM_FIELD("spatial.mis", spatial.mis, kMisNames),
+      RESTIR_ENUM_FIELD("spatial.bias", spatial.bias, kBiasNames),
+      RESTIR_FIELD("spatial.neighbours", spatial.neighbours),
+      RESTIR_FIELD("spatial.disocclusionNeighbours", spatial.disocclusionNeighbours),
+      RESTIR_FIELD("spatial.radius", spatial.radius),
+      RESTIR_FIELD("spatial.iterations", spatial.iterations),
+      RESTIR_FIELD("spatial.normalThreshold", spatial.normalThreshold),
+      RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
+      RESTIR_ENUM_FIELD("shade.visibility", shade.visibility, kVisNames),
+  };
+  return fields;
+}
+
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> SettingsToStrings(const PipelineSettings& settings) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Field& f : Fields()) out.emplace_back(f.name, f.get(settings));
+  return out;
+}
+
+void ApplySetting(PipelineSettings& settings, const std::string& key, const std::string& value) {
+  const Field* best = nullptr;
+  size_t bestDistance = ~size_t{0};
+  for (const Field& f : Fields()) {
+    if (f.name == key) {
+      f.set(settings, key, value);
+      if (settings.spatial.neighbours > kMaxGrisInputs - 1 || settings.spatial.disocclusionNeighbours > kMaxGrisInputs - 1)
+        throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
+                         " spatial neighbours");
+      if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
+      return;
+    }
+    const size_t d = EditDistance(f.name, key);
+    if (d < bestDistance) bestDistance = d, best = &f;
+  }
+  throw InputError("--set: error: unknown setting '" + key + "'" +
+                   (best ? " (did you mean '" + best->name + "'?)" : std::string()));
+}
+
+void ApplySettingAssignment(PipelineSettings& settings, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError("--set: error: '" + assignment + "' is not KEY=VALUE");
+  ApplySetting(settings, assignment.substr(0, eq), assignment.substr(eq + 1));
+}
+
+}  // namespace restir
