@@ -7,8 +7,8 @@ namespace restir {
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
                                 const std::vector<uint8_t>* mask) {
   AccuracyMetrics m;
-  double se = 0.0, seLuma = 0.0, rel = 0.0, sumY = 0.0, sumYRef = 0.0;
-  size_t count = 0;
+  double se = 0.0, seLuma = 0.0, rel = 0.0, sumY = 0.0, sumYRef = 0.0, spe = 0.0;
+  size_t count = 0, litCount = 0;
   for (size_t i = 0; i < estimate.Size(); ++i) {
     if (mask && !(*mask)[i]) continue;
     const Vec3& a = estimate.pixels[i];
@@ -20,6 +20,10 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
     }
     const double ya = Luminance(a), yr = Luminance(r);
     seLuma += (ya - yr) * (ya - yr);
+    if (yr > 1e-4) {
+      spe += ((ya - yr) / yr) * ((ya - yr) / yr);
+      ++litCount;
+    }
     sumY += ya;
     sumYRef += yr;
     ++count;
@@ -30,6 +34,9 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
   m.lumaRmse = std::sqrt(seLuma / count);
   m.relmse = rel / (3.0 * count);
   m.lumaRatio = sumYRef > 0.0 ? sumY / sumYRef : (sumY > 0.0 ? INFINITY : 1.0);
+  m.rmspe = litCount ? std::sqrt(spe / double(litCount)) : 0.0;
+  m.lumaSum = sumY;
+  m.referenceLumaSum = sumYRef;
   return m;
 }
 

@@ -14,6 +14,9 @@ struct AccuracyMetrics {
   double lumaRmse = 0.0;    // sqrt(mean (Y(I) - Y(R))^2), seed 003 "LumaRMSE"
   double relmse = 0.0;      // mean over pixels and RGB of (I - R)^2 / (R^2 + 0.01)
   double lumaRatio = 0.0;   // sum Y(I) / sum Y(R); 1 means no bias in total brightness
+  double rmspe = 0.0;       // sqrt(mean over pixels with Y(R) > 1e-4 of ((Y(I) - Y(R)) / Y(R))^2), seed 000
+  double lumaSum = 0.0;     // sum Y(I), so ratios can be formed over many frames
+  double referenceLumaSum = 0.0;  // sum Y(R)
   size_t pixels = 0;        // pixels the averages ran over
 };
 

@@ -229,6 +229,9 @@ RunResult Run(const RunOptions& opt) {
         row.values.emplace_back("luma_rmse", m.lumaRmse);
         row.values.emplace_back("relmse", m.relmse);
         row.values.emplace_back("luma_ratio", m.lumaRatio);
+        row.values.emplace_back("rmspe", m.rmspe);
+        row.values.emplace_back("luma_sum", m.lumaSum);
+        row.values.emplace_back("reference_luma_sum", m.referenceLumaSum);
         row.values.emplace_back("reference_rel_stderr", refRelStdErr);
         ImageRgb mean(width, height);
         for (size_t i = 0; i < mean.Size(); ++i) mean.pixels[i] = accumSum[p].pixels[i] / float(accumFrames);

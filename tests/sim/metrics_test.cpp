@@ -18,6 +18,8 @@ TEST(Metrics, AccuracyMatchesHandComputedValues) {
   const double y0 = 0.2126 * 1 + 0.7152 * 2 + 0.0722 * 3, y1 = 0.0;
   EXPECT_NEAR(m.lumaRmse, std::sqrt(((y0 - 1) * (y0 - 1) + 0.25) / 2.0), 1e-6);
   EXPECT_NEAR(m.lumaRatio, (y0 + y1) / 1.5, 1e-6);
+  // rmspe: both reference pixels are lit (Y = 1 and 0.5).
+  EXPECT_NEAR(m.rmspe, std::sqrt(((y0 - 1) * (y0 - 1) + 1.0) / 2.0), 1e-6);
   EXPECT_EQ(m.pixels, 2u);
 }
 

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Runs the results of docs/results.md: window_bars_pan and static_room at 640x360, every frame, every preset of
+# the ReSTIR pipeline, then regenerates the document. References come from (and go to) the reference cache.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=build/release/restir-sim
+presets=ris,temporal,restir-biased,restir-vis,restir-wisvis,restir-unbiased,restir-balance
+for s in window_bars_pan static_room; do
+  "$bin" run "sequences/$s.json" --preset "$presets" --resolution 640x360 --no-images --out "out/results/$s"
+done
+scripts/make_results.py out/results/window_bars_pan out/results/static_room > docs/results.md.tmp
+mv docs/results.md.tmp docs/results.md
+echo "wrote docs/results.md"
