@@ -56,8 +56,17 @@ GrisResult GrisCombine(MisFamily family, const GrisInput* in, int count, TargetF
   float canonicalTargetOfSelected = 0.0f, visWeighted = 0.0f;
 
   for (int i = 0; i < count; ++i) {
-    if (!in[i].hasSample || !(in[i].W > 0.0f)) continue;
+    if (!in[i].hasSample) continue;
+    if (!IsFiniteWeight(in[i].W)) {  // a NaN or infinite W is dropped and counted (DESIGN §10)
+      ++r.guarded;
+      continue;
+    }
+    if (!(in[i].W > 0.0f)) continue;
     const float pc = target(0, i);  // p̂_c(Y_i)
+    if (!IsFiniteWeight(pc)) {
+      ++r.guarded;
+      continue;
+    }
     if (!(pc > 0.0f)) continue;
     float m = 0.0f;
     switch (family) {

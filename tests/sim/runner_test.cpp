@@ -118,8 +118,8 @@ TEST(Run, WritesFramesMetricsAndRunRecord) {
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
 }
 
-// The EXRs are readable by OpenEXR's own command-line tool (installed by scripts/setup.sh).
-TEST(Run, ExrReadableByExrheader) {
+// The EXRs are readable by OpenEXR's and OpenImageIO's own command-line tools (installed by scripts/setup.sh).
+TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   const std::string out = TempOut("restir-run-exrheader");
   RunOptions o = SmokeOptions(out);
   o.frameEnd = 1;
@@ -131,6 +131,12 @@ TEST(Run, ExrReadableByExrheader) {
   std::stringstream s;
   s << f.rdbuf();
   EXPECT_NE(s.str().find("disocclusion.Y"), std::string::npos);
+  const std::string oiio = "oiiotool --info -v " + out + "/frames/ris/0000.exr > " + out + "/oiio.txt 2>&1";
+  ASSERT_EQ(std::system(oiio.c_str()), 0);
+  std::ifstream g(out + "/oiio.txt");
+  std::stringstream t;
+  t << g.rdbuf();
+  EXPECT_NE(t.str().find("normal.Z"), std::string::npos) << t.str();
 }
 
 TEST(Run, BadInputThrowsInputError) {

@@ -74,4 +74,34 @@ inline FrameState StaticState(const Sequence& seq, int frame = 0) {
   return s;
 }
 
+// Adds an axis-aligned box [lo, hi] (12 triangles; surfaces are two-sided, so winding does not matter) as an
+// object with the given material and one transform key (identity). Set `animated` and add keys to move it.
+inline void AddBoxObject(Sequence& seq, const std::string& name, uint32_t material, const Vec3& lo, const Vec3& hi) {
+  Object o;
+  o.name = name;
+  o.material = material;
+  for (int k = 0; k < 8; ++k)
+    o.mesh.positions.push_back(Vec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z));
+  // Faces as quads of corner indices (bit 0: x, bit 1: y, bit 2: z).
+  const unsigned faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+  for (const auto& f : faces) {
+    o.mesh.triangles.push_back(glm::uvec3(f[0], f[1], f[2]));
+    o.mesh.triangles.push_back(glm::uvec3(f[0], f[2], f[3]));
+  }
+  o.keys.push_back(TransformKey{});
+  seq.objects.push_back(o);
+}
+
+// Adds a material and returns its index.
+inline uint32_t AddMaterial(Sequence& seq, const std::string& name, const Vec3& albedo,
+                            MaterialType type = MaterialType::kDiffuse, float roughness = 0.5f) {
+  Material m;
+  m.name = name;
+  m.type = type;
+  m.albedo = albedo;
+  m.roughness = roughness;
+  seq.materials.push_back(m);
+  return static_cast<uint32_t>(seq.materials.size() - 1);
+}
+
 }  // namespace restir::test
