@@ -24,7 +24,7 @@ namespace restir {
 namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching.
-constexpr uint32_t kReferenceVersion = 3;
+constexpr uint32_t kReferenceVersion = 4;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 constexpr char kCacheMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '1'};
@@ -197,12 +197,24 @@ void WriteCache(const std::string& path, const ReferenceImage& ref) {
 
 }  // namespace
 
-std::string ReferenceCacheKey(const Sequence& sequence, int frame, int width, int height, int spp) {
-  const int32_t fields[6] = {frame, width, height, spp, static_cast<int32_t>(kReferenceVersion),
-                             static_cast<int32_t>(kReferenceSeed)};
+uint64_t HashFrameState(const FrameState& state) {
+  const Camera& c = state.camera;
+  const float camera[13] = {c.position.x, c.position.y, c.position.z, c.forward.x, c.forward.y, c.forward.z,
+                            c.up.x,       c.up.y,       c.up.z,       c.right.x,   c.right.y,   c.right.z,
+                            c.vfovDegrees};
+  const int32_t size[2] = {c.width, c.height};
+  uint64_t h = Fnv1a(camera, sizeof(camera));
+  h = Fnv1a(size, sizeof(size), h);
+  for (const Mat4& m : state.objectToWorld) h = Fnv1a(&m, sizeof(Mat4), h);
+  return Fnv1a(state.lightOn.data(), state.lightOn.size(), h);
+}
+
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, int spp) {
+  const int32_t fields[3] = {spp, static_cast<int32_t>(kReferenceVersion), static_cast<int32_t>(kReferenceSeed)};
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
   h = Fnv1a(fields, sizeof(fields), h);
-  return HexHash(h);
+  const uint64_t s = HashFrameState(state);
+  return HexHash(Fnv1a(&s, sizeof(s), h));
 }
 
 ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
@@ -212,7 +224,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   std::string cachePath;
   if (!params.cacheDir.empty()) {
     cachePath = (std::filesystem::path(params.cacheDir) /
-                 ("ref-" + ReferenceCacheKey(sequence, state.frame, w, h, params.samplesPerPixel) + ".bin"))
+                 ("ref-" + ReferenceCacheKey(sequence, state, params.samplesPerPixel) + ".bin"))
                     .string();
     ReferenceImage cached;
     if (ReadCache(cachePath, w, h, cached)) {
@@ -229,6 +241,10 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const LightSampler lights(lightList, LightSelection::kPower);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(sequence);
   static const RdSequence rd;
+  // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
+  // get the same reference, bit for bit, and share one cache entry.
+  const uint64_t stateHash = HashFrameState(state);
+  const uint32_t stateKey = static_cast<uint32_t>(stateHash ^ (stateHash >> 32));
   const int perReplicate = (std::max(1, params.samplesPerPixel) + kReplicates - 1) / kReplicates;
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
@@ -241,7 +257,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
         if (!g.IsSurface(i) || lights.Empty()) continue;
         const ShadingPoint sp = ShadingPointAt(g, i, state.camera, bsdfs);
         dist.Build(sp, lights);
-        const RngKey key{kReferenceSeed, static_cast<uint32_t>(state.frame), static_cast<uint32_t>(i),
+        const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
                          static_cast<uint32_t>(RngPass::kReference)};
         glm::dvec3 replicateMean[kReplicates];
         for (int rep = 0; rep < kReplicates; ++rep) {

@@ -31,8 +31,13 @@ struct ReferenceImage {
 ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                                const GBuffer& gbuffer, const ReferenceParams& params);
 
-// The cache key: a hash of everything that changes the reference image.
-std::string ReferenceCacheKey(const Sequence& sequence, int frame, int width, int height, int spp);
+// A hash of everything in a frame state that changes the image: camera (with resolution), object transforms,
+// light states.
+uint64_t HashFrameState(const FrameState& state);
+
+// The cache key: a hash of everything that changes the reference image (sequence content, frame state, samples,
+// renderer version). Not the frame index: identical states share one reference.
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, int spp);
 
 // Mean over lit pixels (reference luminance > 1e-4) of standard error / value, by luminance: the reference's
 // own relative noise.

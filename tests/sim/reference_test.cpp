@@ -170,8 +170,17 @@ TEST(Reference, CacheRoundTripsBitExactly) {
   EXPECT_TRUE(b.fromCache);
   EXPECT_EQ(HashImage(a.mean), HashImage(b.mean));
   EXPECT_EQ(HashImage(a.standardError), HashImage(b.standardError));
-  // A different sample count is a different key.
-  EXPECT_NE(ReferenceCacheKey(r.seq, 0, 12, 8, 16), ReferenceCacheKey(r.seq, 0, 12, 8, 17));
+  // A different sample count, camera or light state is a different key; the frame index alone is not.
+  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, r.state, 17));
+  FrameState moved = r.state;
+  moved.camera.position.x += 1e-3f;
+  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, moved, 16));
+  FrameState dark = r.state;
+  dark.lightOn[0] = 0;
+  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, dark, 16));
+  FrameState later = r.state;
+  later.frame = 7;
+  EXPECT_EQ(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, later, 16));
 }
 
 }  // namespace
