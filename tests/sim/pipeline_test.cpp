@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -24,15 +25,6 @@
 #include "sim/settings.h"
 #include "stats.h"
 
-#include <cstdlib>
-static int EnvI(const char* n, int d) { const char* v = std::getenv(n); return v ? std::atoi(v) : d; }
-static float EnvF(const char* n, float d) { const char* v = std::getenv(n); return v ? float(std::atof(v)) : d; }
-#define GRILLE_N EnvI("GN", 5)
-#define GRILLE_X0 EnvF("GX0", -0.6f)
-#define GRILLE_PITCH EnvF("GP", 0.3f)
-#define GRILLE_HALF EnvF("GH", 0.06f)
-#define GRILLE_Y EnvF("GY", 0.3f)
-#define WARM_HALF EnvF("WH", 0.15f)
 
 namespace restir {
 namespace {
@@ -114,15 +106,15 @@ Sequence OccludedScene(int width, int height) {
   const uint32_t metal = test::AddMaterial(seq, "metal", Vec3(0.9f, 0.8f, 0.6f), MaterialType::kGgx, 0.5f);
   test::AddQuadObject(seq, "floor", floor, Vec3(0), Vec3(2, 0, 0), Vec3(0, 0, -2));
   test::AddBoxObject(seq, "crate", crate, Vec3(-1.1f, 0.0f, -0.3f), Vec3(-0.65f, 0.45f, 0.15f));
-  for (int k = 0; k < GRILLE_N; ++k) {
-    const float x = GRILLE_X0 + GRILLE_PITCH * static_cast<float>(k);
-    test::AddBoxObject(seq, "slat" + std::to_string(k), crate, Vec3(x - GRILLE_HALF, GRILLE_Y, -1.3f),
-                       Vec3(x + GRILLE_HALF, GRILLE_Y + 0.03f, 0.3f));
+  for (int k = 0; k < 5; ++k) {
+    const float x = -0.6f + 0.3f * static_cast<float>(k);
+    test::AddBoxObject(seq, "slat" + std::to_string(k), crate, Vec3(x - 0.06f, 0.3f, -1.3f),
+                       Vec3(x + 0.06f, 0.3f + 0.03f, 0.3f));
   }
   test::AddQuadObject(seq, "panel", metal, Vec3(0.0f, 0.6f, -1.6f), Vec3(1.6f, 0, 0), Vec3(0, 0.6f, 0));
   // u = +x, v = +z: cross(u, v) = -y, all three face down.
-  test::AddQuadLight(seq, "warm", Vec3(0.0f, 1.3f, -0.5f), Vec3(WARM_HALF, 0, 0), Vec3(0, 0, WARM_HALF),
-                     Vec3(10.0f, 6.0f, 3.0f));
+  test::AddQuadLight(seq, "warm", Vec3(0.0f, 1.3f, -0.5f), Vec3(0.05f, 0, 0), Vec3(0, 0, 0.05f),
+                     Vec3(40.0f, 24.0f, 12.0f));
   test::AddQuadLight(seq, "blue", Vec3(0.9f, 0.8f, 0.1f), Vec3(0.1f, 0, 0), Vec3(0, 0, 0.1f),
                      Vec3(2.0f, 4.0f, 12.0f));
   test::AddQuadLight(seq, "green", Vec3(-0.9f, 1.0f, -1.2f), Vec3(0.15f, 0, 0), Vec3(0, 0, 0.15f),
@@ -188,37 +180,42 @@ PipelineSettings ZFamilySettings() {
 // Occluded scene, many independent seeds, shared by the first two tests (computed once).
 
 constexpr int kOccW = 24, kOccH = 16;
-static const int kOccSeeds = EnvI("K", 64);  // K independent runs per configuration
-static const int kOccFrames = EnvI("F", 4);   // frames 0..3; the last one is measured (temporal + spatial history active)
+constexpr int kOccSeeds = 256;       // K independent runs per configuration
+constexpr int kOccFrames = 8;        // frames 0..7, static camera
+constexpr int kOccFirstAveraged = 3; // per seed, the mean image of frames 3..7 (temporal + spatial history active)
 constexpr int kOccRefSpp = 2048;
 
 struct ConfigRuns {
-  std::vector<test::RunningStats> pixelLuma;  // per pixel: luminance of the last frame over seeds
-  std::vector<double> totalLuma;              // per seed: Σ Y over the last frame's image
+  std::vector<std::vector<double>> luma;  // per seed, per pixel: luminance of the mean image of frames 3..7
+  std::vector<double> lastTotalLuma;      // per seed: Σ Y over the last frame's image
 };
 
 struct OccludedRuns {
   std::vector<std::string> names;
   std::map<std::string, ConfigRuns> runs;
   ReferenceImage ref;
-  GBuffer gbuffer;  // the last frame's
+  GBuffer gbuffer;  // the last frame's (every frame's: nothing moves)
 };
 
 const OccludedRuns& GetOccludedRuns() {
   static const OccludedRuns result = [] {
     OccludedRuns r;
     const Sequence seq = OccludedScene(kOccW, kOccH);
-    std::vector<std::pair<std::string, PipelineSettings>> configs = {
+    const std::vector<std::pair<std::string, PipelineSettings>> configs = {
         {"restir-unbiased", PresetSettings("restir-unbiased")},
         {"restir-balance", PresetSettings("restir-balance")},
         {"z-family", ZFamilySettings()},
         {"restir-biased", PresetSettings("restir-biased")}};
+    const size_t n = static_cast<size_t>(kOccW) * kOccH;
     std::vector<std::vector<std::unique_ptr<Pipeline>>> pipelines(configs.size());
     for (size_t c = 0; c < configs.size(); ++c) {
       r.names.push_back(configs[c].first);
       for (int s = 0; s < kOccSeeds; ++s) pipelines[c].push_back(std::make_unique<Pipeline>(configs[c].second));
-      r.runs[configs[c].first].pixelLuma.resize(static_cast<size_t>(kOccW) * kOccH);
+      ConfigRuns& cr = r.runs[configs[c].first];
+      cr.luma.assign(kOccSeeds, std::vector<double>(n, 0.0));
+      cr.lastTotalLuma.assign(kOccSeeds, 0.0);
     }
+    const double averaged = kOccFrames - kOccFirstAveraged;
     Driver d(seq, kOccW, kOccH);
     for (int f = 0; f < kOccFrames; ++f) {
       d.BeginFrame(f);
@@ -226,14 +223,12 @@ const OccludedRuns& GetOccludedRuns() {
         ConfigRuns& cr = r.runs[configs[c].first];
         for (int s = 0; s < kOccSeeds; ++s) {
           const FrameResult fr = d.Render(*pipelines[c][s], 7000u + 13u * static_cast<uint32_t>(s));
-          if (f != kOccFrames - 1) continue;
-          double total = 0.0;
-          for (size_t i = 0; i < fr.image.Size(); ++i) {
+          if (f < kOccFirstAveraged) continue;
+          for (size_t i = 0; i < n; ++i) {
             const double y = Luminance(fr.image.pixels[i]);
-            cr.pixelLuma[i].Add(y);
-            total += y;
+            cr.luma[s][i] += y / averaged;
+            if (f == kOccFrames - 1) cr.lastTotalLuma[s] += y;
           }
-          cr.totalLuma.push_back(total);
         }
       }
       if (f == kOccFrames - 1) {
@@ -253,73 +248,99 @@ double LumaStdError(const Vec3& se) { return Luminance(se); }
 
 struct ChiSquareOutcome {
   double statistic = 0.0;  // Σ z², small-sample corrected
-  int pixels = 0;          // lit pixels (degrees of freedom)
-  int darkPixels = 0;      // pixels the reference finds exactly black
-  double sumZ = 0.0;
-  double darkMax = 0.0;    // largest seed-mean luminance over those pixels (must be 0 for an unbiased method)
+  int regions = 0;         // lit regions (degrees of freedom)
+  int darkPixels = 0;      // surface pixels the reference finds exactly black (every replicate 0)
+  double darkMax = 0.0;    // largest seed-mean luminance over those pixels (0 for an unbiased method)
 };
 
-ChiSquareOutcome ChiSquareAgainstReference(const OccludedRuns& r, const ConfigRuns& c) {
+// Σ z² over regions (tile x tile pixel blocks; tile = 1: pixels) whose reference luminance is not negligible.
+// Region value per seed = Σ Y over its surface pixels; z = (seed mean − ref) / sqrt(se_seeds² + se_ref²), with
+// se_ref² = Σ se_pixel² (the reference's pixels are independent). z is then approximately Student-t with the
+// Welch–Satterthwaite degrees of freedom nu, and t²(nu) has mean nu / (nu − 2): each term is scaled by
+// (nu − 2) / nu so that it has mean 1 like a χ²(1) term (the correction reference_test.cpp applies with nu = 95).
+ChiSquareOutcome ChiSquareAgainstReference(const OccludedRuns& r, const ConfigRuns& c, int tile) {
   ChiSquareOutcome out;
   const double kSeeds = kOccSeeds, kRefDof = 15.0;  // the reference's error comes from 16 replicates
-  for (size_t i = 0; i < r.gbuffer.Size(); ++i) {
-    if (!r.gbuffer.IsSurface(i)) continue;
-    const double ref = Luminance(r.ref.mean.pixels[i]);
-    const double seRef = LumaStdError(r.ref.standardError.pixels[i]);
-    const test::RunningStats& s = c.pixelLuma[i];
-    if (ref == 0.0 && seRef == 0.0) {
+  const GBuffer& g = r.gbuffer;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    if (!g.IsSurface(i)) continue;
+    if (Luminance(r.ref.mean.pixels[i]) == 0.0f && LumaStdError(r.ref.standardError.pixels[i]) == 0.0) {
       ++out.darkPixels;
-      out.darkMax = std::max(out.darkMax, std::abs(s.mean));
-      continue;
+      for (const auto& img : c.luma) out.darkMax = std::max(out.darkMax, std::abs(img[i]));
     }
-    if (ref <= 1e-4) continue;
-    const double a = s.StdError() * s.StdError(), b = seRef * seRef;
-    if (a + b == 0.0) {
-      out.statistic = INFINITY;
-      continue;
-    }
-    const double z2 = (s.mean - ref) * (s.mean - ref) / (a + b);
-    // Welch–Satterthwaite degrees of freedom of the combined error; z is then ~ Student-t(nu), whose square has
-    // mean nu / (nu - 2): scale by (nu - 2) / nu so each term has mean 1 like a χ²(1) term.
-    const double nu = (a + b) * (a + b) / (a * a / (kSeeds - 1.0) + b * b / kRefDof);
-    out.statistic += z2 * (nu - 2.0) / nu;
-    out.sumZ += (s.mean - ref) / std::sqrt(a + b);
-    if (z2 > EnvF("ZP", 16)) std::printf("  px %zu (%d,%d) obj %d mean %.5f ref %.5f seS %.5f seR %.5f z %.2f\n", i, int(i % kOccW), int(i / kOccW), r.gbuffer.objectId[i], s.mean, ref, s.StdError(), seRef, (s.mean-ref)/std::sqrt(a+b));
-    ++out.pixels;
   }
+  for (int ty = 0; ty < g.height; ty += tile)
+    for (int tx = 0; tx < g.width; tx += tile) {
+      std::vector<size_t> pixels;
+      double ref = 0.0, refVar = 0.0;
+      for (int y = ty; y < std::min(ty + tile, g.height); ++y)
+        for (int x = tx; x < std::min(tx + tile, g.width); ++x) {
+          const size_t i = static_cast<size_t>(y) * g.width + x;
+          if (!g.IsSurface(i)) continue;
+          pixels.push_back(i);
+          ref += Luminance(r.ref.mean.pixels[i]);
+          const double se = LumaStdError(r.ref.standardError.pixels[i]);
+          refVar += se * se;
+        }
+      if (pixels.empty() || ref <= 1e-4 * static_cast<double>(pixels.size())) continue;
+      test::RunningStats s;
+      for (const auto& img : c.luma) {
+        double v = 0.0;
+        for (size_t i : pixels) v += img[i];
+        s.Add(v);
+      }
+      const double a = s.StdError() * s.StdError(), b = refVar;
+      ++out.regions;
+      if (a + b == 0.0) {
+        out.statistic = s.mean == ref ? out.statistic : INFINITY;
+        continue;
+      }
+      const double z2 = (s.mean - ref) * (s.mean - ref) / (a + b);
+      const double nu = (a + b) * (a + b) / (a * a / (kSeeds - 1.0) + b * b / kRefDof);
+      out.statistic += z2 * (nu - 2.0) / nu;
+    }
   return out;
 }
 
-// Unbiased presets converge to the reference: per lit pixel, the mean over K = 64 independent seeds of the
-// last frame's luminance (frame 3 of 0..3, so temporal and spatial reuse both carry history) gives
-// z = (mean − ref) / sqrt(se_seeds² + se_ref²), where se_seeds is the seed spread / sqrt(K) and se_ref the
-// reference's own error (16 replicates). Σ z² (each term corrected to mean 1, Welch–Satterthwaite dof, see
-// above) is tested against the χ²(pixels) quantile at tail 1e-4 (Wilson–Hilferty). False-failure rate: 1e-4 per
-// configuration under the χ² approximation; spatial reuse makes neighbouring pixels' estimates mildly
-// correlated, which widens the statistic's spread but not its mean, so the effective rate is somewhat higher (the
-// measured statistics sit well inside the bound; restir-biased, printed for contrast, is far outside).
-// Pixels whose reference is exactly zero (every replicate black: no light visible) must stay exactly black.
+// Unbiased configurations converge to the reference. Per seed (K = 256 independent seeds, fixed), the mean image
+// of frames 3..7 (each frame is unbiased on a static scene, so their mean is too; averaging tames the per-seed
+// tails), compared per region with the reference (2048 spp) by ChiSquareAgainstReference; Σ z² is tested against
+// the χ²(regions) upper quantile at tail 1e-4 (Wilson–Hilferty), a nominal false-failure rate of 1e-4 per check.
+// restir-unbiased and restir-balance are tested per pixel and per 4x4 tile. The z-family (1/Z weights) is tested
+// per 4x4 tile only: its per-pixel distributions are so heavy-tailed (a sample few inputs can produce gets the
+// whole Σ w / Z) that Student-t is a poor model at this K (measured per-pixel Σ z² 326-437 over 268 pixels in six
+// disjoint groups of 256 seeds, yet 14.3 over 22 tiles and a luma ratio of 1.0009 +- 0.0010 with 2048 seeds);
+// tile sums are much closer to normal. Spatial reuse correlates neighbouring pixels, which widens the
+// statistic's spread, so the real false-failure rate is above nominal. Measured over six disjoint groups of 256
+// seeds: per pixel 234-324 (unbiased, balance; bound 363), per tile 12.5-29.2 (unbiased, balance) and 11.3-34.4
+// (z; bound 55.8). restir-biased, printed for contrast, fails both by far (per pixel 1495-1978, per tile 298-374).
+// Pixels whose reference is exactly zero (no light visible from them) must be exactly black in every seed.
 TEST(Pipeline, UnbiasedPresetsMatchReferenceOnOccludedScene) {
   const OccludedRuns& r = GetOccludedRuns();
   for (const std::string& name : r.names) {
-    const ChiSquareOutcome o = ChiSquareAgainstReference(r, r.runs.at(name));
-    const double critical = test::ChiSquareCritical(o.pixels, 1e-4);
-    std::printf("sumZ/sqrt(k) %.2f\n", o.sumZ / std::sqrt(double(o.pixels)));
-    std::printf("%-16s chi2 %.1f over %d lit pixels (critical %.1f at 1e-4), %d black pixels, max mean %.3g\n",
-                name.c_str(), o.statistic, o.pixels, critical, o.darkPixels, o.darkMax);
-    if (name == "restir-biased") continue;  // printed for contrast only
-    EXPECT_GT(o.pixels, 250) << name;
-    EXPECT_LT(o.statistic, critical) << name;
-    EXPECT_EQ(o.darkMax, 0.0) << name;
+    for (int tile : {1, 4}) {
+      const ChiSquareOutcome o = ChiSquareAgainstReference(r, r.runs.at(name), tile);
+      const double critical = test::ChiSquareCritical(o.regions, 1e-4);
+      std::printf("%-16s %dx%d regions: chi2 %7.1f over %3d (critical %.1f at 1e-4); %d black pixels, max %.3g\n",
+                  name.c_str(), tile, tile, o.statistic, o.regions, critical, o.darkPixels, o.darkMax);
+      if (name == "restir-biased") continue;  // printed for contrast only
+      EXPECT_GT(o.regions, tile == 1 ? 250 : 18) << name;
+      if (tile == 4 || name != "z-family") {
+        EXPECT_LT(o.statistic, critical) << name << " tile " << tile;
+      }
+      EXPECT_EQ(o.darkMax, 0.0) << name;
+    }
   }
 }
 
-// Total-luminance ratio (Σ Y(image) / Σ Y(reference)) of the last frame, per seed; mean over K = 64 seeds with
-// se² = (seed spread)² / K + (ratio · se of the reference total)², the reference total's error being
-// sqrt(Σ se_pixel²) (pixels independent, per-pixel error bounded as above). restir-biased (uniform weights,
-// unshadowed targets, initial visibility) darkens: mean + 5 se < 1. The unbiased configurations are within
-// 5 se of 1. False-failure rate: about 6e-7 per assertion (normal tail beyond 5 se; 64 seeds make the mean of
-// the heavy-tailed per-seed ratio close to normal).
+// Total-luminance ratio Σ Y(image) / Σ Y(reference) of the last frame (frame 7), per seed; the mean over the
+// K = 256 seeds has se² = (seed spread)² / K + (ratio · se of the reference total / reference total)², the
+// reference total's se being sqrt(Σ se_pixel²) (pixels independent; per-pixel error bounded as above).
+// restir-biased (uniform weights, unshadowed targets, initial visibility) darkens: mean + 5 se < 1, one-sided
+// false-failure rate ~3e-7 (normal tail; the mean of 256 ratios is close to normal). The unbiased configurations'
+// ratios are printed, and checked to lie within 5 se of 1 (two-sided rate ~6e-7 each). Measured over six disjoint
+// groups of 256 seeds: restir-biased 0.9666-0.9708 (-8.4 to -10.9 se); the darkening grows with history (about
+// 0.99 at frame 3), hence 8 frames. Unbiased configurations: within 2.7 se of 1.
 TEST(Pipeline, BiasedPresetDarkens) {
   const OccludedRuns& r = GetOccludedRuns();
   double refTotal = 0.0, refVar = 0.0;
@@ -331,11 +352,11 @@ TEST(Pipeline, BiasedPresetDarkens) {
   ASSERT_GT(refTotal, 0.0);
   for (const std::string& name : r.names) {
     test::RunningStats ratio;
-    for (double t : r.runs.at(name).totalLuma) ratio.Add(t / refTotal);
-    const double se = std::sqrt(ratio.StdError() * ratio.StdError() + ratio.mean * ratio.mean * refVar /
-                                                                            (refTotal * refTotal));
-    std::printf("%-16s luma ratio %.4f +- %.4f (%+.1f se from 1)\n", name.c_str(), ratio.mean, se,
-                (ratio.mean - 1.0) / se);
+    for (double t : r.runs.at(name).lastTotalLuma) ratio.Add(t / refTotal);
+    const double se =
+        std::sqrt(ratio.StdError() * ratio.StdError() + ratio.mean * ratio.mean * refVar / (refTotal * refTotal));
+    std::printf("%-16s luma ratio (frame %d) %.4f +- %.4f (%+.1f se from 1)\n", name.c_str(), kOccFrames - 1,
+                ratio.mean, se, (ratio.mean - 1.0) / se);
     if (name == "restir-biased") {
       EXPECT_LT(ratio.mean + 5.0 * se, 1.0) << name << " ratio " << ratio.mean << " se " << se;
     } else {
@@ -347,12 +368,13 @@ TEST(Pipeline, BiasedPresetDarkens) {
 // ---------------------------------------------------------------------------------------------------------
 
 // Every surface pixel of a frame with history either takes the previous reservoir or is a disocclusion: the
-// similarity tests of the pipeline (finite, non-empty previous surface) and of Reproject must agree. Measured on
-// window_bars_pan at 160x90, frames 0..5: the coverage is exactly 1 on every frame, because a previous
-// reservoir is never non-finite here (guarded events reset it to an empty but finite one) and restir-unbiased
-// turns the sample-dependent checks off. The bound 0.99 leaves room for the rare pixel whose previous reservoir
-// is non-finite (DESIGN §4: such a reservoir is rejected although the surface reprojects). No statistics: the
-// test is deterministic. crossObjectReuse must be 0 on every frame.
+// pipeline's temporal tests (previous surface valid, previous reservoir finite) must agree with Reproject's
+// (on screen, same object and material, depth and normal within thresholds). Coverage is not exactly 1 by
+// design: a reprojected pixel is still rejected when its previous reservoir is non-finite (DESIGN §4), and a
+// preset with sample checks (not restir-unbiased) also rejects empty reservoirs or p̂_c(Y_prev) = 0. Measured on
+// window_bars_pan at 160x90, frames 1..5: acceptance 0.930-0.934, disoccluded 0.066-0.070, sum exactly 1.0000
+// on every frame (guarded events reset a reservoir to an empty, finite one), so the bound 0.999 is just below.
+// No statistics: deterministic. crossObjectReuse must be 0 on every frame, and no disoccluded pixel may reuse.
 TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
   const Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
   constexpr int kW = 160, kH = 90, kFrames = 6;
@@ -380,7 +402,7 @@ TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
     if (f == 0) {
       EXPECT_EQ(accepted, 0u);  // no history on the first frame
     } else {
-      EXPECT_GE(acc + dis, 0.99) << "frame " << f;
+      EXPECT_GE(acc + dis, 0.999) << "frame " << f;
       EXPECT_GT(dis, 0.0) << "frame " << f << ": the pan reveals pixels every frame";
       EXPECT_GT(acc, 0.5) << "frame " << f;
     }
@@ -392,39 +414,49 @@ TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
 
 // The occluder leaves at frame 10: no ghost of its shadow may linger. Per frame, relmse against the converged
 // reference of that frame's state (the scene is static within frames 0..9 and within 10..24, so one reference
-// per state is every frame's reference), averaged over 4 seeds. steady = mean relmse of frames 20..24. The
-// error right after the move (frame 10) must exceed steady (the move costs history: the box's pixels are
-// disoccluded floor), and from frame 10 + B on every frame is within 2x steady, with B <= 6. Deterministic
-// (fixed seeds); the thresholds were set from the measured values printed below, with margin.
+// per state, 1024 spp, is every frame's reference), averaged over 4 seeds. steady = mean relmse of frames 20..24.
+// From frame 10 + B on, every frame must be within 2x steady, with B <= 4 (measured: B = 2 for restir-unbiased,
+// 0 for temporal). Not vacuous: (a) the move changes the reference (total luma +7%), (b) an estimator that
+// kept showing the old shadow (the frame-9 images scored against the new reference) would be far above 2x
+// steady (measured 17.7x and 29x; asserted > 3x), and (c) for restir-unbiased the error right after the move exceeds steady (measured
+// 2.3x: the floor the box hid is disoccluded and starts without history). For `temporal` (c) does not hold and
+// is not asserted: its reservoirs carry no visibility, and without the shadow its steady error is lower than
+// before the move, so frame 10 is already at the steady level. Deterministic (fixed seeds); bounds set from the
+// printed measurements with margin.
 TEST(Pipeline, NoGhostingAfterOccluderMoves) {
-  constexpr int kW = 32, kH = 24, kFrames = 25, kMove = 10, kSeeds = 4, kMaxRecovery = 6;
+  constexpr int kW = 32, kH = 24, kFrames = 25, kMove = 10, kSeeds = 4, kMaxRecovery = 4;
   const Sequence seq = TeleportingOccluderScene(kW, kH);
   const std::vector<std::string> presets = {"restir-unbiased", "temporal"};
   std::vector<std::vector<std::unique_ptr<Pipeline>>> pipelines(presets.size());
   for (size_t p = 0; p < presets.size(); ++p)
     for (int s = 0; s < kSeeds; ++s) pipelines[p].push_back(std::make_unique<Pipeline>(PresetSettings(presets[p])));
   std::vector<std::vector<double>> relmse(presets.size(), std::vector<double>(kFrames, 0.0));
+  std::vector<std::vector<ImageRgb>> beforeMove(presets.size());  // frame 9's images
+  std::vector<double> ghostRelmse(presets.size(), 0.0);
   Driver d(seq, kW, kH);
   ReferenceImage ref;
-  double shadowBefore = 0.0, shadowAfter = 0.0;
+  double lumaBefore = 0.0, lumaAfter = 0.0;
   for (int f = 0; f < kFrames; ++f) {
     d.BeginFrame(f);
     if (f == 0 || f == kMove) {
       ref = d.Reference(1024);
       double total = 0.0;
       for (const Vec3& c : ref.mean.pixels) total += Luminance(c);
-      (f == 0 ? shadowBefore : shadowAfter) = total;
+      (f == 0 ? lumaBefore : lumaAfter) = total;
     }
-    for (size_t p = 0; p < presets.size(); ++p)
+    for (size_t p = 0; p < presets.size(); ++p) {
+      if (f == kMove)
+        for (const ImageRgb& img : beforeMove[p]) ghostRelmse[p] += MeasureAccuracy(img, ref.mean).relmse / kSeeds;
       for (int s = 0; s < kSeeds; ++s) {
-        const FrameResult fr = d.Render(*pipelines[p][s], 500u + static_cast<uint32_t>(s));
+        FrameResult fr = d.Render(*pipelines[p][s], 500u + static_cast<uint32_t>(s));
         relmse[p][f] += MeasureAccuracy(fr.image, ref.mean).relmse / kSeeds;
+        if (f == kMove - 1) beforeMove[p].push_back(std::move(fr.image));
       }
+    }
     d.EndFrame();
   }
-  // Not vacuous: the move really changes the lighting (the shadow disappears).
-  std::printf("reference total luma before %.2f, after %.2f\n", shadowBefore, shadowAfter);
-  EXPECT_GT(shadowAfter, 1.05 * shadowBefore);
+  std::printf("reference total luma before the move %.2f, after %.2f\n", lumaBefore, lumaAfter);
+  EXPECT_GT(lumaAfter, 1.05 * lumaBefore);
   for (size_t p = 0; p < presets.size(); ++p) {
     double steady = 0.0;
     for (int f = kFrames - 5; f < kFrames; ++f) steady += relmse[p][f] / 5.0;
@@ -436,10 +468,15 @@ TEST(Pipeline, NoGhostingAfterOccluderMoves) {
       }
     std::printf("%-16s relmse:", presets[p].c_str());
     for (int f = 0; f < kFrames; ++f) std::printf(" %.4f", relmse[p][f]);
-    std::printf("\n%-16s steady %.4f, frame %d %.4f (%.2fx steady), recovered (<= 2x) after B = %d frames\n",
-                presets[p].c_str(), steady, kMove, relmse[p][kMove], relmse[p][kMove] / steady, recovery);
-    EXPECT_GT(relmse[p][kMove], steady) << presets[p];
+    std::printf("\n%-16s steady %.4f; frame %d %.4f (%.2fx steady); frame-9 image vs new reference %.4f (%.1fx);"
+                " within 2x steady from B = %d frames after the move\n",
+                presets[p].c_str(), steady, kMove, relmse[p][kMove], relmse[p][kMove] / steady, ghostRelmse[p],
+                ghostRelmse[p] / steady, recovery);
     EXPECT_LE(recovery, kMaxRecovery) << presets[p];
+    EXPECT_GT(ghostRelmse[p], 3.0 * steady) << presets[p] << ": a lingering shadow would not be detected";
+    if (presets[p] == "restir-unbiased") {
+      EXPECT_GT(relmse[p][kMove], 1.5 * steady) << presets[p];
+    }
   }
 }
 
@@ -496,7 +533,9 @@ TEST(Pipeline, LightSwitchedOffInvalidatesSamples) {
       }
       if (f < 3) {
         EXPECT_GT(total, 0.0) << preset.name << " frame " << f;
-        if (f > 0) EXPECT_GT(fr.temporalAcceptance, 0.5) << preset.name << " frame " << f;
+        if (f > 0) {
+          EXPECT_GT(fr.temporalAcceptance, 0.5) << preset.name << " frame " << f;
+        }
       } else {
         EXPECT_EQ(maxValue, 0.0) << preset.name << " frame " << f << ": a switched-off light still lights";
       }
