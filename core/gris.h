@@ -44,57 +44,22 @@ inline float GrisContributionWeight(float weightSum, float canonicalTargetOfSele
   return canonicalTargetOfSelected > 0.0f ? weightSum / canonicalTargetOfSelected : 0.0f;
 }
 
-// Combines `count` inputs with one MIS family. `u[i]` are uniforms in [0, 1) for the streaming selection.
-template <typename TargetFn>
-GrisResult GrisCombine(MisFamily family, const GrisInput* in, int count, TargetFn&& target, const float* u,
-                       VisibilityCarry carry) {
+// Streams inputs with given MIS weights m_i(Y_i) and canonical targets p̂_c(Y_i) (seed 000 Eq. 1-2): the shared
+// core of every family, deterministic or stochastic. The output W here is Σ w_i / p̂_c(Y) (the z family
+// rescales it after selection).
+inline GrisResult GrisResample(const GrisInput* in, const float* mis, const float* canonicalTarget, int count,
+                               const float* u, VisibilityCarry carry) {
   GrisResult r;
-  float confidenceSum = 0.0f, cBar = 0.0f;
-  for (int i = 0; i < count; ++i) confidenceSum += in[i].confidence;
-  cBar = confidenceSum - in[0].confidence;
-  const float cc = in[0].confidence;
   float canonicalTargetOfSelected = 0.0f, visWeighted = 0.0f;
-
   for (int i = 0; i < count; ++i) {
+    r.confidence += in[i].confidence;
     if (!in[i].hasSample) continue;
-    if (!IsFiniteWeight(in[i].W)) {  // a NaN or infinite W is dropped and counted (DESIGN §10)
-      ++r.guarded;
+    if (!IsFiniteWeight(in[i].W) || !IsFiniteWeight(canonicalTarget[i]) || !IsFiniteWeight(mis[i])) {
+      ++r.guarded;  // a NaN or infinite input is dropped and counted (DESIGN §10)
       continue;
     }
-    if (!(in[i].W > 0.0f)) continue;
-    const float pc = target(0, i);  // p̂_c(Y_i)
-    if (!IsFiniteWeight(pc)) {
-      ++r.guarded;
-      continue;
-    }
-    if (!(pc > 0.0f)) continue;
-    float m = 0.0f;
-    switch (family) {
-      case MisFamily::kUniform:
-        m = MisUniform(in[i].confidence, confidenceSum);
-        break;
-      case MisFamily::kZ:
-        // 1/Z is applied after selection (Bitterli 2020): resample with c_i alone.
-        m = in[i].confidence;
-        break;
-      case MisFamily::kBalance: {
-        float c[kMaxGrisInputs], t[kMaxGrisInputs];
-        for (int j = 0; j < count; ++j) c[j] = in[j].confidence, t[j] = j == 0 ? pc : target(j, i);
-        m = MisBalance(i, c, t, count);
-        break;
-      }
-      case MisFamily::kPairwise:
-      case MisFamily::kStochasticPairwise:
-        if (i == 0) {
-          m = MisPairwiseCanonicalBase(cBar, cc);
-          for (int j = 1; j < count; ++j)
-            m += MisPairwiseCanonicalTerm(in[j].confidence, cBar, cc, target(j, 0), pc);
-        } else {
-          m = MisPairwiseNonCanonical(in[i].confidence, cBar, cc, target(i, i), pc);
-        }
-        break;
-    }
-    const float w = GrisWeight(m, pc, in[i].W);
+    if (!(in[i].W > 0.0f) || !(canonicalTarget[i] > 0.0f)) continue;
+    const float w = GrisWeight(mis[i], canonicalTarget[i], in[i].W);
     if (!IsFiniteWeight(w)) {
       ++r.guarded;
       continue;
@@ -104,22 +69,66 @@ GrisResult GrisCombine(MisFamily family, const GrisInput* in, int count, TargetF
     visWeighted += in[i].visibility * w;
     if (u[i] * r.weightSum < w) {
       r.selected = i;
-      canonicalTargetOfSelected = pc;
+      canonicalTargetOfSelected = canonicalTarget[i];
     }
   }
-  r.confidence = confidenceSum;
   if (r.selected < 0) return r;
-  float wSum = r.weightSum;
-  if (family == MisFamily::kZ) {
+  r.W = GrisContributionWeight(r.weightSum, canonicalTargetOfSelected);
+  r.visibility = carry == VisibilityCarry::kWeighted ? visWeighted / r.weightSum : in[r.selected].visibility;
+  return r;
+}
+
+// Combines `count` inputs with one deterministic MIS family. `u[i]` are uniforms in [0, 1) for the streaming
+// selection.
+template <typename TargetFn>
+GrisResult GrisCombine(MisFamily family, const GrisInput* in, int count, TargetFn&& target, const float* u,
+                       VisibilityCarry carry) {
+  float confidenceSum = 0.0f;
+  for (int i = 0; i < count; ++i) confidenceSum += in[i].confidence;
+  const float cc = in[0].confidence;
+  const float cBar = confidenceSum - cc;
+  float mis[kMaxGrisInputs], pc[kMaxGrisInputs];
+  for (int i = 0; i < count; ++i) {
+    mis[i] = 0.0f;
+    pc[i] = 0.0f;
+    // Targets are only evaluated for inputs that can contribute (callers may trace rays for them).
+    if (!in[i].hasSample || !(in[i].W > 0.0f) || !IsFiniteWeight(in[i].W)) continue;
+    pc[i] = target(0, i);  // p̂_c(Y_i)
+    if (!(pc[i] > 0.0f) || !IsFiniteWeight(pc[i])) continue;
+    switch (family) {
+      case MisFamily::kUniform:
+        mis[i] = MisUniform(in[i].confidence, confidenceSum);
+        break;
+      case MisFamily::kZ:
+        // 1/Z is applied after selection (Bitterli 2020): resample with c_i alone.
+        mis[i] = in[i].confidence;
+        break;
+      case MisFamily::kBalance: {
+        float c[kMaxGrisInputs], t[kMaxGrisInputs];
+        for (int j = 0; j < count; ++j) c[j] = in[j].confidence, t[j] = j == 0 ? pc[i] : target(j, i);
+        mis[i] = MisBalance(i, c, t, count);
+        break;
+      }
+      case MisFamily::kPairwise:
+      case MisFamily::kStochasticPairwise:
+        if (i == 0) {
+          mis[i] = MisPairwiseCanonicalBase(cBar, cc);
+          for (int j = 1; j < count; ++j)
+            mis[i] += MisPairwiseCanonicalTerm(in[j].confidence, cBar, cc, target(j, 0), pc[0]);
+        } else {
+          mis[i] = MisPairwiseNonCanonical(in[i].confidence, cBar, cc, target(i, i), pc[i]);
+        }
+        break;
+    }
+  }
+  GrisResult r = GrisResample(in, mis, pc, count, u, carry);
+  if (family == MisFamily::kZ && r.selected >= 0) {
     // Z = Σ c_j over inputs whose domain can produce Y (target > 0, with visibility when ray traced).
     float z = 0.0f;
     for (int j = 0; j < count; ++j)
-      if ((j == 0 ? canonicalTargetOfSelected : target(j, r.selected)) > 0.0f) z += in[j].confidence;
-    wSum = z > 0.0f ? wSum / z : 0.0f;
+      if ((j == 0 ? pc[r.selected] : target(j, r.selected)) > 0.0f) z += in[j].confidence;
+    r.W = z > 0.0f ? r.W / z : 0.0f;
   }
-  r.W = GrisContributionWeight(wSum, canonicalTargetOfSelected);
-  r.visibility = carry == VisibilityCarry::kWeighted ? (r.weightSum > 0.0f ? visWeighted / r.weightSum : 0.0f)
-                                                     : in[r.selected].visibility;
   return r;
 }
 

@@ -9,6 +9,7 @@
 
 #include "core/gris.h"
 #include "core/rng.h"
+#include "core/spmis.h"
 
 namespace restir {
 
@@ -70,14 +71,14 @@ bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const V
   return scene.Occluded(org, dir, tmax, frame);
 }
 
-namespace {
-
 // A resampling domain: a surface in a frame, with that frame's lights and scene (DESIGN §4 "p̂ from i").
 struct Domain {
   ShadingPoint sp;
   const std::vector<LightTriangle>* lights = nullptr;
   SceneFrame frame = SceneFrame::kCurrent;
 };
+
+namespace {
 
 // p̂_d(y): the domain's unshadowed target with the emitter radiance of the domain's frame (a light switched
 // off in that frame gives 0), times visibility traced in that frame when requested.
@@ -140,6 +141,196 @@ bool FiniteReservoir(const Reservoir& r) {
 }
 
 }  // namespace
+
+// Stochastic pairwise reuse for one pixel (seed 004 §3-5): pick a neighbour cell by weighted reservoir
+// sampling, draw N contributing pixels of it by P(i) ∝ c_i p̂_i(X_i) W_i and N_c pixels uniformly, and combine
+// with the stochastic pairwise weights.
+void Pipeline::StochasticPairwiseReuse(const FrameInputs& in, size_t i, int x, int y, const Domain& self,
+                                       Sampler& s, uint64_t& rays, uint64_t& guarded) {
+  const SpatialParams& sp = settings_.spatial;
+  const GBuffer& g = *in.gbuffer;
+  const int w = g.width, h = g.height;
+  const Camera& camera = in.state->camera;
+  const std::vector<LightTriangle>& lights = in.scene->LightTriangles();
+  const Vec3 n = g.GeometricNormal(i);
+
+  // §5.1: 12 random pixels in a growing radius; similar cells compete with weight = their confidence sum.
+  int32_t chosen = -1;
+  float cellWeightSum = 0.0f, radius = sp.cellSearchRadius;
+  for (int it = 0; it < sp.cellSearchIterations; ++it, radius *= sp.cellSearchGrowth) {
+    const float r = radius * std::sqrt(s.Next()), phi = 2.0f * kPi * s.Next(), uPick = s.Next();
+    const int qx = x + static_cast<int>(std::lround(r * std::cos(phi)));
+    const int qy = y + static_cast<int>(std::lround(r * std::sin(phi)));
+    if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+    const int32_t c = pixelCell_[static_cast<size_t>(qy) * w + qx];
+    if (c < 0) continue;
+    const Cell& cell = cells_[static_cast<size_t>(c)];
+    if (cell.objectId != g.objectId[i] || glm::dot(cell.normal, n) < sp.normalThreshold) continue;
+    if (!(cell.confidenceSum > 0.0f)) continue;
+    cellWeightSum += cell.confidenceSum;
+    if (uPick * cellWeightSum < cell.confidenceSum) chosen = c;
+  }
+  if (chosen < 0) return;
+  const Cell& cell = cells_[static_cast<size_t>(chosen)];
+
+  // The cell's candidates, the current pixel excluded: all M of them, and the contributing ones with P(i).
+  uint32_t candidates[kMaxCellPixels];
+  float cumulative[kMaxCellPixels];
+  uint32_t contributing[kMaxCellPixels];
+  int m = 0, k = 0;
+  float confidenceSum = 0.0f, contributionSum = 0.0f;
+  for (uint32_t t = 0; t < cell.count; ++t) {
+    const uint32_t p = cellPixels_[cell.first + t];
+    if (p == i) continue;
+    candidates[m++] = p;
+    const Reservoir& r = spatialInput_[p];
+    confidenceSum += r.confidence;
+    const float contribution = r.HasSample() ? r.confidence * r.targetPdf * r.W : 0.0f;  // Eq. 17
+    if (contribution > 0.0f && std::isfinite(contribution)) {
+      contributionSum += contribution;
+      contributing[k] = p;
+      cumulative[k++] = contributionSum;
+    }
+  }
+  if (m == 0) return;
+  const float bigM = static_cast<float>(m), bigN = static_cast<float>(sp.draws);
+  const float nc = static_cast<float>(sp.canonicalDraws);
+  const float scale = sp.confidenceScaling ? bigN / bigM : 1.0f;  // §4.3
+  const float cBar = confidenceSum * scale;
+  const Reservoir& selfRes = spatialInput_[i];
+  const float cc = selfRes.confidence;
+  const bool rayTraced = sp.bias == BiasCorrection::kRayTraced;
+
+  // Non-canonical: N draws with replacement by P(i); distinct draws become inputs with multiplicity K(i).
+  Domain domains[kMaxGrisInputs];
+  LightSample samples[kMaxGrisInputs];
+  GrisInput inputs[kMaxGrisInputs];
+  float multiplicity[kMaxGrisInputs], probability[kMaxGrisInputs];
+  uint32_t pixelOf[kMaxGrisInputs];
+  domains[0] = self;
+  samples[0] = selfRes.sample;
+  inputs[0] = GrisInput{selfRes.HasSample(), selfRes.W, cc, selfRes.visibility};
+  int count = 1;
+  for (int d = 0; d < sp.draws; ++d) {
+    const float u = s.Next();
+    if (k == 0) continue;
+    const int idx = SampleCumulative(cumulative, k, u);
+    const uint32_t p = contributing[idx];
+    int slot = 1;
+    while (slot < count && pixelOf[slot] != p) ++slot;
+    if (slot == count) {
+      const Reservoir& r = spatialInput_[p];
+      pixelOf[slot] = p;
+      multiplicity[slot] = 0.0f;
+      probability[slot] = (cumulative[idx] - (idx > 0 ? cumulative[idx - 1] : 0.0f)) / contributionSum;
+      domains[slot] = Domain{ShadingPointAt(g, p, camera, *in.materials), &lights, SceneFrame::kCurrent};
+      samples[slot] = r.sample;
+      inputs[slot] = GrisInput{r.HasSample(), r.W, r.confidence * scale, r.visibility};
+      if (settings_.shade.visibility != VisibilityReuse::kNone && r.HasSample()) {
+        rays += 1;  // seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel
+        inputs[slot].visibility = ShadowRayOccluded(*in.scene, self.sp, r.sample.position) ? 0.0f : 1.0f;
+      }
+      ++count;
+    }
+    multiplicity[slot] += 1.0f;
+  }
+  TargetMatrix target(domains, samples, count, rayTraced, *in.scene, rays);
+  float mis[kMaxGrisInputs], pc[kMaxGrisInputs];
+  for (int t = 0; t < count; ++t) {
+    mis[t] = 0.0f;
+    pc[t] = inputs[t].hasSample ? target(0, t) : 0.0f;
+  }
+  // Canonical: base share plus N_c uniform draws (P_c = 1/M) of the pairwise terms (Eq. 18-19).
+  if (inputs[0].hasSample && pc[0] > 0.0f) {
+    mis[0] = MisPairwiseCanonicalBase(cBar, cc);
+    uint32_t drawn[kMaxGrisInputs];
+    float drawnCount[kMaxGrisInputs];
+    int distinct = 0;
+    for (int d = 0; d < sp.canonicalDraws; ++d) {
+      const uint32_t p = candidates[std::min(m - 1, static_cast<int>(s.Next() * bigM))];
+      int slot = 0;
+      while (slot < distinct && drawn[slot] != p) ++slot;
+      if (slot == distinct) drawn[distinct] = p, drawnCount[distinct++] = 0.0f;
+      drawnCount[slot] += 1.0f;
+    }
+    for (int d = 0; d < distinct; ++d) {
+      const Domain dj{ShadingPointAt(g, drawn[d], camera, *in.materials), &lights, SceneFrame::kCurrent};
+      const float tj = DomainTarget(dj, samples[0], rayTraced, *in.scene, rays);
+      mis[0] += StochasticPairwiseCanonicalTerm(drawnCount[d], nc, 1.0f / bigM, spatialInput_[drawn[d]].confidence * scale,
+                                                cBar, cc, tj, pc[0]);
+    }
+  } else {
+    // Still consume the canonical draws so every pixel's random stream has the same layout.
+    for (int d = 0; d < sp.canonicalDraws; ++d) s.Next();
+  }
+  for (int t = 1; t < count; ++t)
+    if (inputs[t].hasSample && pc[t] > 0.0f)
+      mis[t] = StochasticPairwiseNonCanonical(multiplicity[t], bigN, probability[t], inputs[t].confidence, cBar, cc,
+                                              target(t, t), pc[t]);
+  float u[kMaxGrisInputs];
+  for (int t = 0; t < count; ++t) u[t] = s.Next();
+  const GrisResult gr = GrisResample(inputs, mis, pc, count, u, CarryFor(settings_.shade.visibility));
+  guarded += static_cast<uint64_t>(gr.guarded);
+  Reservoir out;
+  out.confidence = cc + cBar;  // the canonical plus the (scaled) cell it stands for
+  if (gr.selected >= 0) {
+    out.sample = samples[gr.selected];
+    out.targetPdf = pc[gr.selected];
+    out.W = gr.W;
+    out.weightSum = gr.weightSum;
+    out.visibility = gr.visibility;
+  }
+  reservoirs_[i] = out;
+}
+
+// Screen-space cells (seed 004 §5): each tile's surface pixels grouped by (object id, quantised normal), built
+// sequentially in tile and scan order so the lists never depend on the thread count.
+void Pipeline::BuildCells(const GBuffer& g, const std::vector<Reservoir>& reservoirs) {
+  const SpatialParams& sp = settings_.spatial;
+  const int w = g.width, h = g.height, tile = std::max(1, sp.cellTile);
+  const int tilesX = (w + tile - 1) / tile, tilesY = (h + tile - 1) / tile;
+  cells_.clear();
+  cellPixels_.clear();
+  pixelCell_.assign(g.Size(), -1);
+  std::vector<std::pair<uint32_t, uint32_t>> members;  // (cell, pixel) for one tile
+  for (int ty = 0; ty < tilesY; ++ty) {
+    for (int tx = 0; tx < tilesX; ++tx) {
+      const uint32_t tileIndex = static_cast<uint32_t>(ty * tilesX + tx);
+      const size_t firstCell = cells_.size();
+      members.clear();
+      for (int y = ty * tile; y < std::min(h, (ty + 1) * tile); ++y) {
+        for (int x = tx * tile; x < std::min(w, (tx + 1) * tile); ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!g.IsSurface(i)) continue;
+          const uint32_t q = QuantiseNormal(g.GeometricNormal(i), static_cast<uint32_t>(sp.normalBins));
+          const uint32_t key = CellKey(tileIndex, static_cast<uint32_t>(g.objectId[i]), q);
+          size_t c = firstCell;
+          while (c < cells_.size() && !(cells_[c].key == key && cells_[c].objectId == g.objectId[i])) ++c;
+          if (c == cells_.size()) {
+            Cell cell;
+            cell.objectId = g.objectId[i];
+            cell.key = key;
+            cells_.push_back(cell);
+          }
+          cells_[c].normal += g.GeometricNormal(i);
+          cells_[c].confidenceSum += reservoirs[i].confidence;
+          cells_[c].count += 1;
+          members.emplace_back(static_cast<uint32_t>(c), static_cast<uint32_t>(i));
+        }
+      }
+      // Lay the tile's cells out contiguously, each in scan order.
+      for (size_t c = firstCell; c < cells_.size(); ++c) {
+        cells_[c].first = static_cast<uint32_t>(cellPixels_.size());
+        cells_[c].normal = glm::normalize(cells_[c].normal);
+        for (const auto& [cell, pixel] : members)
+          if (cell == c) {
+            cellPixels_.push_back(pixel);
+            pixelCell_[pixel] = static_cast<int32_t>(c);
+          }
+      }
+    }
+  }
+}
 
 FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const GBuffer& g = *in.gbuffer;
@@ -266,13 +457,22 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     tbb::combinable<uint64_t> srays([] { return uint64_t{0}; });
     t0 = std::chrono::steady_clock::now();
     const MisFamily family = EffectiveFamily(spp.mis, spp.bias);
+    const bool stochastic = family == MisFamily::kStochasticPairwise;
     for (int iteration = 0; iteration < spp.iterations; ++iteration) {
       spatialInput_ = reservoirs_;
+      if (stochastic) BuildCells(g, spatialInput_);
       ForEachRow(h, [&](int y) {
         uint64_t& localRays = srays.local();
         for (int x = 0; x < w; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
           if (!g.IsSurface(i)) continue;
+          if (stochastic) {
+            Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
+                             static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+            const Domain self{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
+            StochasticPairwiseReuse(in, i, x, y, self, s, localRays, guarded.local());
+            continue;
+          }
           const bool boost = tp.enabled && !result.temporalAccepted[i];
           const int k = std::min(boost ? spp.disocclusionNeighbours : spp.neighbours, kMaxGrisInputs - 1);
           Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),

@@ -10,6 +10,7 @@
 #include "core/mis.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
+#include "core/rng.h"
 #include "core/shading.h"
 #include "sim/embree_scene.h"
 #include "sim/gbuffer.h"
@@ -60,6 +61,15 @@ struct SpatialParams {
   int iterations = 1;                            // passes, each reading a copy of the previous one's output
   float normalThreshold = 0.9f;                  // minimum dot of the neighbour's and the pixel's normals
   float depthThreshold = 0.1f;                   // maximum relative view-depth difference
+  // Stochastic pairwise MIS over screen-space cells (mis = stochastic-pairwise; seed 004):
+  int draws = 5;                   // N: non-canonical draws with replacement, P(i) ∝ c_i p̂_i(X_i) W_i (Eq. 17)
+  int canonicalDraws = 5;          // N_c: uniform draws estimating the canonical weight (Eq. 18-19)
+  int cellTile = 8;                // tile size in pixels; a cell is a tile's pixels with one object and normal bin
+  int normalBins = 4;              // octahedral normal quantisation: bins x bins orientation classes
+  int cellSearchIterations = 12;   // weighted-reservoir neighbour-cell search iterations (§5.1)
+  float cellSearchRadius = 30.0f;  // first search radius in pixels
+  float cellSearchGrowth = 1.25f;  // radius factor per iteration
+  bool confidenceScaling = true;   // scale non-canonical confidences (and c̄) by N/M (§4.3)
 };
 
 struct ShadeParams {
@@ -108,6 +118,10 @@ struct FrameResult {
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
 };
 
+struct Domain;
+inline constexpr int kMaxCellTile = 32;  // a cell holds at most kMaxCellTile² pixels
+inline constexpr int kMaxCellPixels = kMaxCellTile * kMaxCellTile;
+
 // Per-preset estimator state across frames (reservoir buffers are ping-ponged by later passes).
 class Pipeline {
  public:
@@ -120,6 +134,26 @@ class Pipeline {
   std::vector<Reservoir> reservoirs_;          // this frame's reservoirs
   std::vector<Reservoir> previousReservoirs_;  // last frame's output (temporal input)
   std::vector<Reservoir> spatialInput_;        // copy read by a spatial iteration
+  // Screen-space cells of the current spatial iteration (stochastic pairwise MIS).
+  struct Cell {
+    int32_t objectId = -1;   // shared object id of its pixels
+    uint32_t key = 0;        // PCG hash of (tile, object id, quantised normal)
+    Vec3 normal{0.0f};       // normalised mean geometric normal
+    uint32_t first = 0;      // its pixels: cellPixels_[first, first + count)
+    uint32_t count = 0;
+    float confidenceSum = 0; // Σ c_i over its pixels (weights the neighbour-cell search)
+  };
+  std::vector<Cell> cells_;
+  std::vector<int32_t> pixelCell_;    // per pixel: its cell, or -1
+  std::vector<uint32_t> cellPixels_;  // pixel indices grouped by cell, in scan order within a cell
+  void BuildCells(const GBuffer& g, const std::vector<Reservoir>& reservoirs);
+  void StochasticPairwiseReuse(const FrameInputs& in, size_t pixel, int x, int y, const Domain& self,
+                               Sampler& s, uint64_t& rays, uint64_t& guarded);
+ public:
+  // Read-only views for tests (cells of the last spatial iteration).
+  const std::vector<int32_t>& PixelCells() const { return pixelCell_; }
+  const std::vector<uint32_t>& CellPixels() const { return cellPixels_; }
+  size_t CellCount() const { return cells_.size(); }
 };
 
 // Materials of a sequence as BSDFs (GGX alpha = roughness^2).

@@ -107,6 +107,23 @@ const std::vector<Preset>& AllPresets() {
              s.spatial.bias = BiasCorrection::kRayTraced;
              s.spatial.neighbours = 5;
            }),
+      Make("restir-spmis",
+           "unbiased ReSTIR whose spatial reuse is stochastic pairwise MIS over screen-space cells: neighbour cell "
+           "by weighted reservoir search, N = 5 draws by contribution, N_c = 5 canonical draws, N/M confidence "
+           "scaling; temporal as restir-unbiased",
+           "seed 004 (Hedstrom et al. 2026, Stochastic Pairwise MIS), Eq. 15-19, §4.3, §5",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kPairwise;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kStochasticPairwise;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.draws = 5;
+             s.spatial.canonicalDraws = 5;
+           }),
   };
   return presets;
 }

@@ -117,6 +117,14 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("spatial.iterations", spatial.iterations),
       RESTIR_FIELD("spatial.normalThreshold", spatial.normalThreshold),
       RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
+      RESTIR_FIELD("spatial.draws", spatial.draws),
+      RESTIR_FIELD("spatial.canonicalDraws", spatial.canonicalDraws),
+      RESTIR_FIELD("spatial.cellTile", spatial.cellTile),
+      RESTIR_FIELD("spatial.normalBins", spatial.normalBins),
+      RESTIR_FIELD("spatial.cellSearchIterations", spatial.cellSearchIterations),
+      RESTIR_FIELD("spatial.cellSearchRadius", spatial.cellSearchRadius),
+      RESTIR_FIELD("spatial.cellSearchGrowth", spatial.cellSearchGrowth),
+      RESTIR_FIELD("spatial.confidenceScaling", spatial.confidenceScaling),
       RESTIR_ENUM_FIELD("shade.visibility", shade.visibility, kVisNames),
   };
   return fields;
@@ -155,6 +163,15 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
         throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
                          " spatial neighbours");
       if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
+      const SpatialParams& sp = settings.spatial;
+      if (sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
+          sp.canonicalDraws > kMaxGrisInputs - 1)
+        throw InputError("--set: error at " + key + ": draws and canonicalDraws must be in [1, " +
+                         std::to_string(kMaxGrisInputs - 1) + "]");
+      if (sp.cellTile < 1 || sp.cellTile > kMaxCellTile || sp.normalBins < 1 || sp.normalBins > 64 ||
+          sp.cellSearchIterations < 1 || sp.cellSearchIterations > 64)
+        throw InputError("--set: error at " + key + ": cellTile must be in [1, " + std::to_string(kMaxCellTile) +
+                         "], normalBins and cellSearchIterations in [1, 64]");
       return;
     }
     const size_t d = EditDistance(f.name, key);

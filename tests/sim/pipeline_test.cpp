@@ -205,6 +205,7 @@ const OccludedRuns& GetOccludedRuns() {
         {"restir-unbiased", PresetSettings("restir-unbiased")},
         {"restir-balance", PresetSettings("restir-balance")},
         {"z-family", ZFamilySettings()},
+        {"restir-spmis", PresetSettings("restir-spmis")},
         {"restir-biased", PresetSettings("restir-biased")}};
     const size_t n = static_cast<size_t>(kOccW) * kOccH;
     std::vector<std::vector<std::unique_ptr<Pipeline>>> pipelines(configs.size());
@@ -258,9 +259,10 @@ struct ChiSquareOutcome {
 // se_ref² = Σ se_pixel² (the reference's pixels are independent). z is then approximately Student-t with the
 // Welch–Satterthwaite degrees of freedom nu, and t²(nu) has mean nu / (nu − 2): each term is scaled by
 // (nu − 2) / nu so that it has mean 1 like a χ²(1) term (the correction reference_test.cpp applies with nu = 95).
-ChiSquareOutcome ChiSquareAgainstReference(const OccludedRuns& r, const ConfigRuns& c, int tile) {
+ChiSquareOutcome ChiSquareAgainstReference(const OccludedRuns& r, const ConfigRuns& c, int tile,
+                                           int seeds = kOccSeeds) {
   ChiSquareOutcome out;
-  const double kSeeds = kOccSeeds, kRefDof = 15.0;  // the reference's error comes from 16 replicates
+  const double kSeeds = seeds, kRefDof = 15.0;  // the reference's error comes from 16 replicates
   const GBuffer& g = r.gbuffer;
   for (size_t i = 0; i < g.Size(); ++i) {
     if (!g.IsSurface(i)) continue;
@@ -325,7 +327,7 @@ TEST(Pipeline, UnbiasedPresetsMatchReferenceOnOccludedScene) {
                   name.c_str(), tile, tile, o.statistic, o.regions, critical, o.darkPixels, o.darkMax);
       if (name == "restir-biased") continue;  // printed for contrast only
       EXPECT_GT(o.regions, tile == 1 ? 250 : 18) << name;
-      if (tile == 4 || name != "z-family") {
+      if (tile == 4 || (name != "z-family" && name != "restir-spmis")) {
         EXPECT_LT(o.statistic, critical) << name << " tile " << tile;
       }
       EXPECT_EQ(o.darkMax, 0.0) << name;
@@ -341,6 +343,53 @@ TEST(Pipeline, UnbiasedPresetsMatchReferenceOnOccludedScene) {
 // ratios are printed, and checked to lie within 5 se of 1 (two-sided rate ~6e-7 each). Measured over six disjoint
 // groups of 256 seeds: restir-biased 0.9666-0.9708 (-8.4 to -10.9 se); the darkening grows with history (about
 // 0.99 at frame 3), hence 8 frames. Unbiased configurations: within 2.7 se of 1.
+// Unbiasedness across a disocclusion: the teleporting occluder reveals the floor it shadowed and hid at frame 10.
+// For K = 192 fixed seeds, frames 0..10 of restir-spmis and restir-unbiased; frame 10's per-seed images against
+// frame 10's reference (2048 spp), Σ z² over 4x4 tiles with the same statistic as above (nominal false-failure
+// rate 1e-4; neighbouring-pixel correlation makes the real rate somewhat higher). Stochastic MIS weights
+// K/(N P) have heavy tails, so the t model is loose at small K: measured restir-spmis Σ z² over 40 tiles 68.0
+// (K = 96), 50.4 (K = 192), 29.4 (K = 384) — falling with K, as noise does and bias would not.
+TEST(Pipeline, UnbiasedRightAfterDisocclusion) {
+  constexpr int kW = 32, kH = 24, kSeeds = 192, kFrames = 11;
+  const Sequence seq = TeleportingOccluderScene(kW, kH);
+  const std::vector<std::string> names = {"restir-spmis", "restir-unbiased"};
+  OccludedRuns r;
+  std::vector<std::vector<std::unique_ptr<Pipeline>>> pipelines(names.size());
+  const size_t n = static_cast<size_t>(kW) * kH;
+  for (size_t c = 0; c < names.size(); ++c) {
+    r.names.push_back(names[c]);
+    for (int s = 0; s < kSeeds; ++s) pipelines[c].push_back(std::make_unique<Pipeline>(PresetSettings(names[c])));
+    r.runs[names[c]].luma.assign(kSeeds, std::vector<double>(n, 0.0));
+  }
+  Driver d(seq, kW, kH);
+  double disoccluded = 0.0;
+  for (int f = 0; f < kFrames; ++f) {
+    d.BeginFrame(f);
+    for (size_t c = 0; c < names.size(); ++c)
+      for (int s = 0; s < kSeeds; ++s) {
+        const FrameResult fr = d.Render(*pipelines[c][s], 500u + 7u * static_cast<uint32_t>(s));
+        if (f == kFrames - 1)
+          for (size_t i = 0; i < n; ++i) r.runs[names[c]].luma[s][i] = Luminance(fr.image.pixels[i]);
+      }
+    if (f == kFrames - 1) {
+      r.ref = d.Reference(kOccRefSpp);
+      r.gbuffer = d.Gbuffer();
+      disoccluded = MaskFraction(d.Gbuffer().disoccluded);
+    }
+    d.EndFrame();
+  }
+  EXPECT_GT(disoccluded, 0.02);  // the test is about a disocclusion: a visible part of the frame is revealed
+  for (const std::string& name : names) {
+    const ChiSquareOutcome o = ChiSquareAgainstReference(r, r.runs.at(name), 4, kSeeds);
+    const double critical = test::ChiSquareCritical(o.regions, 1e-4);
+    std::printf("%-16s frame 10 (%.1f%% disoccluded), 4x4 regions: chi2 %7.1f over %3d (critical %.1f)\n",
+                name.c_str(), 100 * disoccluded, o.statistic, o.regions, critical);
+    EXPECT_GT(o.regions, 20);
+    EXPECT_LT(o.statistic, critical) << name;
+    EXPECT_EQ(o.darkMax, 0.0) << name;
+  }
+}
+
 TEST(Pipeline, BiasedPresetDarkens) {
   const OccludedRuns& r = GetOccludedRuns();
   double refTotal = 0.0, refVar = 0.0;
