@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/release/restir-sim
-presets=ris,temporal,restir-biased,restir-vis,restir-wisvis,restir-unbiased,restir-balance
+presets=ris,temporal,restir-biased,restir-vis,restir-wisvis,restir-unbiased,restir-balance,restir-spmis
 for s in window_bars_pan static_room; do
   "$bin" run "sequences/$s.json" --preset "$presets" --resolution 640x360 --no-images --out "out/results/$s"
 done

@@ -4,6 +4,7 @@
 #include <tbb/info.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -27,6 +28,9 @@ namespace restir {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+constexpr uint16_t kNeverDisoccluded = 0xFFFF;
+constexpr uint16_t kDisoccWindow = 4;
 
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -146,6 +150,7 @@ RunResult Run(const RunOptions& opt) {
   // Per preset: last image, and the running sum since the scene state last changed (accumulated accuracy).
   std::vector<ImageRgb> previousImages(presets.size()), accumSum(presets.size());
   int accumFrames = 0;
+  std::vector<uint16_t> disoccAge;  // per pixel: frames since its surface was revealed
   RunResult result;
   const bool showProgress = opt.progress && ::isatty(STDERR_FILENO);
   const int totalFrames = frameEnd - opt.frameBegin;
@@ -163,6 +168,23 @@ RunResult Run(const RunOptions& opt) {
     Reproject(state, previousState, previous, scene.LightObjectId(), ReprojectionParams{}, current);
     const double msReproject = MsSince(t0);
     const double disoccFraction = MaskFraction(current.disoccluded);
+    // Age of each pixel's surface since it was revealed, carried through reprojection, so the `*_disocc` metrics
+    // follow the revealed region for kDisoccWindow frames (DESIGN §6: "disoccluded in the last 4 frames").
+    std::vector<uint16_t> age(current.Size(), kNeverDisoccluded);
+    for (size_t i = 0; i < current.Size(); ++i) {
+      if (current.disoccluded[i]) {
+        age[i] = 0;
+      } else if (current.prevValid[i] && !disoccAge.empty()) {
+        const int px = std::clamp(static_cast<int>(current.prevX[i]), 0, width - 1);
+        const int py = std::clamp(static_cast<int>(current.prevY[i]), 0, height - 1);
+        const uint16_t a = disoccAge[static_cast<size_t>(py) * width + px];
+        age[i] = a == kNeverDisoccluded ? a : static_cast<uint16_t>(std::min<int>(a + 1, kNeverDisoccluded - 1));
+      }
+    }
+    disoccAge = std::move(age);
+    std::vector<uint8_t> recentMask(current.Size());
+    for (size_t i = 0; i < current.Size(); ++i) recentMask[i] = disoccAge[i] < kDisoccWindow;
+    const double recentFraction = MaskFraction(recentMask);
     const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
 
     const bool hasPrevious = frame > opt.frameBegin;
@@ -236,6 +258,12 @@ RunResult Run(const RunOptions& opt) {
         ImageRgb mean(width, height);
         for (size_t i = 0; i < mean.Size(); ++i) mean.pixels[i] = accumSum[p].pixels[i] / float(accumFrames);
         const AccuracyMetrics acc = MeasureAccuracy(mean, ref.mean);
+        const AccuracyMetrics md = MeasureAccuracy(fr.image, ref.mean, &recentMask);
+        row.values.emplace_back("rmse_disocc", md.rmse);
+        row.values.emplace_back("luma_rmse_disocc", md.lumaRmse);
+        row.values.emplace_back("relmse_disocc", md.relmse);
+        row.values.emplace_back("rmspe_disocc", md.rmspe);
+        row.values.emplace_back("luma_ratio_disocc", md.pixels ? md.lumaRatio : 1.0);
         row.values.emplace_back("accum_frames", accumFrames);
         row.values.emplace_back("accum_rmse", acc.rmse);
         row.values.emplace_back("accum_luma_ratio", acc.lumaRatio);
@@ -246,6 +274,7 @@ RunResult Run(const RunOptions& opt) {
       row.values.emplace_back("stability_luma_rmse",
                               hasPrevious ? StabilityLumaRmse(fr.image, previousImages[p]) : 0.0);
       row.values.emplace_back("disocc_fraction", disoccFraction);
+      row.values.emplace_back("disocc_recent_fraction", recentFraction);
       row.values.emplace_back("temporal_acceptance", fr.temporalAcceptance);
       row.values.emplace_back("mean_confidence", fr.meanConfidence);
       row.values.emplace_back("cross_object_reuse", static_cast<double>(fr.crossObjectReuse));
