@@ -43,6 +43,18 @@ void ParseResolution(const std::string& text, RunOptions& opt) {
   opt.height = h;
 }
 
+// The file's render.presets are only names to the loader; check them here so the message can name the file and
+// the JSON path (validate and a plain run report the same line).
+void CheckFilePresets(const Sequence& seq) {
+  for (size_t i = 0; i < seq.defaults.presets.size(); ++i) {
+    if (FindPreset(seq.defaults.presets[i])) continue;
+    std::string known;
+    for (const Preset& q : AllPresets()) known += (known.empty() ? "" : ", ") + q.name;
+    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": unknown preset '" +
+                     seq.defaults.presets[i] + "' (known: " + known + ")");
+  }
+}
+
 }  // namespace
 
 int RunCommandLine(int argc, char** argv) {
@@ -50,6 +62,10 @@ int RunCommandLine(int argc, char** argv) {
                "Replays scripted sequences through the ReSTIR pipeline and reports per-frame error, stability\n"
                "and timing against a converged reference."};
   app.require_subcommand(1);
+  // Bad command lines get one line too (DESIGN §10), not CLI11's two.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("restir-sim: error: ") + e.what() + " (see --help)\n";
+  });
   app.set_version_flag("--version", std::string(RESTIR_VERSION));
 
   RunOptions opt;
@@ -78,6 +94,9 @@ int RunCommandLine(int argc, char** argv) {
       ->capture_default_str();
   run->add_flag("--no-images", noImages, "Do not write EXR/PNG frames (metrics only)");
   run->add_flag("--no-progress", noProgress, "No progress line on stderr");
+  run->add_flag("--resume", opt.resume,
+                "Continue an interrupted run from OUT/checkpoint.bin (same configuration); the outputs are "
+                "bit-identical to an uninterrupted run");
 
   std::string validatePath;
   CLI::App* validate = app.add_subcommand("validate", "Check a sequence file and print a one-screen summary");
@@ -99,11 +118,13 @@ int RunCommandLine(int argc, char** argv) {
     }
     if (validate->parsed()) {
       const Sequence seq = LoadSequence(validatePath);
+      CheckFilePresets(seq);
       std::cout << SummarizeSequence(seq);
       return 0;
     }
     if (run->parsed()) {
       for (int i = 0; i < argc; ++i) opt.commandLine += (i ? " " : "") + std::string(argv[i]);
+      if (presetList.empty()) CheckFilePresets(LoadSequence(opt.sequencePath));
       if (presetList == "all") {
         for (const Preset& p : AllPresets()) opt.presets.push_back(p.name);
       } else if (!presetList.empty()) {

@@ -128,6 +128,9 @@ class Pipeline {
   explicit Pipeline(const PipelineSettings& settings) : settings_(settings) {}
   FrameResult RenderFrame(const FrameInputs& in);
   const PipelineSettings& Settings() const { return settings_; }
+  // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).
+  const std::vector<Reservoir>& History() const { return previousReservoirs_; }
+  void RestoreHistory(std::vector<Reservoir> reservoirs) { previousReservoirs_ = std::move(reservoirs); }
 
  private:
   PipelineSettings settings_;

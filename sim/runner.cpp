@@ -8,11 +8,15 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "sim/atomic_file.h"
+#include "sim/checkpoint.h"
 #include "sim/embree_scene.h"
 #include "sim/frame_writer.h"
 #include "sim/gbuffer.h"
@@ -85,6 +89,55 @@ std::string FormatDuration(double seconds) {
   return buf;
 }
 
+void WriteGbuffer(BinaryWriter& w, const GBuffer& g) {
+  w.Pod(g.width);
+  w.Pod(g.height);
+  for (const auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth,
+                        &g.prevX, &g.prevY})
+    w.Vector(*v);
+  for (const auto* v : {&g.objectId, &g.materialId, &g.lightId}) w.Vector(*v);
+  w.Vector(g.prevValid);
+  w.Vector(g.disoccluded);
+}
+
+void ReadGbuffer(BinaryReader& r, GBuffer& g) {
+  r.Pod(g.width);
+  r.Pod(g.height);
+  for (auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth, &g.prevX,
+                  &g.prevY})
+    r.Vector(*v);
+  for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) r.Vector(*v);
+  r.Vector(g.prevValid);
+  r.Vector(g.disoccluded);
+}
+
+void WriteImage(BinaryWriter& w, const ImageRgb& img) {
+  w.Pod(img.width);
+  w.Pod(img.height);
+  w.Vector(img.pixels);
+}
+
+void ReadImage(BinaryReader& r, ImageRgb& img) {
+  r.Pod(img.width);
+  r.Pod(img.height);
+  r.Vector(img.pixels);
+}
+
+// A run killed while writing leaves its temporary (name.tmpPID.ext, see atomic_file.cpp) behind; the next run in
+// the same directory removes them so that only whole files remain.
+void RemoveStaleTemporaries(const std::string& dir) {
+  static const std::regex temporary(R"(.*\.tmp[0-9]+(\..*)?)");
+  std::error_code ec;
+  std::vector<std::filesystem::path> stale;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+    if (it->is_regular_file() && std::regex_match(it->path().filename().string(), temporary))
+      stale.push_back(it->path());
+  for (const auto& p : stale) std::filesystem::remove(p, ec);
+}
+
+constexpr uint64_t kCheckpointMagic = 0x31544B43'52545352ull;  // "RSTRCKT1"
+
 }  // namespace
 
 RunResult Run(const RunOptions& opt) {
@@ -114,6 +167,7 @@ RunResult Run(const RunOptions& opt) {
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
   refParams.cacheDir = opt.cacheDir;
   CheckWritableDirectory(opt.outDir);
+  RemoveStaleTemporaries(opt.outDir);
 
   const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
   tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
@@ -155,7 +209,110 @@ RunResult Run(const RunOptions& opt) {
   const bool showProgress = opt.progress && ::isatty(STDERR_FILENO);
   const int totalFrames = frameEnd - opt.frameBegin;
 
-  for (int frame = opt.frameBegin; frame < frameEnd; ++frame) {
+  // Checkpoint (--resume): everything the next frame reads, written after each frame's outputs. Keyed by the
+  // configuration (run.json without the volatile fields), so a different run never resumes from it.
+  nlohmann::json keyJson = runJson;
+  keyJson.erase("commandLine");
+  keyJson.erase("status");
+  keyJson.erase("threads");
+  const std::string configKey = keyJson.dump();
+  const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
+  auto saveCheckpoint = [&](int nextFrame) {
+    BinaryWriter w;
+    w.Pod(kCheckpointMagic);
+    w.String(configKey);
+    w.Pod(nextFrame);
+    WriteGbuffer(w, previous);
+    w.Pod(previousState.frame);
+    w.Pod(previousState.camera);
+    w.Vector(previousState.objectToWorld);
+    w.Vector(previousState.lightOn);
+    w.Vector(previousLights);
+    WriteImage(w, previousReference);
+    for (size_t p = 0; p < presets.size(); ++p) {
+      WriteImage(w, previousImages[p]);
+      WriteImage(w, accumSum[p]);
+      w.Vector(pipelines[p]->History());
+    }
+    w.Pod(accumFrames);
+    w.Vector(disoccAge);
+    w.Pod(static_cast<uint64_t>(result.rows.size()));
+    for (const FrameMetricsRow& row : result.rows) {
+      w.Pod(row.frame);
+      w.String(row.preset);
+      w.String(row.imageHash);
+      w.Pod(static_cast<uint64_t>(row.values.size()));
+      for (const auto& [name, value] : row.values) {
+        w.String(name);
+        w.Pod(value);
+      }
+    }
+    WriteFileAtomic(checkpointPath, w.Bytes());
+  };
+  int firstFrame = opt.frameBegin;
+  if (opt.resume) {
+    std::ifstream f(checkpointPath, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    try {
+      BinaryReader r(bytes);
+      uint64_t magic = 0;
+      std::string key;
+      int nextFrame = 0;
+      if (!bytes.empty()) r.Pod(magic);
+      if (magic == kCheckpointMagic) r.String(key);
+      if (magic == kCheckpointMagic && key == configKey) {
+        r.Pod(nextFrame);
+        ReadGbuffer(r, previous);
+        r.Pod(previousState.frame);
+        r.Pod(previousState.camera);
+        r.Vector(previousState.objectToWorld);
+        r.Vector(previousState.lightOn);
+        r.Vector(previousLights);
+        ReadImage(r, previousReference);
+        for (size_t p = 0; p < presets.size(); ++p) {
+          ReadImage(r, previousImages[p]);
+          ReadImage(r, accumSum[p]);
+          std::vector<Reservoir> history;
+          r.Vector(history);
+          pipelines[p]->RestoreHistory(std::move(history));
+        }
+        r.Pod(accumFrames);
+        r.Vector(disoccAge);
+        uint64_t rows = 0;
+        r.Pod(rows);
+        for (uint64_t k = 0; k < rows; ++k) {
+          FrameMetricsRow row;
+          r.Pod(row.frame);
+          r.String(row.preset);
+          r.String(row.imageHash);
+          uint64_t values = 0;
+          r.Pod(values);
+          for (uint64_t v = 0; v < values; ++v) {
+            std::string name;
+            double value = 0.0;
+            r.String(name);
+            r.Pod(value);
+            row.values.emplace_back(std::move(name), value);
+          }
+          result.rows.push_back(std::move(row));
+        }
+        if (!r.AtEnd()) throw std::runtime_error("trailing bytes");
+        firstFrame = nextFrame;
+        result.resumedAtFrame = nextFrame;
+        // The scene's current frame becomes the previous one at the next Update, as in an uninterrupted run.
+        if (firstFrame > opt.frameBegin) scene.Update(previousState);
+      } else if (!bytes.empty()) {
+        std::fprintf(stderr, "restir-sim: %s is from another configuration; starting from frame %d\n",
+                     checkpointPath.c_str(), opt.frameBegin);
+      }
+    } catch (const std::runtime_error& e) {
+      // Checkpoints are renamed into place whole, so this is outside damage: refuse rather than guess.
+      throw InputError(checkpointPath + ": error: unreadable checkpoint (" + e.what() +
+                       "); delete it or run without --resume");
+    }
+  }
+
+  for (int frame = firstFrame; frame < frameEnd; ++frame) {
     const auto tFrame = Clock::now();
     const FrameState state = Evaluate(seq, frame, width, height);
     auto t0 = Clock::now();
@@ -187,7 +344,7 @@ RunResult Run(const RunOptions& opt) {
     const double recentFraction = MaskFraction(recentMask);
     const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
 
-    const bool hasPrevious = frame > opt.frameBegin;
+    const bool hasPrevious = frame > opt.frameBegin;  // true after a resume too: the checkpoint restored it
     const bool stateChanged = !hasPrevious || !SameSceneState(state, previousState);
     accumFrames = stateChanged ? 1 : accumFrames + 1;
     ReferenceImage ref;
@@ -302,6 +459,7 @@ RunResult Run(const RunOptions& opt) {
     previousState = state;
     previousLights = scene.LightTriangles();
     if (opt.reference) previousReference = std::move(ref.mean);
+    saveCheckpoint(frame + 1);
 
     if (showProgress) {
       const int done = frame - opt.frameBegin + 1;
@@ -313,6 +471,8 @@ RunResult Run(const RunOptions& opt) {
     }
   }
   result.wallSeconds = std::chrono::duration<double>(Clock::now() - tRun).count();
+  std::error_code ec;
+  std::filesystem::remove(checkpointPath, ec);  // a finished run needs no checkpoint
   runJson["status"] = "complete";
   runJson["wallSeconds"] = result.wallSeconds;
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");

@@ -24,6 +24,7 @@ struct RunOptions {
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
   bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
   bool progress = true;                  // progress line on stderr when stderr is a terminal
+  bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
   std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
   std::string commandLine;               // recorded in run.json
 };
@@ -39,6 +40,7 @@ struct FrameMetricsRow {
 struct RunResult {
   std::vector<FrameMetricsRow> rows;
   double wallSeconds = 0.0;
+  int resumedAtFrame = -1;  // the first frame rendered after resuming from a checkpoint; -1: not resumed
 };
 
 // Throws InputError for bad input (unknown preset, frame range, unreadable sequence, unwritable output).

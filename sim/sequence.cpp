@@ -676,7 +676,9 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   if (auto it = meshCache_.find(objPath); it != meshCache_.end()) return it->second;
 
   std::string bytes;
-  if (fs::is_directory(resolved) || !ReadFileBytes(objPath, bytes)) {
+  // Regular files only: a device such as /dev/zero would never end, and status errors must not throw.
+  std::error_code ec;
+  if (!fs::is_regular_file(resolved, ec) || !ReadFileBytes(objPath, bytes)) {
     Fail(p, "cannot read mesh file '" + objPath + "'");
   }
   // Only the bytes: the name as written is already in the sequence text, and the resolved path depends on the

@@ -139,6 +139,22 @@ TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   EXPECT_NE(t.str().find("normal.Z"), std::string::npos) << t.str();
 }
 
+// A temporary left by a killed run (name.tmpPID.ext) is removed by the next run in that directory; other files
+// are left alone.
+TEST(Run, RemovesStaleTemporaries) {
+  const std::string out = TempOut("restir-run-stale");
+  std::filesystem::create_directories(out + "/frames/ris");
+  std::ofstream(out + "/frames/ris/0003.tmp4242.exr") << "partial";
+  std::ofstream(out + "/notes.txt") << "mine";
+  RunOptions o = SmokeOptions(out);
+  o.frameEnd = 1;
+  o.reference = false;
+  o.writeImages = false;
+  restir::Run(o);
+  EXPECT_FALSE(std::filesystem::exists(out + "/frames/ris/0003.tmp4242.exr"));
+  EXPECT_TRUE(std::filesystem::exists(out + "/notes.txt"));
+}
+
 TEST(Run, BadInputThrowsInputError) {
   RunOptions o = SmokeOptions(TempOut("restir-run-bad"));
   o.presets = {"no-such-preset"};

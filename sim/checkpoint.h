@@ -1,0 +1,75 @@
+// Binary serialisation for per-frame checkpoints (`restir-sim run --resume`): plain little-endian bytes of
+// trivially copyable values and of vectors of them. A checkpoint is only read back by the same binary, so no
+// versioning beyond a magic number and the run's configuration hash is needed.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace restir {
+
+class BinaryWriter {
+ public:
+  template <typename T>
+  void Pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <typename T>
+  void Vector(const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    Pod(static_cast<uint64_t>(v.size()));
+    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void String(const std::string& s) {
+    Pod(static_cast<uint64_t>(s.size()));
+    bytes_.append(s);
+  }
+  const std::string& Bytes() const { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+class BinaryReader {
+ public:
+  explicit BinaryReader(const std::string& bytes) : bytes_(bytes) {}
+  template <typename T>
+  void Pod(T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    Need(sizeof(T));
+    std::memcpy(&v, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+  }
+  template <typename T>
+  void Vector(std::vector<T>& v) {
+    uint64_t n = 0;
+    Pod(n);
+    if (n > (bytes_.size() - pos_) / (sizeof(T) ? sizeof(T) : 1)) throw std::runtime_error("checkpoint truncated");
+    v.resize(n);
+    Need(n * sizeof(T));
+    std::memcpy(v.data(), bytes_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+  }
+  void String(std::string& s) {
+    uint64_t n = 0;
+    Pod(n);
+    Need(n);
+    s.assign(bytes_.data() + pos_, n);
+    pos_ += n;
+  }
+  bool AtEnd() const { return pos_ == bytes_.size(); }
+
+ private:
+  void Need(size_t n) const {
+    if (n > bytes_.size() - pos_) throw std::runtime_error("checkpoint truncated");
+  }
+  const std::string& bytes_;
+  size_t pos_ = 0;
+};
+
+}  // namespace restir
