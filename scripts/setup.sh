@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages ReSTIR Sim builds against, only those not yet installed. Idempotent; uses sudo
-# only when not root. Usage: scripts/setup.sh [--with-tools]
-#   --with-tools  also the optional tools some tests use when present (exrheader, oiiotool)
+# only when not root. Usage: scripts/setup.sh [--with-fuzz]
+#   --with-fuzz   also Debian's clang and its compiler-rt (libFuzzer, ASan, UBSan) for the `fuzz` preset
+#                 (scripts/fuzz.sh passes it; about 100 MB, so the plain setup leaves it out)
+# The tools the tests read our EXRs with (exrheader, oiiotool) are always installed; --with-tools, which used to
+# add them, is still accepted and does nothing.
 set -euo pipefail
 
 packages=(
@@ -17,6 +20,14 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
 )
+
+for arg in "$@"; do
+  case "$arg" in
+    --with-fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang++ and libclang_rt.fuzzer/asan/ubsan
+    --with-tools) ;;
+    *) echo "setup: unknown option '$arg' (usage: scripts/setup.sh [--with-fuzz])" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

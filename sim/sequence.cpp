@@ -281,6 +281,13 @@ TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int fra
 // The camera's view distance below which position and lookAt count as the same point.
 constexpr float kMinLookDistance = 1e-6f;
 
+// Whole-scene budgets. Every shape and grid has its own bound, but a few kilobytes of JSON repeating the
+// largest ones (1024-segment spheres, 10000 window bars, 65536-light grids) would otherwise take gigabytes and
+// many seconds to generate before anything could complain; the fuzzer's hang and memory limits hold the
+// parser to that. Far above any shipped sequence (docs/sequence-format.md, "Limits").
+constexpr size_t kMaxSceneTriangles = size_t(1) << 22;  // 4,194,304 object triangles
+constexpr size_t kMaxLights = size_t(1) << 18;          // 262,144 lights (524,288 emitter triangles for quads)
+
 Camera MakeCamera(const CameraKey& key, int width, int height) {
   Camera cam;
   cam.position = key.position;
@@ -477,6 +484,7 @@ class Reader {
   std::string baseDir_;
   uint64_t hash_;
   int frameCount_ = 1;
+  size_t sceneTriangles_ = 0;
   std::map<std::string, std::string> lightNames_;
   std::unordered_map<std::string, Mesh> meshCache_;  // resolved OBJ path → mesh, so a file is read once
 
@@ -583,6 +591,11 @@ void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) 
     }
     obj.material = static_cast<uint32_t>(it - materialNames.begin());
     obj.mesh = ReadShape(AsObject(Need(o, op, "shape"), op + "/shape"), op + "/shape");
+    sceneTriangles_ += obj.mesh.triangles.size();
+    if (sceneTriangles_ > kMaxSceneTriangles) {
+      Fail(op + "/shape", "the objects so far hold " + std::to_string(sceneTriangles_) +
+                              " triangles, more than the scene limit of " + std::to_string(kMaxSceneTriangles));
+    }
     if (const Json* k = Find(o, "keyframes")) {
       obj.keys = ReadTransformKeys(AsArray(*k, op + "/keyframes", true), op + "/keyframes");
     } else {
@@ -859,6 +872,9 @@ std::vector<std::pair<int, int>> Reader::ReadOnRanges(const Json& v, const std::
 void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices,
                       const Vec3& radiance, const std::vector<std::pair<int, int>>& onRanges,
                       const std::string& p) {
+  if (seq.lights.size() >= kMaxLights) {
+    Fail(p, "more than the scene limit of " + std::to_string(kMaxLights) + " lights");
+  }
   for (size_t t = 0; t + 2 < vertices.size(); t += 3) {
     const Vec3 e1 = vertices[t + 1] - vertices[t];
     const Vec3 e2 = vertices[t + 2] - vertices[t];
@@ -923,6 +939,11 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       const int nx = static_cast<int>(Integer(count[0], lp + "/count/0", 1, 1024, "nx"));
       const int ny = static_cast<int>(Integer(count[1], lp + "/count/1", 1, 1024, "ny"));
       if (nx * ny > 65536) Fail(lp + "/count", "a grid may hold at most 65536 lights");
+      if (seq.lights.size() + static_cast<size_t>(nx * ny) > kMaxLights) {
+        Fail(lp + "/count", "this grid would bring the lights to " +
+                                std::to_string(seq.lights.size() + static_cast<size_t>(nx * ny)) +
+                                ", more than the scene limit of " + std::to_string(kMaxLights));
+      }
       const Json& pitch = Need(l, lp, "pitch");
       if (!pitch.is_array() || pitch.size() != 2) {
         Fail(lp + "/pitch",
@@ -1005,9 +1026,12 @@ void Reader::ReadCamera(const Json& camera, const std::string& p, Sequence& seq)
   }
   SortKeys(seq.cameraKeys, paths);
   // Keys can be fine while the path between them passes position through lookAt (e.g. they swap places).
+  // Each segment is interpolated on its own two keys (the same arithmetic as on the whole list), so the check
+  // costs one step per frame rather than one search over every key per frame.
   for (size_t i = 0; i + 1 < seq.cameraKeys.size(); ++i) {
+    const std::vector<CameraKey> segment = {seq.cameraKeys[i], seq.cameraKeys[i + 1]};
     for (int f = seq.cameraKeys[i].frame + 1; f < seq.cameraKeys[i + 1].frame; ++f) {
-      const CameraKey k = InterpolateCamera(seq.cameraKeys, f);
+      const CameraKey k = InterpolateCamera(segment, f);
       if (!(glm::length(k.lookAt - k.position) > kMinLookDistance)) {
         Fail(paths[i], "the interpolated camera position meets its lookAt at frame " + std::to_string(f));
       }

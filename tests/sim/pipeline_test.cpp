@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "frame_driver.h"
 #include "scene_fixtures.h"
 #include "sim/embree_scene.h"
 #include "sim/gbuffer.h"
@@ -28,68 +29,6 @@
 
 namespace restir {
 namespace {
-
-// Drives the frames of one sequence the way Run() does, for any number of pipelines per frame.
-class Driver {
- public:
-  Driver(const Sequence& seq, int width, int height)
-      : seq_(seq), width_(width), height_(height), scene_(seq), bsdfs_(MaterialBsdfs(seq)) {}
-
-  void BeginFrame(int frame) {
-    frame_ = frame;
-    state_ = Evaluate(seq_, frame, width_, height_);
-    scene_.Update(state_);
-    TracePrimary(scene_, state_.camera, current_);
-    Reproject(state_, previousState_, previous_, scene_.LightObjectId(), ReprojectionParams{}, current_);
-    lights_ = std::make_unique<LightSampler>(scene_.LightTriangles(), LightSelection::kPower);
-  }
-
-  FrameResult Render(Pipeline& pipeline, uint32_t seed) const {
-    FrameInputs in;
-    in.sequence = &seq_;
-    in.state = &state_;
-    in.scene = &scene_;
-    in.gbuffer = &current_;
-    in.lights = lights_.get();
-    in.materials = &bsdfs_;
-    in.seed = seed;
-    in.frame = static_cast<uint32_t>(frame_);
-    if (hasPrevious_) {
-      in.previousState = &previousState_;
-      in.previousGbuffer = &previous_;
-      in.previousLights = &previousLights_;
-    }
-    return pipeline.RenderFrame(in);
-  }
-
-  ReferenceImage Reference(int spp) const {
-    ReferenceParams params;
-    params.samplesPerPixel = spp;
-    return RenderReference(seq_, state_, scene_, current_, params);
-  }
-
-  void EndFrame() {
-    std::swap(current_, previous_);
-    previousState_ = state_;
-    previousLights_ = scene_.LightTriangles();
-    hasPrevious_ = true;
-  }
-
-  const GBuffer& Gbuffer() const { return current_; }
-  const FrameState& State() const { return state_; }
-
- private:
-  const Sequence& seq_;
-  int width_, height_;
-  EmbreeScene scene_;
-  std::vector<Bsdf> bsdfs_;
-  GBuffer current_, previous_;
-  FrameState state_, previousState_;
-  std::vector<LightTriangle> previousLights_;
-  std::unique_ptr<LightSampler> lights_;
-  bool hasPrevious_ = false;
-  int frame_ = 0;
-};
 
 // A floor, a crate, a slatted grille and a glossy (GGX) back panel under three quad lights of different colours,
 // sizes and powers. The grille stripes the floor with shadows of the dominant (warm) light, with penumbrae; the
@@ -217,7 +156,7 @@ const OccludedRuns& GetOccludedRuns() {
       cr.lastTotalLuma.assign(kOccSeeds, 0.0);
     }
     const double averaged = kOccFrames - kOccFirstAveraged;
-    Driver d(seq, kOccW, kOccH);
+    test::FrameDriver d(seq, kOccW, kOccH);
     for (int f = 0; f < kOccFrames; ++f) {
       d.BeginFrame(f);
       for (size_t c = 0; c < configs.size(); ++c) {
@@ -361,7 +300,7 @@ TEST(Pipeline, UnbiasedRightAfterDisocclusion) {
     for (int s = 0; s < kSeeds; ++s) pipelines[c].push_back(std::make_unique<Pipeline>(PresetSettings(names[c])));
     r.runs[names[c]].luma.assign(kSeeds, std::vector<double>(n, 0.0));
   }
-  Driver d(seq, kW, kH);
+  test::FrameDriver d(seq, kW, kH);
   double disoccluded = 0.0;
   for (int f = 0; f < kFrames; ++f) {
     d.BeginFrame(f);
@@ -427,7 +366,7 @@ TEST(Pipeline, BiasedPresetDarkens) {
 TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
   const Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
   constexpr int kW = 160, kH = 90, kFrames = 6;
-  Driver d(seq, kW, kH);
+  test::FrameDriver d(seq, kW, kH);
   Pipeline pipeline(PresetSettings("restir-unbiased"));
   for (int f = 0; f < kFrames; ++f) {
     d.BeginFrame(f);
@@ -482,7 +421,7 @@ TEST(Pipeline, NoGhostingAfterOccluderMoves) {
   std::vector<std::vector<double>> relmse(presets.size(), std::vector<double>(kFrames, 0.0));
   std::vector<std::vector<ImageRgb>> beforeMove(presets.size());  // frame 9's images
   std::vector<double> ghostRelmse(presets.size(), 0.0);
-  Driver d(seq, kW, kH);
+  test::FrameDriver d(seq, kW, kH);
   ReferenceImage ref;
   double lumaBefore = 0.0, lumaAfter = 0.0;
   for (int f = 0; f < kFrames; ++f) {
@@ -543,7 +482,7 @@ TEST(Pipeline, ThreadCountDoesNotChangeBits) {
     std::vector<std::unique_ptr<Pipeline>> pipelines;
     for (const Preset& p : AllPresets()) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
     hashes.resize(pipelines.size());
-    Driver d(seq, kW, kH);
+    test::FrameDriver d(seq, kW, kH);
     for (int f = 8; f <= 10; ++f) {
       d.BeginFrame(f);
       for (size_t p = 0; p < pipelines.size(); ++p) hashes[p].push_back(HashImage(d.Render(*pipelines[p], 42).image));
@@ -570,7 +509,7 @@ TEST(Pipeline, LightSwitchedOffInvalidatesSamples) {
   seq.lights.front().onRanges = {{0, 3}};
   for (const Preset& preset : AllPresets()) {
     if (!preset.settings.temporal.enabled) continue;
-    Driver d(seq, kW, kH);
+    test::FrameDriver d(seq, kW, kH);
     Pipeline pipeline(preset.settings);
     for (int f = 0; f <= 4; ++f) {
       d.BeginFrame(f);
