@@ -53,8 +53,8 @@ def summarize(run_dir):
         "luma_ratio_disocc": mean([float(r["luma_ratio_disocc"]) for r in revealed]),
         "flicker": mean(f("flicker")),
         "luma_ratio": sum(f("luma_sum", rows)) / sum(f("reference_luma_sum", rows)),
-        "ms": mean(f("ms_frame")),
-        "ms_spatial": mean(f("ms_spatial")),
+        "ms": statistics.median(f("ms_frame")),  # median: robust to passing load on a shared machine
+        "ms_spatial": statistics.median(f("ms_spatial")),
         "spatial_rays": rays_shifted,
         "recovery": recovery,
         "sequence": run["sequence"]["name"],
@@ -85,7 +85,7 @@ def main(dirs):
           "edit by hand.\n")
     print(f"Machine: {platform.machine()}, {os.cpu_count()} cores. `relmse_disocc` is relMSE over the pixels revealed "
           "in the last 4 frames (the region is carried through reprojection), averaged over the frames that have "
-          "such pixels; ms/frame is the estimator's wall time (G-buffer, reprojection, every pass; reference "
+          "such pixels; ms/frame is the median over frames of the estimator's wall time (G-buffer, reprojection, every pass; reference "
           "excluded), measured in separate runs on a shared machine.\n")
     for seq, rows in by_seq.items():
         r0 = rows[0]

@@ -19,6 +19,7 @@ packages=(
   libcli11-dev           # command line
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
+  chromium               # headless browser: a test renders report.html and checks its plots and images
 )
 
 for arg in "$@"; do

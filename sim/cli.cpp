@@ -4,9 +4,12 @@
 #include <cstdio>
 #include <iostream>
 
+#include "sim/compare.h"
 #include "sim/presets.h"
+#include "sim/report.h"
 #include "sim/runner.h"
 #include "sim/sequence.h"
+#include "sim/sweep.h"
 
 namespace restir {
 
@@ -94,6 +97,13 @@ int RunCommandLine(int argc, char** argv) {
       ->capture_default_str();
   run->add_flag("--no-images", noImages, "Do not write EXR/PNG frames (metrics only)");
   run->add_flag("--no-progress", noProgress, "No progress line on stderr");
+  bool noReport = false;
+  run->add_flag("--no-report", noReport, "Do not write summary.json and report.html at the end");
+  run->add_option("--ensemble", opt.ensemble,
+                  "Run each preset K times with seeds S..S+K-1 and split the error into bias² and variance "
+                  "(ensemble_* columns, bias and variance EXR layers)")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
   run->add_flag("--resume", opt.resume,
                 "Continue an interrupted run from OUT/checkpoint.bin (same configuration); the outputs are "
                 "bit-identical to an uninterrupted run");
@@ -104,6 +114,27 @@ int RunCommandLine(int argc, char** argv) {
 
   CLI::App* presetsCmd = app.add_subcommand("presets", "List every preset with its settings and source");
 
+  std::string reportDir;
+  CLI::App* reportCmd = app.add_subcommand("report", "Write OUTDIR/summary.json and OUTDIR/report.html from a run's "
+                                                     "metrics.csv and run.json (docs/metrics.md)");
+  reportCmd->add_option("outdir", reportDir, "A run's output directory")->required();
+
+  std::string compareA, compareB;
+  CLI::App* compareCmd = app.add_subcommand(
+      "compare", "Compare two runs' metrics per preset and column: means, relative change, and a paired t-test "
+                 "on 8-frame batch means (two-sided, 5%)");
+  compareCmd->add_option("run_a", compareA, "Run A: output directory or metrics.csv")->required();
+  compareCmd->add_option("run_b", compareB, "Run B: output directory or metrics.csv")->required();
+
+  std::string sweepPath, sweepOut = "out/sweep";
+  int sweepThreads = 0;
+  CLI::App* sweep = app.add_subcommand(
+      "sweep", "Run a grid of presets and settings (docs/sweep-format.md); write sweep.csv, sweep.svg (Pareto plot "
+               "of relmse against ms/frame) and sweep.md (equal-time and equal-sample tables)");
+  sweep->add_option("sweep", sweepPath, "Sweep file (JSON)")->required();
+  sweep->add_option("--out", sweepOut, "Output directory (runs go to OUT/runs/<config>)")->capture_default_str();
+  sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")->capture_default_str();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -112,6 +143,24 @@ int RunCommandLine(int argc, char** argv) {
   }
 
   try {
+    if (sweep->parsed()) {
+      SweepSpec spec = LoadSweep(sweepPath);
+      spec.base.threads = sweepThreads;
+      spec.base.progress = false;
+      for (int i = 0; i < argc; ++i) spec.base.commandLine += (i ? " " : "") + std::string(argv[i]);
+      const std::vector<SweepPoint> points = RunSweep(spec, sweepOut);
+      std::fprintf(stderr, "wrote %zu configurations to %s/sweep.{csv,svg,md}\n", points.size(), sweepOut.c_str());
+      return 0;
+    }
+    if (reportCmd->parsed()) {
+      WriteReport(reportDir);
+      std::fprintf(stderr, "wrote %s/summary.json and %s/report.html\n", reportDir.c_str(), reportDir.c_str());
+      return 0;
+    }
+    if (compareCmd->parsed()) {
+      std::cout << FormatComparison(CompareRuns(compareA, compareB));
+      return 0;
+    }
     if (presetsCmd->parsed()) {
       std::cout << DescribePresets();
       return 0;
@@ -138,6 +187,7 @@ int RunCommandLine(int argc, char** argv) {
       opt.reference = !noReference;
       opt.writeImages = !noImages;
       opt.progress = !noProgress;
+      opt.report = !noReport;
       const RunResult r = Run(opt);
       std::fprintf(stderr, "wrote %zu metric rows to %s/metrics.csv in %.1f s\n", r.rows.size(),
                    opt.outDir.c_str(), r.wallSeconds);

@@ -65,6 +65,12 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   AddScalarLayer(header, fb, "normal.X", nx, w);
   AddScalarLayer(header, fb, "normal.Y", ny, w);
   AddScalarLayer(header, fb, "normal.Z", nz, w);
+  if (layers.flip) {
+    if (layers.flip->size() != est.Size()) throw std::invalid_argument("flip layer size differs from the image");
+    AddScalarLayer(header, fb, "flip.Y", *layers.flip, w);
+  }
+  if (layers.ensembleBias) AddRgbLayer(header, fb, "bias", *layers.ensembleBias);
+  if (layers.ensembleVariance) AddRgbLayer(header, fb, "variance", *layers.ensembleVariance);
   WriteViaTemporary(path, [&](const std::string& tmp) {
     Imf::OutputFile file(tmp.c_str(), header);
     file.setFrameBuffer(fb);

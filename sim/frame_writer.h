@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "sim/gbuffer.h"
 #include "sim/image.h"
@@ -10,11 +11,15 @@ namespace restir {
 
 // The layers of one frame's EXR. The estimate is the unnamed default layer (R, G, B); the rest are named
 // layers: reference.{R,G,B}, reference_stderr.{R,G,B}, error.{R,G,B} (estimate - reference),
-// disocclusion.Y (1 where reprojection failed), depth.Z (view depth) and normal.{X,Y,Z} (shading normal).
+// disocclusion.Y (1 where reprojection failed), depth.Z (view depth), normal.{X,Y,Z} (shading normal) and
+// flip.Y (per-pixel HDR-FLIP of the estimate against the reference, sim/flip.h).
 struct FrameLayers {
   const ImageRgb* estimate = nullptr;
   const ImageRgb* reference = nullptr;      // may be null (--no-reference): reference and error layers omitted
   const ImageRgb* referenceStdError = nullptr;
+  const std::vector<float>* flip = nullptr;  // may be null (no reference): flip layer omitted
+  const ImageRgb* ensembleBias = nullptr;      // --ensemble K: mean of the K estimates minus the reference
+  const ImageRgb* ensembleVariance = nullptr;  // --ensemble K: per-pixel variance of the K estimates
   const GBuffer* gbuffer = nullptr;
 };
 

@@ -68,3 +68,62 @@ double MaskFraction(const std::vector<uint8_t>& mask) {
 }
 
 }  // namespace restir
+
+namespace restir {
+
+EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRgb& reference,
+                              const ImageRgb& referenceStdError, ImageRgb& bias, ImageRgb& variance) {
+  EnsembleStats s;
+  const size_t k = images.size(), n = reference.Size();
+  if (k < 2 || n == 0) return s;
+  bias = ImageRgb(reference.width, reference.height);
+  variance = ImageRgb(reference.width, reference.height);
+  std::vector<double> memberLuma(k, 0.0);
+  double refLuma = 0.0, refLumaVar = 0.0, meanLuma = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 r = reference.pixels[i];
+    const Vec3 se = referenceStdError.pixels[i];
+    for (int c = 0; c < 3; ++c) {
+      double mean = 0.0, mse = 0.0;
+      for (size_t m = 0; m < k; ++m) {
+        const double v = images[m].pixels[i][c];
+        mean += v;
+        mse += (v - r[c]) * (v - r[c]);
+      }
+      mean /= static_cast<double>(k);
+      double var = 0.0;
+      for (size_t m = 0; m < k; ++m) {
+        const double d = images[m].pixels[i][c] - mean;
+        var += d * d;
+      }
+      var /= static_cast<double>(k);
+      s.mse += mse / static_cast<double>(k);
+      s.bias2 += (mean - r[c]) * (mean - r[c]);
+      s.variance += var;
+      s.bias2Noise += var / static_cast<double>(k - 1) + double(se[c]) * se[c];
+      bias.pixels[i][c] = static_cast<float>(mean - r[c]);
+      variance.pixels[i][c] = static_cast<float>(var);
+    }
+    for (size_t m = 0; m < k; ++m) memberLuma[m] += Luminance(images[m].pixels[i]);
+    refLuma += Luminance(r);
+    const double seY = Luminance(se);  // >= the standard error of Y(R): conservative
+    refLumaVar += seY * seY;
+  }
+  const double samples = 3.0 * static_cast<double>(n);
+  s.mse /= samples, s.bias2 /= samples, s.variance /= samples, s.bias2Noise /= samples;
+  for (double l : memberLuma) meanLuma += l / static_cast<double>(k);
+  double spread = 0.0;
+  for (double l : memberLuma) spread += (l - meanLuma) * (l - meanLuma);
+  spread /= static_cast<double>(k - 1);
+  if (refLuma > 0.0) {
+    s.lumaRatio = meanLuma / refLuma;
+    const double seMean = std::sqrt(spread / static_cast<double>(k)) / refLuma;
+    const double seRef = s.lumaRatio * std::sqrt(refLumaVar) / refLuma;
+    s.lumaRatioStdError = std::sqrt(seMean * seMean + seRef * seRef);
+  } else {
+    s.lumaRatio = meanLuma == 0.0 ? 1.0 : INFINITY;
+  }
+  return s;
+}
+
+}  // namespace restir

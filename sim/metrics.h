@@ -35,3 +35,23 @@ double Flicker(const ImageRgb& current, const ImageRgb& previous, const ImageRgb
 double MaskFraction(const std::vector<uint8_t>& mask);
 
 }  // namespace restir
+
+namespace restir {
+
+// Seed ensembles (DESIGN §6): K estimates of one frame that differ only in their seed, split into bias² and
+// variance. Sums run in pixel order in double precision (deterministic).
+struct EnsembleStats {
+  double mse = 0.0;                // (1/K) Σ_k mean over pixels and RGB of (I_k − R)²
+  double bias2 = 0.0;              // mean over pixels and RGB of (Ī − R)²
+  double variance = 0.0;           // mean over pixels and RGB of (1/K) Σ_k (I_k − Ī)²; mse = bias2 + variance
+  double bias2Noise = 0.0;         // what bias2 averages to for an unbiased estimator: mean of v/(K−1) + se_R²
+  double lumaRatio = 0.0;          // Σ Y(Ī) / Σ Y(R)
+  double lumaRatioStdError = 0.0;  // its standard error: the members' spread / sqrt(K) and the reference's own
+};
+
+// Needs K >= 2 images of the reference's size. Fills the per-pixel maps Ī − R (bias) and (1/K) Σ (I_k − Ī)²
+// (variance).
+EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRgb& reference,
+                              const ImageRgb& referenceStdError, ImageRgb& bias, ImageRgb& variance);
+
+}  // namespace restir

@@ -18,12 +18,14 @@
 #include "sim/atomic_file.h"
 #include "sim/checkpoint.h"
 #include "sim/embree_scene.h"
+#include "sim/flip.h"
 #include "sim/frame_writer.h"
 #include "sim/gbuffer.h"
 #include "sim/metrics.h"
 #include "sim/pipeline.h"
 #include "sim/presets.h"
 #include "sim/reference.h"
+#include "sim/report.h"
 #include "sim/sequence.h"
 #include "sim/settings.h"
 
@@ -181,6 +183,7 @@ RunResult Run(const RunOptions& opt) {
       {"resolution", {width, height}},
       {"frames", {opt.frameBegin, frameEnd}},
       {"seed", seed},
+      {"ensemble", std::max(1, opt.ensemble)},
       {"threads", threads},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"cacheDir", refParams.cacheDir}}
@@ -195,8 +198,11 @@ RunResult Run(const RunOptions& opt) {
 
   EmbreeScene scene(seq);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
+  // Per preset, K pipelines (--ensemble K): member k runs with seed + k; member 0 is the run's own estimate.
+  const int members = std::max(1, opt.ensemble);
   std::vector<std::unique_ptr<Pipeline>> pipelines;
-  for (const Preset& p : presets) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
+  for (const Preset& p : presets)
+    for (int k = 0; k < members; ++k) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
   GBuffer current, previous;
   FrameState previousState;
   std::vector<LightTriangle> previousLights;
@@ -208,6 +214,20 @@ RunResult Run(const RunOptions& opt) {
   RunResult result;
   const bool showProgress = opt.progress && ::isatty(STDERR_FILENO);
   const int totalFrames = frameEnd - opt.frameBegin;
+  // Progress bar on stderr (a terminal only): frames done, what the current frame is doing (reference or which
+  // preset), elapsed time and ETA from the mean time of the finished frames of this session.
+  int sessionFrames = 0;
+  auto progress = [&](int done, const std::string& stage) {
+    constexpr int kBar = 24;
+    const int filled = totalFrames > 0 ? done * kBar / totalFrames : kBar;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - tRun).count();
+    const int remaining = totalFrames - done;
+    const std::string eta = sessionFrames > 0 ? FormatDuration(elapsed / sessionFrames * remaining) : "?";
+    std::fprintf(stderr, "\r%s [%s%s] %d/%d frames  %-28s elapsed %s  ETA %s ", seq.name.c_str(),
+                 std::string(filled, '#').c_str(), std::string(kBar - filled, '.').c_str(), done, totalFrames,
+                 stage.c_str(), FormatDuration(elapsed).c_str(), eta.c_str());
+    std::fflush(stderr);
+  };
 
   // Checkpoint (--resume): everything the next frame reads, written after each frame's outputs. Keyed by the
   // configuration (run.json without the volatile fields), so a different run never resumes from it.
@@ -232,7 +252,7 @@ RunResult Run(const RunOptions& opt) {
     for (size_t p = 0; p < presets.size(); ++p) {
       WriteImage(w, previousImages[p]);
       WriteImage(w, accumSum[p]);
-      w.Vector(pipelines[p]->History());
+      for (int k = 0; k < members; ++k) w.Vector(pipelines[p * members + k]->History());
     }
     w.Pod(accumFrames);
     w.Vector(disoccAge);
@@ -272,9 +292,11 @@ RunResult Run(const RunOptions& opt) {
         for (size_t p = 0; p < presets.size(); ++p) {
           ReadImage(r, previousImages[p]);
           ReadImage(r, accumSum[p]);
-          std::vector<Reservoir> history;
-          r.Vector(history);
-          pipelines[p]->RestoreHistory(std::move(history));
+          for (int k = 0; k < members; ++k) {
+            std::vector<Reservoir> history;
+            r.Vector(history);
+            pipelines[p * members + k]->RestoreHistory(std::move(history));
+          }
         }
         r.Pod(accumFrames);
         r.Vector(disoccAge);
@@ -313,7 +335,6 @@ RunResult Run(const RunOptions& opt) {
   }
 
   for (int frame = firstFrame; frame < frameEnd; ++frame) {
-    const auto tFrame = Clock::now();
     const FrameState state = Evaluate(seq, frame, width, height);
     auto t0 = Clock::now();
     scene.Update(state);
@@ -348,10 +369,14 @@ RunResult Run(const RunOptions& opt) {
     const bool stateChanged = !hasPrevious || !SameSceneState(state, previousState);
     accumFrames = stateChanged ? 1 : accumFrames + 1;
     ReferenceImage ref;
+    if (showProgress && opt.reference) progress(frame - opt.frameBegin, "reference");
     if (opt.reference) ref = RenderReference(seq, state, scene, current, refParams);
     const double refRelStdErr = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
 
     for (size_t p = 0; p < presets.size(); ++p) {
+      if (showProgress)
+        progress(frame - opt.frameBegin, presets[p].name + " (" + std::to_string(p + 1) + "/" +
+                                             std::to_string(presets.size()) + ")");
       FrameInputs in;
       in.sequence = &seq;
       in.state = &state;
@@ -366,7 +391,20 @@ RunResult Run(const RunOptions& opt) {
         in.previousGbuffer = &previous;
         in.previousLights = &previousLights;
       }
-      FrameResult fr = pipelines[p]->RenderFrame(in);
+      FrameResult fr = pipelines[p * members]->RenderFrame(in);
+      // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
+      ImageRgb ensembleBias, ensembleVariance;
+      EnsembleStats ens;
+      if (members > 1) {
+        std::vector<ImageRgb> images;
+        images.push_back(fr.image);
+        for (int k = 1; k < members; ++k) {
+          FrameInputs ink = in;
+          ink.seed = seed + static_cast<uint32_t>(k);
+          images.push_back(pipelines[p * members + k]->RenderFrame(ink).image);
+        }
+        if (opt.reference) ens = MeasureEnsemble(images, ref.mean, ref.standardError, ensembleBias, ensembleVariance);
+      }
       if (stateChanged) {
         accumSum[p] = fr.image;
       } else {
@@ -402,13 +440,16 @@ RunResult Run(const RunOptions& opt) {
         row.values.emplace_back(std::string("rays_per_pixel_") + name,
                                 ps ? double(ps->rays) / double(current.Size()) : 0.0);
       }
+      FlipMap flipMap;  // per-pixel HDR-FLIP against the reference (empty without one)
       if (opt.reference) {
         const AccuracyMetrics m = MeasureAccuracy(fr.image, ref.mean);
+        flipMap = HdrFlip(ref.mean, fr.image);
         row.values.emplace_back("rmse", m.rmse);
         row.values.emplace_back("luma_rmse", m.lumaRmse);
         row.values.emplace_back("relmse", m.relmse);
         row.values.emplace_back("luma_ratio", m.lumaRatio);
         row.values.emplace_back("rmspe", m.rmspe);
+        row.values.emplace_back("flip", MeanFlip(flipMap));
         row.values.emplace_back("luma_sum", m.lumaSum);
         row.values.emplace_back("reference_luma_sum", m.referenceLumaSum);
         row.values.emplace_back("reference_rel_stderr", refRelStdErr);
@@ -421,9 +462,19 @@ RunResult Run(const RunOptions& opt) {
         row.values.emplace_back("relmse_disocc", md.relmse);
         row.values.emplace_back("rmspe_disocc", md.rmspe);
         row.values.emplace_back("luma_ratio_disocc", md.pixels ? md.lumaRatio : 1.0);
+        row.values.emplace_back("flip_disocc", MeanFlip(flipMap, &recentMask));
         row.values.emplace_back("accum_frames", accumFrames);
         row.values.emplace_back("accum_rmse", acc.rmse);
         row.values.emplace_back("accum_luma_ratio", acc.lumaRatio);
+        row.values.emplace_back("accum_rmspe", acc.rmspe);
+        if (members > 1) {
+          row.values.emplace_back("ensemble_mse", ens.mse);
+          row.values.emplace_back("ensemble_bias2", ens.bias2);
+          row.values.emplace_back("ensemble_variance", ens.variance);
+          row.values.emplace_back("ensemble_bias2_noise", ens.bias2Noise);
+          row.values.emplace_back("ensemble_luma_ratio", ens.lumaRatio);
+          row.values.emplace_back("ensemble_luma_ratio_stderr", ens.lumaRatioStdError);
+        }
         row.values.emplace_back("flicker", hasPrevious ? Flicker(fr.image, previousImages[p], ref.mean,
                                                                  previousReference)
                                                        : 0.0);
@@ -448,6 +499,9 @@ RunResult Run(const RunOptions& opt) {
         layers.reference = opt.reference ? &ref.mean : nullptr;
         layers.referenceStdError = opt.reference ? &ref.standardError : nullptr;
         layers.gbuffer = &current;
+        layers.flip = opt.reference ? &flipMap.values : nullptr;
+        layers.ensembleBias = ensembleBias.Size() ? &ensembleBias : nullptr;
+        layers.ensembleVariance = ensembleVariance.Size() ? &ensembleVariance : nullptr;
         WriteFrameExr((dir / (std::string(name) + ".exr")).string(), layers);
         WritePreviewPng((dir / (std::string(name) + ".png")).string(), fr.image, layers.reference);
       }
@@ -460,22 +514,18 @@ RunResult Run(const RunOptions& opt) {
     previousLights = scene.LightTriangles();
     if (opt.reference) previousReference = std::move(ref.mean);
     saveCheckpoint(frame + 1);
+    ++sessionFrames;
 
-    if (showProgress) {
-      const int done = frame - opt.frameBegin + 1;
-      const double elapsed = std::chrono::duration<double>(Clock::now() - tRun).count();
-      std::fprintf(stderr, "\r%s: frame %d/%d (%.0f ms)  elapsed %s  ETA %s   ", seq.name.c_str(), done,
-                   totalFrames, MsSince(tFrame), FormatDuration(elapsed).c_str(),
-                   FormatDuration(elapsed / done * (totalFrames - done)).c_str());
-      if (done == totalFrames) std::fprintf(stderr, "\n");
-    }
+    if (showProgress) progress(frame - opt.frameBegin + 1, "done");
   }
+  if (showProgress) std::fprintf(stderr, "\n");
   result.wallSeconds = std::chrono::duration<double>(Clock::now() - tRun).count();
   std::error_code ec;
   std::filesystem::remove(checkpointPath, ec);  // a finished run needs no checkpoint
   runJson["status"] = "complete";
   runJson["wallSeconds"] = result.wallSeconds;
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
+  if (opt.report) WriteReport(opt.outDir);
   return result;
 }
 

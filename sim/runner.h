@@ -25,6 +25,8 @@ struct RunOptions {
   bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
   bool progress = true;                  // progress line on stderr when stderr is a terminal
   bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
+  bool report = true;                    // summary.json and report.html when the run completes
+  int ensemble = 1;                      // K runs per preset with seeds seed..seed+K-1: bias²/variance split
   std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
   std::string commandLine;               // recorded in run.json
 };

@@ -197,6 +197,7 @@ SweepSpec LoadSweep(const std::string& path) {
   if (root.contains("referenceSpp"))
     b.referenceSpp = static_cast<int>(r.Integer(root["referenceSpp"], "/referenceSpp", 1, 1 << 20));
   b.writeImages = false;
+  b.report = false;  // the sweep writes its own reports
 
   std::set<std::string> names;
   auto add = [&](SweepConfig c, const std::string& pointer) {

@@ -90,9 +90,24 @@ TEST(Run, WritesFramesMetricsAndRunRecord) {
     std::set<std::string> channels(spec.channelnames.begin(), spec.channelnames.end());
     for (const char* c : {"R", "G", "B", "reference.R", "reference.G", "reference.B", "reference_stderr.R",
                           "error.R", "error.G", "error.B", "disocclusion.Y", "depth.Z", "normal.X", "normal.Y",
-                          "normal.Z"})
+                          "normal.Z", "flip.Y"})
       EXPECT_TRUE(channels.count(c)) << c;
     EXPECT_EQ(spec.format, OIIO::TypeDesc::FLOAT);
+    // The flip.Y layer is the per-pixel HDR-FLIP map: within [0, 1], and its mean is the row's `flip` column.
+    const int flipChannel = spec.channelindex("flip.Y");
+    ASSERT_GE(flipChannel, 0);
+    std::vector<float> flip(static_cast<size_t>(spec.width) * spec.height);
+    ASSERT_TRUE(in->read_image(0, 0, flipChannel, flipChannel + 1, OIIO::TypeDesc::FLOAT, flip.data()));
+    double flipSum = 0.0;
+    for (float v : flip) {
+      ASSERT_GE(v, 0.0f);
+      ASSERT_LE(v, 1.0f);
+      flipSum += v;
+    }
+    double flipColumn = -1.0;
+    for (const auto& [name, value] : r.rows[f - 1].values)
+      if (name == "flip") flipColumn = value;
+    EXPECT_NEAR(flipColumn, flipSum / double(flip.size()), 1e-9);
     in->close();
     auto pin = OIIO::ImageInput::open(png);
     ASSERT_TRUE(pin);
@@ -102,7 +117,8 @@ TEST(Run, WritesFramesMetricsAndRunRecord) {
   std::string header;
   std::getline(csv, header);
   for (const char* col : {"frame", "preset", "ms_initial", "ms_shade", "ms_reference", "rays", "rmse",
-                          "luma_rmse", "relmse", "luma_ratio", "disocc_fraction", "image_hash"})
+                          "luma_rmse", "relmse", "luma_ratio", "flip", "flip_disocc", "disocc_fraction",
+                          "image_hash"})
     EXPECT_NE(header.find(col), std::string::npos) << col;
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
@@ -124,13 +140,16 @@ TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   RunOptions o = SmokeOptions(out);
   o.frameEnd = 1;
   o.reference = false;
-  restir::Run(o);
+  const RunResult r = restir::Run(o);
+  // Without a reference there is nothing to compare against: no FLIP column, no flip layer.
+  for (const auto& [name, value] : r.rows.at(0).values) EXPECT_EQ(name.rfind("flip", 0), std::string::npos);
   const std::string cmd = "exrheader " + out + "/frames/ris/0000.exr > " + out + "/hdr.txt 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   std::ifstream f(out + "/hdr.txt");
   std::stringstream s;
   s << f.rdbuf();
   EXPECT_NE(s.str().find("disocclusion.Y"), std::string::npos);
+  EXPECT_EQ(s.str().find("flip.Y"), std::string::npos);
   const std::string oiio = "oiiotool --info -v " + out + "/frames/ris/0000.exr > " + out + "/oiio.txt 2>&1";
   ASSERT_EQ(std::system(oiio.c_str()), 0);
   std::ifstream g(out + "/oiio.txt");

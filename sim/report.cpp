@@ -1,0 +1,838 @@
+#include "sim/report.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "sim/atomic_file.h"
+#include "sim/sequence.h"
+
+namespace restir {
+
+namespace fs = std::filesystem;
+
+int MetricsTable::Column(const std::string& name) const {
+  for (size_t i = 0; i < columns.size(); ++i)
+    if (columns[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+const PresetSeries* MetricsTable::Preset(const std::string& name) const {
+  for (const PresetSeries& p : presets)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+namespace {
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+bool ParseDouble(const std::string& s, double& v) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  v = std::strtod(s.c_str(), &end);
+  return end == s.c_str() + s.size();
+}
+
+}  // namespace
+
+MetricsTable ReadMetricsCsv(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path + ": error: cannot open (no metrics.csv: is this a run's output directory?)");
+  MetricsTable t;
+  t.path = path;
+  std::string line;
+  int lineNo = 0;
+  std::vector<std::string> header;
+  int frameCol = -1, presetCol = -1, hashCol = -1;
+  std::vector<int> numericOf;  // file column -> numeric column index, -1 for frame/preset/image_hash
+  std::map<std::string, size_t> presetIndex;
+  std::vector<std::vector<int>> rowLines;  // per preset, the line of each row (for duplicate messages)
+  auto fail = [&](const std::string& what) { throw InputError(path + ":" + std::to_string(lineNo) + ": error: " + what); };
+  while (std::getline(f, line)) {
+    ++lineNo;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (header.empty()) {
+      if (line.empty()) fail("empty header line");
+      header = SplitCsvLine(line);
+      for (size_t i = 0; i < header.size(); ++i) {
+        const std::string& h = header[i];
+        if (h.empty()) fail("empty column name in column " + std::to_string(i + 1));
+        for (size_t j = 0; j < i; ++j)
+          if (header[j] == h) fail("column '" + h + "' appears twice");
+        if (h == "frame") frameCol = static_cast<int>(i);
+        if (h == "preset") presetCol = static_cast<int>(i);
+        if (h == "image_hash") hashCol = static_cast<int>(i);
+        if (h == "frame" || h == "preset" || h == "image_hash") {
+          numericOf.push_back(-1);
+        } else {
+          numericOf.push_back(static_cast<int>(t.columns.size()));
+          t.columns.push_back(h);
+        }
+      }
+      if (frameCol < 0 || presetCol < 0) fail("the header has no 'frame' or no 'preset' column");
+      t.hasImageHash = hashCol >= 0;
+      continue;
+    }
+    if (line.empty()) continue;
+    const std::vector<std::string> fields = SplitCsvLine(line);
+    if (fields.size() != header.size())
+      fail(std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
+    double frameValue = 0.0;
+    if (!ParseDouble(fields[frameCol], frameValue) || frameValue != std::floor(frameValue) || frameValue < 0 ||
+        frameValue > 1e9)
+      fail("column 'frame': '" + fields[frameCol] + "' is not a frame number");
+    const std::string& name = fields[presetCol];
+    if (name.empty()) fail("empty preset name");
+    auto it = presetIndex.find(name);
+    if (it == presetIndex.end()) {
+      it = presetIndex.emplace(name, t.presets.size()).first;
+      PresetSeries s;
+      s.name = name;
+      s.values.resize(t.columns.size());
+      t.presets.push_back(std::move(s));
+      rowLines.emplace_back();
+    }
+    PresetSeries& s = t.presets[it->second];
+    const int frame = static_cast<int>(frameValue);
+    for (size_t r = 0; r < s.frames.size(); ++r)
+      if (s.frames[r] == frame)
+        fail("frame " + std::to_string(frame) + " of preset '" + name + "' already appears on line " +
+             std::to_string(rowLines[it->second][r]));
+    s.frames.push_back(frame);
+    rowLines[it->second].push_back(lineNo);
+    s.imageHashes.push_back(hashCol >= 0 ? fields[hashCol] : std::string());
+    for (size_t i = 0; i < fields.size(); ++i) {
+      if (numericOf[i] < 0) continue;
+      double v = 0.0;
+      if (!ParseDouble(fields[i], v)) fail("column '" + header[i] + "': '" + fields[i] + "' is not a number");
+      s.values[numericOf[i]].push_back(v);
+    }
+  }
+  if (header.empty()) throw InputError(path + ":1: error: empty file (no header)");
+  // Rows in frame order within each preset (the runner writes them so; a hand-made file need not).
+  for (PresetSeries& s : t.presets) {
+    std::vector<size_t> order(s.frames.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return s.frames[a] < s.frames[b]; });
+    PresetSeries sorted;
+    sorted.name = s.name;
+    sorted.values.resize(s.values.size());
+    for (size_t i : order) {
+      sorted.frames.push_back(s.frames[i]);
+      sorted.imageHashes.push_back(s.imageHashes[i]);
+      for (size_t c = 0; c < s.values.size(); ++c) sorted.values[c].push_back(s.values[c][i]);
+    }
+    s = std::move(sorted);
+  }
+  return t;
+}
+
+namespace {
+
+double Mean(const std::vector<double>& v) {
+  if (v.empty()) return NAN;
+  double s = 0.0;
+  for (double x : v) s += x;
+  return s / static_cast<double>(v.size());
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+Recovery ComputeRecovery(const std::vector<int>& frames, const std::vector<double>& disoccRecent,
+                         const std::vector<double>& relmse, const std::vector<double>& relmseDisocc) {
+  Recovery r;
+  // The first row has no previous frame: every pixel is new there, although no disocclusion is recorded.
+  const size_t first = frames.size() > 1 ? 1 : 0;
+  std::vector<double> steady;
+  for (size_t i = first; i < frames.size(); ++i)
+    if (!(disoccRecent[i] > 0.0)) steady.push_back(relmse[i]);
+  if (steady.empty()) {
+    steady.assign(relmse.begin() + first, relmse.end());
+    r.steadyFromAllFrames = true;
+  }
+  r.steadyRelmse = Median(steady);
+  const double threshold = 2.0 * r.steadyRelmse;
+  for (size_t i = 0; i < frames.size();) {
+    if (!(disoccRecent[i] > 0.0)) {
+      ++i;
+      continue;
+    }
+    RecoveryWindow w;
+    w.startFrame = frames[i];
+    size_t j = i;
+    while (j < frames.size() && disoccRecent[j] > 0.0 && (j == i || frames[j] == frames[j - 1] + 1)) {
+      if (w.framesToRecover < 0 && relmseDisocc[j] <= threshold) w.framesToRecover = static_cast<int>(j - i);
+      ++j;
+    }
+    w.length = static_cast<int>(j - i);
+    r.windows.push_back(w);
+    i = j;
+  }
+  return r;
+}
+
+const std::vector<std::string>& ReportPlotMetrics() {
+  static const std::vector<std::string> kMetrics = {
+      "relmse",         "luma_rmse",           "rmspe",           "flip",
+      "luma_ratio",     "flicker",             "stability_luma_rmse", "accum_rmse",
+      "relmse_disocc",  "flip_disocc",         "ms_frame",        "temporal_acceptance",
+      "disocc_fraction", "disocc_recent_fraction", "mean_confidence"};
+  return kMetrics;
+}
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// JSON number, or null when not finite (JSON has no NaN).
+Json Num(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+std::string Fmt(double v, const char* f = "%.4g") {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), f, v);
+  return buf;
+}
+
+std::string Escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      case '\'': o += "&#39;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+// Percent-encodes a path component for a relative URL (preset names are identifiers, but be safe).
+std::string UrlPath(const std::string& s) {
+  std::string o;
+  for (unsigned char c : s) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '/') {
+      o += static_cast<char>(c);
+    } else {
+      char buf[4];
+      std::snprintf(buf, sizeof(buf), "%%%02X", c);
+      o += buf;
+    }
+  }
+  return o;
+}
+
+std::string FrameName(int frame) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%04d", frame);
+  return buf;
+}
+
+// Everything summary.json and the summary table say about one preset.
+struct PresetSummary {
+  std::string name;
+  int rows = 0;
+  std::vector<double> means;          // per numeric column
+  int postRevealRows = 0;
+  std::vector<std::pair<std::string, double>> postReveal;  // *_disocc column -> mean over post-reveal rows
+  bool hasRecovery = false;
+  Recovery recovery;
+  double secondsPerFrame = NAN;
+  double efficiency = NAN;
+  double lumaRatioAccumulated = NAN;
+};
+
+double ColumnMean(const MetricsTable& t, const PresetSummary& s, const std::string& name) {
+  const int c = t.Column(name);
+  return c < 0 ? NAN : s.means[c];
+}
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+PresetSummary Summarize(const MetricsTable& t, const PresetSeries& p) {
+  PresetSummary s;
+  s.name = p.name;
+  s.rows = static_cast<int>(p.frames.size());
+  for (const auto& col : p.values) s.means.push_back(Mean(col));
+  const int recent = t.Column("disocc_recent_fraction");
+  if (recent >= 0) {
+    std::vector<size_t> post;
+    for (size_t i = 0; i < p.frames.size(); ++i)
+      if (p.values[recent][i] > 0.0) post.push_back(i);
+    s.postRevealRows = static_cast<int>(post.size());
+    for (size_t c = 0; c < t.columns.size(); ++c) {
+      if (!EndsWith(t.columns[c], "_disocc")) continue;
+      double sum = 0.0;
+      for (size_t i : post) sum += p.values[c][i];
+      s.postReveal.emplace_back(t.columns[c], post.empty() ? NAN : sum / static_cast<double>(post.size()));
+    }
+    const int relmse = t.Column("relmse"), relmseDisocc = t.Column("relmse_disocc");
+    if (relmse >= 0 && relmseDisocc >= 0 && !p.frames.empty()) {
+      s.hasRecovery = true;
+      s.recovery = ComputeRecovery(p.frames, p.values[recent], p.values[relmse], p.values[relmseDisocc]);
+    }
+  }
+  const double msFrame = ColumnMean(t, s, "ms_frame");
+  s.secondsPerFrame = msFrame / 1000.0;
+  const double relmse = ColumnMean(t, s, "relmse");
+  if (relmse > 0.0 && s.secondsPerFrame > 0.0) s.efficiency = 1.0 / (relmse * s.secondsPerFrame);
+  const int luma = t.Column("luma_sum"), refLuma = t.Column("reference_luma_sum");
+  if (luma >= 0 && refLuma >= 0) {
+    double a = 0.0, b = 0.0;
+    for (size_t i = 0; i < p.frames.size(); ++i) {
+      a += p.values[luma][i];
+      b += p.values[refLuma][i];
+    }
+    if (b > 0.0) s.lumaRatioAccumulated = a / b;
+  }
+  return s;
+}
+
+double RecoveryMean(const Recovery& r, int& recovered) {
+  recovered = 0;
+  double sum = 0.0;
+  for (const RecoveryWindow& w : r.windows)
+    if (w.framesToRecover >= 0) {
+      ++recovered;
+      sum += w.framesToRecover;
+    }
+  return recovered ? sum / recovered : NAN;
+}
+
+const char* kRecoveryDefinition =
+    "A post-reveal window is a maximal run of consecutive frames with disocc_recent_fraction > 0; its first frame "
+    "is the reveal. The steady level is the median relmse over frames with disocc_recent_fraction == 0, leaving out "
+    "the run's first frame (it has no history: every pixel is new there); over all frames but the first when there "
+    "are none. A window's frames_to_recover is the number of frames from the reveal to the "
+    "first frame of the window whose relmse_disocc <= 2 x steady level (0: already at the reveal frame); null when "
+    "no frame of the window gets there (censored: the mask emptied or the run ended first).";
+
+Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, const Json& run) {
+  Json j;
+  j["sequence"] = run.contains("sequence") && run["sequence"].contains("name") ? run["sequence"]["name"] : Json(nullptr);
+  j["metrics"] = "metrics.csv";
+  j["definitions"] = {
+      {"mean", "mean over the preset's frames of each numeric metrics.csv column"},
+      {"post_reveal", "mean of each *_disocc column over the frames with disocc_recent_fraction > 0"},
+      {"recovery", kRecoveryDefinition},
+      {"seconds_per_frame", "mean ms_frame / 1000"},
+      {"efficiency", "1 / (mean relmse * seconds_per_frame)"},
+      {"luma_ratio_accumulated", "sum of luma_sum / sum of reference_luma_sum over the frames"}};
+  Json presets = Json::object();
+  for (const PresetSummary& s : sums) {
+    Json p;
+    p["frames"] = s.rows;
+    Json mean = Json::object();
+    for (size_t c = 0; c < t.columns.size(); ++c) mean[t.columns[c]] = Num(s.means[c]);
+    p["mean"] = mean;
+    if (t.Column("disocc_recent_fraction") >= 0) {
+      Json post = Json::object();
+      post["frames"] = s.postRevealRows;
+      Json pm = Json::object();
+      for (const auto& [name, v] : s.postReveal) pm[name] = Num(v);
+      post["mean"] = pm;
+      p["post_reveal"] = post;
+    } else {
+      p["post_reveal"] = nullptr;
+    }
+    if (s.hasRecovery) {
+      Json rec;
+      rec["steady_relmse"] = Num(s.recovery.steadyRelmse);
+      rec["steady_from_all_frames"] = s.recovery.steadyFromAllFrames;
+      rec["threshold_relmse_disocc"] = Num(2.0 * s.recovery.steadyRelmse);
+      Json windows = Json::array();
+      for (const RecoveryWindow& w : s.recovery.windows)
+        windows.push_back({{"reveal_frame", w.startFrame},
+                           {"frames", w.length},
+                           {"frames_to_recover", w.framesToRecover >= 0 ? Json(w.framesToRecover) : Json(nullptr)}});
+      rec["windows"] = windows;
+      int recovered = 0;
+      const double m = RecoveryMean(s.recovery, recovered);
+      rec["recovered_windows"] = recovered;
+      rec["mean_frames_to_recover"] = Num(m);
+      p["recovery"] = rec;
+    } else {
+      p["recovery"] = nullptr;
+    }
+    p["seconds_per_frame"] = Num(s.secondsPerFrame);
+    p["efficiency"] = Num(s.efficiency);
+    p["luma_ratio_accumulated"] = Num(s.lumaRatioAccumulated);
+    presets[s.name] = p;
+  }
+  j["presets"] = presets;
+  return j;
+}
+
+// ---- plots ----
+
+const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                          "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+constexpr int kPaletteSize = 10;
+
+double NiceStep(double range, int targetTicks) {
+  if (!(range > 0.0) || !std::isfinite(range)) return 1.0;
+  const double raw = range / targetTicks;
+  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+  const double f = raw / mag;
+  const double nice = f < 1.5 ? 1.0 : f < 3.0 ? 2.0 : f < 7.0 ? 5.0 : 10.0;
+  return nice * mag;
+}
+
+std::string TickLabel(double v, double step) {
+  if (std::fabs(v) < step * 1e-9) v = 0.0;
+  char buf[64];
+  const double a = std::fabs(v);
+  if (v != 0.0 && (a >= 1e5 || a < 1e-3))
+    std::snprintf(buf, sizeof(buf), "%.2g", v);
+  else {
+    const int decimals = std::max(0, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
+    std::snprintf(buf, sizeof(buf), "%.*f", std::min(decimals, 6), v);
+  }
+  return buf;
+}
+
+std::string Coord(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.1f", v);
+  return buf;
+}
+
+std::string SvgPlot(const MetricsTable& t, const std::string& metric) {
+  const int c = t.Column(metric);
+  constexpr double W = 600, H = 250, left = 64, right = 150, top = 26, bottom = 36;
+  const double pw = W - left - right, ph = H - top - bottom;
+  double xmin = INFINITY, xmax = -INFINITY, ymin = 0.0, ymax = -INFINITY;
+  for (const PresetSeries& p : t.presets)
+    for (size_t i = 0; i < p.frames.size(); ++i) {
+      const double v = p.values[c][i];
+      if (!std::isfinite(v)) continue;
+      xmin = std::min(xmin, double(p.frames[i]));
+      xmax = std::max(xmax, double(p.frames[i]));
+      ymin = std::min(ymin, v);
+      ymax = std::max(ymax, v);
+    }
+  if (!std::isfinite(xmin)) xmin = 0, xmax = 1;
+  if (xmax <= xmin) xmin -= 0.5, xmax += 0.5;
+  if (!std::isfinite(ymax) || ymax <= ymin) ymax = ymin + 1.0;
+  const double ystep = NiceStep(ymax - ymin, 5);
+  ymin = std::floor(ymin / ystep) * ystep;
+  ymax = std::ceil(ymax / ystep) * ystep;
+  const double xstep = std::max(1.0, NiceStep(xmax - xmin, 8));
+  auto X = [&](double x) { return left + (x - xmin) / (xmax - xmin) * pw; };
+  auto Y = [&](double y) { return top + ph - (y - ymin) / (ymax - ymin) * ph; };
+
+  std::ostringstream o;
+  o << "<svg class=\"plot\" data-metric=\"" << Escape(metric) << "\" xmlns=\"http://www.w3.org/2000/svg\" width=\""
+    << W << "\" height=\"" << H << "\" viewBox=\"0 0 " << W << " " << H << "\" role=\"img\" aria-label=\""
+    << Escape(metric) << " per frame\">\n";
+  o << "<text x=\"" << left << "\" y=\"16\" class=\"title\">" << Escape(metric) << "</text>\n";
+  // Grid, ticks and labels.
+  for (double y = ymin; y <= ymax + ystep * 1e-6; y += ystep) {
+    const std::string py = Coord(Y(y));
+    o << "<line class=\"grid\" x1=\"" << left << "\" y1=\"" << py << "\" x2=\"" << left + pw << "\" y2=\"" << py
+      << "\"/><text class=\"tick\" x=\"" << left - 4 << "\" y=\"" << py << "\" text-anchor=\"end\" dy=\"0.32em\">"
+      << TickLabel(y, ystep) << "</text>\n";
+  }
+  for (double x = std::ceil(xmin / xstep) * xstep; x <= xmax + 1e-9; x += xstep) {
+    const std::string px = Coord(X(x));
+    o << "<line class=\"axis\" x1=\"" << px << "\" y1=\"" << top + ph << "\" x2=\"" << px << "\" y2=\"" << top + ph + 4
+      << "\"/><text class=\"tick\" x=\"" << px << "\" y=\"" << top + ph + 15 << "\" text-anchor=\"middle\">"
+      << TickLabel(x, xstep) << "</text>\n";
+  }
+  o << "<line class=\"axis\" x1=\"" << left << "\" y1=\"" << top + ph << "\" x2=\"" << left + pw << "\" y2=\""
+    << top + ph << "\"/><line class=\"axis\" x1=\"" << left << "\" y1=\"" << top << "\" x2=\"" << left << "\" y2=\""
+    << top + ph << "\"/>\n";
+  o << "<text class=\"tick\" x=\"" << left + pw / 2 << "\" y=\"" << H - 4 << "\" text-anchor=\"middle\">frame</text>\n";
+  // One polyline per preset, legend on the right.
+  for (size_t k = 0; k < t.presets.size(); ++k) {
+    const PresetSeries& p = t.presets[k];
+    const char* colour = kPalette[k % kPaletteSize];
+    o << "<polyline fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"1.5\" data-preset=\"" << Escape(p.name)
+      << "\" points=\"";
+    bool first = true;
+    int finite = 0;
+    for (size_t i = 0; i < p.frames.size(); ++i) {
+      const double v = p.values[c][i];
+      if (!std::isfinite(v)) continue;
+      o << (first ? "" : " ") << Coord(X(p.frames[i])) << "," << Coord(Y(v));
+      first = false;
+      ++finite;
+    }
+    o << "\"/>\n";
+    if (finite == 1)  // a single point draws no line: mark it
+      for (size_t i = 0; i < p.frames.size(); ++i)
+        if (std::isfinite(p.values[c][i]))
+          o << "<circle cx=\"" << Coord(X(p.frames[i])) << "\" cy=\"" << Coord(Y(p.values[c][i]))
+            << "\" r=\"2.5\" fill=\"" << colour << "\"/>\n";
+    const double ly = top + 8 + 15.0 * k;
+    o << "<line x1=\"" << W - right + 10 << "\" y1=\"" << Coord(ly) << "\" x2=\"" << W - right + 28 << "\" y2=\""
+      << Coord(ly) << "\" stroke=\"" << colour << "\" stroke-width=\"2\"/><text class=\"legend\" x=\""
+      << W - right + 32 << "\" y=\"" << Coord(ly) << "\" dy=\"0.32em\">" << Escape(p.name) << "</text>\n";
+  }
+  o << "</svg>\n";
+  return o.str();
+}
+
+// ---- images ----
+
+// Polynomial fits of matplotlib's colour maps (Matt Zucker, CC0): t in [0, 1] -> linear 0..1 sRGB-encoded RGB.
+struct Rgb {
+  double r, g, b;
+};
+Rgb Poly(const double c[7][3], double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  Rgb o{0, 0, 0};
+  double* out[3] = {&o.r, &o.g, &o.b};
+  for (int ch = 0; ch < 3; ++ch) {
+    double v = c[6][ch];
+    for (int k = 5; k >= 0; --k) v = c[k][ch] + t * v;
+    *out[ch] = std::clamp(v, 0.0, 1.0);
+  }
+  return o;
+}
+const double kMagma[7][3] = {{-0.002136485053939582, -0.000749655052795221, -0.005386127855323933},
+                             {0.2516605407371642, 0.6775232436837668, 2.494026599312351},
+                             {8.353717279216625, -3.577719514958484, 0.3144679030132573},
+                             {-27.66873308576866, 14.26473078096533, -13.64921318813922},
+                             {52.17613981234068, -27.94360607168351, 12.94416944238394},
+                             {-50.76852536473588, 29.04658282127291, 4.23415299384598},
+                             {18.65570506591883, -11.48977351997711, -5.601961508734096}};
+const double kInferno[7][3] = {{0.0002189403691192265, 0.001651004631001012, -0.01948089843709184},
+                               {0.1065134194856116, 0.5639564367884091, 3.932712388889277},
+                               {11.60249308247187, -3.972853965665698, -15.9423941062914},
+                               {-41.70399613139459, 17.43639888205313, 44.35414519872813},
+                               {77.162935699427, -33.40235894210092, -81.80730925738993},
+                               {-71.31942824499214, 32.62606426397723, 73.20951985803202},
+                               {25.13112622477341, -12.24266895238567, -23.07032500287172}};
+
+std::string CssGradient(const double c[7][3]) {
+  std::string s = "linear-gradient(to right";
+  for (int i = 0; i <= 8; ++i) {
+    const Rgb v = Poly(c, i / 8.0);
+    char buf[48];
+    std::snprintf(buf, sizeof(buf), ", rgb(%d,%d,%d)", int(std::lround(v.r * 255)), int(std::lround(v.g * 255)),
+                  int(std::lround(v.b * 255)));
+    s += buf;
+  }
+  return s + ")";
+}
+
+void WritePng(const std::string& path, int w, int h, const std::vector<unsigned char>& rgb) {
+  WriteViaTemporary(path, [&](const std::string& tmp) {
+    auto out = OIIO::ImageOutput::create(tmp);
+    if (!out) throw std::runtime_error("cannot create " + tmp + ": " + OIIO::geterror());
+    OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+      throw std::runtime_error("cannot write " + tmp + ": " + out->geterror());
+  });
+}
+
+// The heat maps generated from one frame's EXR (empty paths when the EXR lacks the layers).
+struct FrameMaps {
+  std::string error;  // relative path of the error heat map, or ""
+  std::string flip;   // relative path of the FLIP map, or ""
+};
+
+FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, int frame) {
+  FrameMaps maps;
+  const std::string exr = (fs::path(outDir) / "frames" / preset / (FrameName(frame) + ".exr")).string();
+  if (!fs::exists(exr)) return maps;
+  auto in = OIIO::ImageInput::open(exr);
+  if (!in) return maps;  // unreadable frame: the strip shows the preview only
+  const OIIO::ImageSpec spec = in->spec();
+  const int w = spec.width, h = spec.height, nc = spec.nchannels;
+  std::vector<float> px(static_cast<size_t>(w) * h * nc);
+  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data())) return maps;
+  in->close();
+  auto channel = [&](const char* name) {
+    for (int i = 0; i < nc; ++i)
+      if (spec.channelnames[i] == name) return i;
+    return -1;
+  };
+  const int er[3] = {channel("error.R"), channel("error.G"), channel("error.B")};
+  const int rr[3] = {channel("reference.R"), channel("reference.G"), channel("reference.B")};
+  const int fl = channel("flip.Y");
+  const std::string rel = "report_images/" + preset + "/" + FrameName(frame);
+  std::vector<unsigned char> rgb(static_cast<size_t>(w) * h * 3);
+  auto put = [&](size_t i, const Rgb& c) {
+    rgb[3 * i + 0] = static_cast<unsigned char>(std::lround(c.r * 255.0));
+    rgb[3 * i + 1] = static_cast<unsigned char>(std::lround(c.g * 255.0));
+    rgb[3 * i + 2] = static_cast<unsigned char>(std::lround(c.b * 255.0));
+  };
+  if (er[0] >= 0 && er[1] >= 0 && er[2] >= 0 && rr[0] >= 0 && rr[1] >= 0 && rr[2] >= 0) {
+    // Per pixel, the square root of the pixel's relmse term, sqrt(mean_c e_c^2 / (R_c^2 + 0.01)), 0..1.
+    for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
+      double s = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const double e = px[i * nc + er[k]], r = px[i * nc + rr[k]];
+        s += e * e / (r * r + 0.01);
+      }
+      const double v = std::sqrt(s / 3.0);
+      put(i, Poly(kInferno, std::isfinite(v) ? v : 1.0));
+    }
+    WritePng((fs::path(outDir) / (rel + "_error.png")).string(), w, h, rgb);
+    maps.error = rel + "_error.png";
+  }
+  if (fl >= 0) {
+    for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
+      const double v = px[i * nc + fl];
+      put(i, Poly(kMagma, std::isfinite(v) ? v : 1.0));
+    }
+    WritePng((fs::path(outDir) / (rel + "_flip.png")).string(), w, h, rgb);
+    maps.flip = rel + "_flip.png";
+  }
+  return maps;
+}
+
+std::vector<int> ChosenFrames(const MetricsTable& t) {
+  std::vector<int> all;
+  for (const PresetSeries& p : t.presets) all.insert(all.end(), p.frames.begin(), p.frames.end());
+  std::sort(all.begin(), all.end());
+  all.erase(std::unique(all.begin(), all.end()), all.end());
+  std::vector<int> chosen;
+  if (all.empty()) return chosen;
+  for (int f : {all.front(), all[all.size() / 2], all.back()})
+    if (std::find(chosen.begin(), chosen.end(), f) == chosen.end()) chosen.push_back(f);
+  return chosen;
+}
+
+// ---- run.json ----
+
+struct RunInfo {
+  bool present = false;
+  std::string text;  // the file as written
+  Json json;
+};
+
+RunInfo ReadRunJson(const std::string& path) {
+  RunInfo info;
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return info;
+  std::stringstream ss;
+  ss << f.rdbuf();
+  info.text = ss.str();
+  info.present = true;
+  try {
+    info.json = Json::parse(info.text);
+  } catch (const nlohmann::json::parse_error& e) {
+    int line = 1;
+    for (size_t i = 0; i < std::min<size_t>(e.byte, info.text.size()); ++i)
+      if (info.text[i] == '\n') ++line;
+    throw InputError(path + ":" + std::to_string(line) + ": error: not valid JSON (" + e.what() + ")");
+  }
+  if (!info.json.is_object()) throw InputError(path + ":1: error: run.json is not a JSON object");
+  return info;
+}
+
+std::string JsonText(const Json& j) {
+  if (j.is_string()) return j.get<std::string>();
+  if (j.is_null()) return "—";
+  return j.dump();
+}
+
+// ---- HTML ----
+
+const char* kCss = R"(body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1300px}
+h1{font-size:1.5em;margin-bottom:4px}h2{font-size:1.2em;margin-top:28px;border-bottom:1px solid #ccc}
+table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:3px 7px}th{background:#f2f2f2}
+td.num{text-align:right;font-variant-numeric:tabular-nums}pre{background:#f7f7f7;padding:8px;font-size:11px;max-height:320px;overflow:auto}
+.plots{display:flex;flex-wrap:wrap;gap:8px}svg.plot{background:#fff;border:1px solid #ddd}
+svg .title{font-size:13px;font-weight:600}svg .tick,svg .legend{font-size:10px;fill:#333}
+svg .grid{stroke:#e6e6e6}svg .axis{stroke:#555}
+.strip td{vertical-align:top}.strip img{image-rendering:pixelated;display:block;max-width:360px;height:auto}
+.bar{display:inline-block;width:160px;height:10px;vertical-align:middle;border:1px solid #999}
+.note{font-size:13px;color:#444})";
+
+std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, const RunInfo& run,
+                 const std::string& outDir, bool writeImages) {
+  std::ostringstream o;
+  const std::string seqName = run.present && run.json.contains("sequence") && run.json["sequence"].is_object() &&
+                                      run.json["sequence"].contains("name")
+                                  ? JsonText(run.json["sequence"]["name"])
+                                  : std::string("(unknown sequence: no run.json)");
+  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>ReSTIR Sim report: "
+    << Escape(seqName) << "</title>\n<style>\n" << kCss << "\n</style>\n</head>\n<body>\n";
+  o << "<h1>ReSTIR Sim report: " << Escape(seqName) << "</h1>\n";
+  o << "<p class=\"note\">" << t.presets.size() << " preset(s); metrics from <code>metrics.csv</code>, summary in "
+    << "<code>summary.json</code>; every column is defined in the project's <code>docs/metrics.md</code>.</p>\n";
+
+  // Configuration.
+  o << "<h2 id=\"configuration\">Configuration</h2>\n";
+  if (run.present) {
+    const Json& j = run.json;
+    auto get = [&](std::initializer_list<const char*> keys) -> Json {
+      const Json* cur = &j;
+      for (const char* k : keys) {
+        if (!cur->is_object() || !cur->contains(k)) return Json(nullptr);
+        cur = &(*cur)[k];
+      }
+      return *cur;
+    };
+    const std::pair<const char*, Json> rows[] = {
+        {"sequence", get({"sequence", "path"})},
+        {"sequence content hash", get({"sequence", "contentHash"})},
+        {"frames [begin, end)", get({"frames"})},
+        {"resolution", get({"resolution"})},
+        {"seed", get({"seed"})},
+        {"reference spp", get({"reference", "samplesPerPixel"})},
+        {"threads", get({"threads"})},
+        {"overrides (--set)", get({"overrides"})},
+        {"program version", get({"version"})},
+        {"status", get({"status"})},
+        {"command line", get({"commandLine"})}};
+    o << "<table class=\"config\">\n";
+    for (const auto& [k, v] : rows)
+      o << "<tr><th>" << Escape(k) << "</th><td><code>" << Escape(JsonText(v)) << "</code></td></tr>\n";
+    o << "</table>\n<p class=\"note\">The exact configuration, <code>run.json</code> as written (every preset's "
+         "resolved settings):</p>\n<pre id=\"run-json\">"
+      << Escape(run.text) << "</pre>\n";
+  } else {
+    o << "<p class=\"note\">No <code>run.json</code> beside <code>metrics.csv</code>: configuration unknown.</p>\n";
+  }
+
+  // Summary table.
+  const bool hasFlip = t.Column("flip") >= 0;
+  o << "<h2 id=\"summary\">Summary (means over frames)</h2>\n<table class=\"summary\">\n<tr><th>preset</th>"
+       "<th>frames</th><th>relmse</th><th>luma_rmse</th><th>rmspe</th>";
+  if (hasFlip) o << "<th>flip</th>";
+  o << "<th>luma ratio Σ</th><th>flicker</th><th>stability</th><th>accum_rmse</th>"
+       "<th>relmse_disocc (post-reveal)</th><th>recovery (frames)</th><th>ms/frame</th>"
+       "<th>efficiency 1/(relmse·s)</th></tr>\n";
+  for (const PresetSummary& s : sums) {
+    auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
+    o << "<tr class=\"summary-row\" data-preset=\"" << Escape(s.name) << "\"><td>" << Escape(s.name) << "</td>";
+    o << "<td class=\"num\">" << s.rows << "</td>";
+    cell(ColumnMean(t, s, "relmse"));
+    cell(ColumnMean(t, s, "luma_rmse"));
+    cell(ColumnMean(t, s, "rmspe"));
+    if (hasFlip) cell(ColumnMean(t, s, "flip"));
+    cell(s.lumaRatioAccumulated);
+    cell(ColumnMean(t, s, "flicker"));
+    cell(ColumnMean(t, s, "stability_luma_rmse"));
+    cell(ColumnMean(t, s, "accum_rmse"));
+    double postDisocc = NAN;
+    for (const auto& [n, v] : s.postReveal)
+      if (n == "relmse_disocc") postDisocc = v;
+    cell(postDisocc);
+    std::string rec = "n/a";
+    if (s.hasRecovery) {
+      int recovered = 0;
+      const double m = RecoveryMean(s.recovery, recovered);
+      const size_t n = s.recovery.windows.size();
+      if (n == 0)
+        rec = "no reveal";
+      else if (recovered == 0)
+        rec = "not within window (" + std::to_string(n) + (n == 1 ? " reveal)" : " reveals)");
+      else
+        rec = Fmt(m, "%.3g") + " (" + std::to_string(recovered) + " of " + std::to_string(n) +
+              (n == 1 ? " reveal)" : " reveals)");
+    }
+    o << "<td class=\"num\">" << Escape(rec) << "</td>";
+    cell(ColumnMean(t, s, "ms_frame"));
+    cell(s.efficiency);
+    o << "</tr>\n";
+  }
+  o << "</table>\n";
+  o << "<p class=\"note\">luma ratio Σ = Σ luma_sum / Σ reference_luma_sum over the frames; relmse_disocc "
+       "(post-reveal) is its mean over frames with disocc_recent_fraction &gt; 0; recovery: mean over reveals of the "
+       "frames from a reveal until relmse_disocc ≤ 2 × the steady relmse (median relmse over frames without recent "
+       "disocclusion, the first frame left out), counting only reveals that recover within their window; efficiency = 1 / (mean relmse · mean "
+       "ms_frame / 1000).";
+  if (const int refc = t.Column("reference_rel_stderr"); refc >= 0 && !sums.empty()) {
+    const double rs = sums.front().means[refc];
+    o << " The reference's own mean relative standard error is " << Fmt(rs)
+      << ": a relmse below about its square (" << Fmt(rs * rs) << ") is within the reference's noise.";
+  }
+  o << "</p>\n";
+
+  // Plots.
+  o << "<h2 id=\"plots\">Per-frame metrics</h2>\n<div class=\"plots\">\n";
+  for (const std::string& m : ReportPlotMetrics())
+    if (t.Column(m) >= 0) o << SvgPlot(t, m);
+  o << "</div>\n";
+
+  // Image strips.
+  o << "<h2 id=\"images\">Images</h2>\n";
+  if (!writeImages) {
+    o << "<p class=\"note\">No frames were written (<code>--no-images</code>): no image strips.</p>\n";
+  } else {
+    o << "<p class=\"note\">Preview: estimate (left) beside reference (right), one exposure. Error: per pixel "
+         "sqrt(mean over RGB of (I − R)² / (R² + 0.01)), 0 <span class=\"bar\" style=\"background:"
+      << CssGradient(kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
+      << CssGradient(kMagma) << "\"></span> 1.</p>\n";
+    for (int frame : ChosenFrames(t)) {
+      o << "<h3>Frame " << frame << "</h3>\n<table class=\"strip\">\n<tr><th>preset</th><th>preview</th>"
+           "<th>error</th><th>FLIP</th></tr>\n";
+      for (const PresetSeries& p : t.presets) {
+        if (std::find(p.frames.begin(), p.frames.end(), frame) == p.frames.end()) continue;
+        const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
+        const bool hasPreview = fs::exists(fs::path(outDir) / preview);
+        const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame);
+        auto img = [&](const std::string& rel, const std::string& alt) {
+          if (rel.empty()) {
+            o << "<td class=\"note\">—</td>";
+            return;
+          }
+          o << "<td><img src=\"" << Escape(UrlPath(rel)) << "\" alt=\"" << Escape(alt) << "\" width=\"360\"></td>";
+        };
+        o << "<tr><td>" << Escape(p.name) << "</td>";
+        img(hasPreview ? preview : "", p.name + " frame " + std::to_string(frame) + " estimate and reference");
+        img(maps.error, p.name + " frame " + std::to_string(frame) + " error heat map");
+        img(maps.flip, p.name + " frame " + std::to_string(frame) + " FLIP map");
+        o << "</tr>\n";
+      }
+      o << "</table>\n";
+    }
+  }
+  o << "</body>\n</html>\n";
+  return o.str();
+}
+
+}  // namespace
+
+void WriteReport(const std::string& outDir) {
+  std::error_code ec;
+  if (!fs::is_directory(outDir, ec)) throw InputError(outDir + ": error: not a directory (expected a run's output directory)");
+  const MetricsTable t = ReadMetricsCsv((fs::path(outDir) / "metrics.csv").string());
+  const RunInfo run = ReadRunJson((fs::path(outDir) / "run.json").string());
+  std::vector<PresetSummary> sums;
+  for (const PresetSeries& p : t.presets) sums.push_back(Summarize(t, p));
+  const bool writeImages = fs::is_directory(fs::path(outDir) / "frames", ec);
+  const std::string html = Html(t, sums, run, outDir, writeImages);
+  WriteFileAtomic((fs::path(outDir) / "summary.json").string(), SummaryJson(t, sums, run.json).dump(2) + "\n");
+  WriteFileAtomic((fs::path(outDir) / "report.html").string(), html);
+}
+
+}  // namespace restir
