@@ -363,6 +363,8 @@ RunResult Run(const RunOptions& opt) {
     std::vector<uint8_t> recentMask(current.Size());
     for (size_t i = 0; i < current.Size(); ++i) recentMask[i] = disoccAge[i] < kDisoccWindow;
     const double recentFraction = MaskFraction(recentMask);
+    std::vector<uint8_t> restMask(current.Size());  // the complement: pixels not revealed in the last 4 frames
+    for (size_t i = 0; i < current.Size(); ++i) restMask[i] = !recentMask[i];
     const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
 
     const bool hasPrevious = frame > opt.frameBegin;  // true after a resume too: the checkpoint restored it
@@ -463,6 +465,13 @@ RunResult Run(const RunOptions& opt) {
         row.values.emplace_back("rmspe_disocc", md.rmspe);
         row.values.emplace_back("luma_ratio_disocc", md.pixels ? md.lumaRatio : 1.0);
         row.values.emplace_back("flip_disocc", MeanFlip(flipMap, &recentMask));
+        const AccuracyMetrics mr = MeasureAccuracy(fr.image, ref.mean, &restMask);
+        row.values.emplace_back("rmse_rest", mr.rmse);
+        row.values.emplace_back("luma_rmse_rest", mr.lumaRmse);
+        row.values.emplace_back("relmse_rest", mr.relmse);
+        row.values.emplace_back("rmspe_rest", mr.rmspe);
+        row.values.emplace_back("luma_ratio_rest", mr.pixels ? mr.lumaRatio : 1.0);
+        row.values.emplace_back("flip_rest", MeanFlip(flipMap, &restMask));
         row.values.emplace_back("accum_frames", accumFrames);
         row.values.emplace_back("accum_rmse", acc.rmse);
         row.values.emplace_back("accum_luma_ratio", acc.lumaRatio);
