@@ -1,12 +1,15 @@
 // Microbenchmarks of the resampling kernels (DESIGN §9): items are pixels.
 #include <benchmark/benchmark.h>
 
+#include <string>
 #include <vector>
 
 #include "core/gris.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
+#include "core/ris_kernel.h"
 #include "core/rng.h"
+#include "core/simd.h"
 #include "core/shading.h"
 
 namespace restir {
@@ -50,6 +53,82 @@ void BM_InitialRis(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_InitialRis);
+
+// The initial-sampling kernel (core/ris_kernel.h) on one SIMD target per benchmark, scalar twin included: a row
+// of 1920 receivers on a floor under the 72 grid lights, M = 32, materials in runs of 40 pixels (two diffuse
+// runs, then a GGX one), every pixel active. Items are pixels.
+void BM_RisKernel(benchmark::State& state, SimdTarget target) {
+  const std::vector<LightTriangle> lights = GridLights(72);
+  const LightSampler sampler(lights, LightSelection::kPower);
+  std::vector<Bsdf> bsdfs(3);
+  bsdfs[0].albedo = Vec3(0.6f);
+  bsdfs[1].albedo = Vec3(0.3f, 0.5f, 0.7f);
+  bsdfs[2].type = BsdfType::kGgx;
+  bsdfs[2].albedo = Vec3(0.9f, 0.8f, 0.6f);
+  bsdfs[2].alpha = 0.09f;
+  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const size_t n = 1920;
+  std::vector<float> in[12];
+  for (auto& v : in) v.resize(n);
+  std::vector<int32_t> material(n);
+  std::vector<uint8_t> active(n, 1);
+  const Vec3 camera(0.0f, 1.5f, 6.0f);
+  for (size_t k = 0; k < n; ++k) {
+    const Vec3 p(float(k) / float(n) * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f);
+    const Vec3 wo = glm::normalize(camera - p);
+    for (int c = 0; c < 3; ++c) {
+      in[c][k] = p[c];
+      in[3 + c][k] = in[6 + c][k] = c == 1 ? 1.0f : 0.0f;
+      in[9 + c][k] = wo[c];
+    }
+    material[k] = static_cast<int32_t>(k / 40 % 3);
+  }
+  RisPixels px;
+  for (int c = 0; c < 3; ++c) {
+    px.position[c] = in[c].data();
+    px.geometricNormal[c] = in[3 + c].data();
+    px.shadingNormal[c] = in[6 + c].data();
+    px.wo[c] = in[9 + c].data();
+  }
+  px.materialId = material.data();
+  px.active = active.data();
+  px.count = n;
+  std::vector<int32_t> outId(n);
+  std::vector<float> outF[12];
+  for (auto& v : outF) v.resize(n);
+  RisOutput out;
+  out.lightId = outId.data();
+  for (int c = 0; c < 3; ++c) {
+    out.position[c] = outF[c].data();
+    out.normal[c] = outF[3 + c].data();
+    out.radiance[c] = outF[6 + c].data();
+  }
+  out.pdfArea = outF[9].data();
+  out.weightSum = outF[10].data();
+  out.targetPdf = outF[11].data();
+  const RisParams params{1, 0, static_cast<uint32_t>(RngPass::kInitial), 32};
+  if (!SetSimdTarget(target)) {
+    state.SkipWithError("target not supported");
+    return;
+  }
+  uint32_t row = 0;
+  for (auto _ : state) {
+    px.pixelBase = (row++ % 1080) * static_cast<uint32_t>(n);
+    RisInitialSampling(px, sampler.Soa(), materials, params, out);
+    benchmark::DoNotOptimize(outF[10].data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(n));
+  state.SetLabel(ActiveSimdTargetName());
+  SetSimdTarget(SimdTarget::kAuto);
+}
+
+// One BM_RisKernel/<target> per target this machine supports, in the same binary.
+[[maybe_unused]] const bool kRisKernelRegistered = [] {
+  for (SimdTarget t : SupportedSimdTargets())
+    benchmark::RegisterBenchmark((std::string("BM_RisKernel/") + SimdTargetName(t)).c_str(), BM_RisKernel, t);
+  return true;
+}();
 
 // A 6-input GRIS combination (canonical + temporal-like + 4 neighbours) with analytic targets, per family.
 void BM_GrisCombine(benchmark::State& state) {

@@ -19,6 +19,9 @@ class AliasTable {
   double TotalWeight() const { return totalWeight_; }
   // Probability of index i.
   float Pmf(uint32_t i) const { return bins_[i].pmf; }
+  // Bin i as Sample() reads it: the probability of keeping i, and the alias (for SoA copies in SIMD kernels).
+  float KeepProbability(uint32_t i) const { return bins_[i].q; }
+  uint32_t Alias(uint32_t i) const { return bins_[i].alias; }
   // uIndex picks the bin, uCoin chooses between the bin and its alias; both uniform in [0, 1).
   uint32_t Sample(float uIndex, float uCoin) const {
     const uint32_t n = Size();

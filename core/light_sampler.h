@@ -2,6 +2,7 @@
 // power through an alias table (or uniformly), then a uniform point on it. p_src(y) = P(light) / area(light).
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "core/alias_table.h"
@@ -10,6 +11,26 @@
 namespace restir {
 
 enum class LightSelection : uint8_t { kPower, kUniform };
+
+// The sampler as structure-of-arrays, one entry per light, for the SIMD kernels' gathers (core/ris_kernel.h).
+// Every value is a copy of what LightSampler::Sample reads or computes, so a kernel reading it reproduces Sample
+// bit for bit. Built once with the sampler (once per frame).
+struct LightSamplerSoa {
+  std::vector<float> aliasQ;        // alias-table bin: probability of keeping the bin's own index
+  std::vector<int32_t> aliasIndex;  // alias-table bin: the other index
+  std::vector<float> p0[3];         // LightTriangle::p0, x y z
+  std::vector<float> e1[3];         // LightTriangle::e1
+  std::vector<float> e2[3];         // LightTriangle::e2
+  std::vector<float> normal[3];     // LightTriangle::normal
+  std::vector<float> radiance[3];   // LightTriangle::radiance, r g b
+  std::vector<float> pdfArea;       // LightSampler::PdfArea(id)
+  // The same values two to a 64-bit word (first in the low half), so a kernel fetches two fields per gathered
+  // element: [0] (aliasQ, aliasIndex); [1..8] (p0.x, p0.y) (p0.z, e1.x) (e1.y, e1.z) (e2.x, e2.y) (e2.z, n.x)
+  // (n.y, n.z) (L.r, L.g) (L.b, pdfArea).
+  static constexpr int kPairs = 9;
+  std::vector<uint64_t> pairs[kPairs];
+  uint32_t Size() const { return static_cast<uint32_t>(pdfArea.size()); }
+};
 
 class LightSampler {
  public:
@@ -29,10 +50,13 @@ class LightSampler {
   LightSample Sample(float uSelect, float uCoin, float uPoint0, float uPoint1) const;
 
   const std::vector<LightTriangle>& Lights() const { return *lights_; }
+  // SoA view of the table and the lights (empty when the sampler is empty).
+  const LightSamplerSoa& Soa() const { return soa_; }
 
  private:
   const std::vector<LightTriangle>* lights_ = nullptr;
   AliasTable table_;
+  LightSamplerSoa soa_;
 };
 
 }  // namespace restir

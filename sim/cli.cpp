@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "core/simd.h"
 #include "sim/compare.h"
 #include "sim/presets.h"
 #include "sim/report.h"
@@ -107,6 +108,11 @@ int RunCommandLine(int argc, char** argv) {
   run->add_flag("--resume", opt.resume,
                 "Continue an interrupted run from OUT/checkpoint.bin (same configuration); the outputs are "
                 "bit-identical to an uninterrupted run");
+  std::string simdName = "auto";
+  run->add_option("--simd", simdName,
+                  "SIMD target of the kernels: scalar, sse4, avx2, avx512 or auto (the best this CPU supports); "
+                  "every target gives the same bits")
+      ->capture_default_str();
 
   std::string validatePath;
   CLI::App* validate = app.add_subcommand("validate", "Check a sequence file and print a one-screen summary");
@@ -188,6 +194,10 @@ int RunCommandLine(int argc, char** argv) {
       opt.writeImages = !noImages;
       opt.progress = !noProgress;
       opt.report = !noReport;
+      const std::optional<SimdTarget> simd = ParseSimdTarget(simdName);
+      if (!simd) throw InputError("--simd: error: '" + simdName + "' is not one of scalar, sse4, avx2, avx512, auto");
+      if (!SetSimdTarget(*simd))
+        throw InputError("--simd: error: this CPU (or this build) does not support '" + simdName + "'");
       const RunResult r = Run(opt);
       std::fprintf(stderr, "wrote %zu metric rows to %s/metrics.csv in %.1f s\n", r.rows.size(),
                    opt.outDir.c_str(), r.wallSeconds);

@@ -8,6 +8,7 @@
 #include <chrono>
 
 #include "core/gris.h"
+#include "core/ris_kernel.h"
 #include "core/rng.h"
 #include "core/spmis.h"
 
@@ -351,24 +352,68 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   // Initial sampling: streaming RIS over M candidates from the light sampler (seed 003 §1).
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   auto t0 = std::chrono::steady_clock::now();
+  // The RIS itself runs in the SIMD kernel (core/ris_kernel.h) a row at a time, on the target core/simd.h
+  // selects; every target gives the same bits.
+  const RisMaterials risMaterials = MakeRisMaterials(*in.materials);
+  const RisParams risParams{in.seed, in.frame, static_cast<uint32_t>(RngPass::kInitial), ip.candidates};
+  const bool haveLights = !in.lights->Empty();
   ForEachRow(h, [&](int y) {
+    const size_t rowStart = static_cast<size_t>(y) * w;
+    const size_t rw = static_cast<size_t>(w);
+    // Row inputs the G-buffer does not hold as arrays: wo and the surface mask.
+    std::vector<float> woRow[3];
+    for (auto& v : woRow) v.resize(rw);
+    std::vector<uint8_t> activeRow(rw, 0);
+    for (size_t x = 0; x < rw; ++x) {
+      const size_t i = rowStart + x;
+      if (!g.IsSurface(i) || !haveLights) continue;
+      activeRow[x] = 1;
+      const Vec3 wo = glm::normalize(camera.position - g.Position(i));  // as ShadingPointAt
+      for (int c = 0; c < 3; ++c) woRow[c][x] = wo[c];
+    }
+    std::vector<int32_t> outId(rw);
+    std::vector<float> outF[12];
+    for (auto& v : outF) v.resize(rw);
+    RisPixels px;
+    px.position[0] = g.posX.data() + rowStart, px.position[1] = g.posY.data() + rowStart;
+    px.position[2] = g.posZ.data() + rowStart;
+    px.geometricNormal[0] = g.ngX.data() + rowStart, px.geometricNormal[1] = g.ngY.data() + rowStart;
+    px.geometricNormal[2] = g.ngZ.data() + rowStart;
+    px.shadingNormal[0] = g.nsX.data() + rowStart, px.shadingNormal[1] = g.nsY.data() + rowStart;
+    px.shadingNormal[2] = g.nsZ.data() + rowStart;
+    for (int c = 0; c < 3; ++c) px.wo[c] = woRow[c].data();
+    px.materialId = g.materialId.data() + rowStart;
+    px.active = activeRow.data();
+    px.pixelBase = static_cast<uint32_t>(rowStart);
+    px.count = rw;
+    RisOutput ro;
+    ro.lightId = outId.data();
+    for (int c = 0; c < 3; ++c) {
+      ro.position[c] = outF[c].data();
+      ro.normal[c] = outF[3 + c].data();
+      ro.radiance[c] = outF[6 + c].data();
+    }
+    ro.pdfArea = outF[9].data();
+    ro.weightSum = outF[10].data();
+    ro.targetPdf = outF[11].data();
+    if (haveLights) RisInitialSampling(px, in.lights->Soa(), risMaterials, risParams, ro);
     for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      if (!g.IsSurface(i) || in.lights->Empty()) continue;
-      const ShadingPoint sp = ShadingPointAt(g, i, camera, *in.materials);
-      Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kInitial)});
+      const size_t i = rowStart + static_cast<size_t>(x);
+      if (!activeRow[x]) continue;
       Reservoir r;
-      for (int j = 0; j < ip.candidates; ++j) {
-        const float u0 = s.Next(), u1 = s.Next(), u2 = s.Next(), u3 = s.Next(), uSel = s.Next();
-        const LightSample y = in.lights->Sample(u0, u1, u2, u3);
-        const float target = TargetFunction(UnshadowedContribution(sp, y));
-        StreamCandidate(r, y, target, RisWeight(target, y.pdfArea), uSel);
-      }
+      r.sample.lightId = static_cast<uint32_t>(outId[x]);
+      r.sample.position = Vec3(outF[0][x], outF[1][x], outF[2][x]);
+      r.sample.normal = Vec3(outF[3][x], outF[4][x], outF[5][x]);
+      r.sample.radiance = Vec3(outF[6][x], outF[7][x], outF[8][x]);
+      r.sample.pdfArea = outF[9][x];
+      r.weightSum = outF[10][x];
+      r.targetPdf = outF[11][x];
       FinalizeRis(r, static_cast<float>(ip.candidates));
       // An initial reservoir counts one frame of history (DESIGN §4), or its candidates (seed 003).
       if (!ip.countCandidates) r.confidence = 1.0f;
       if (ip.visibility && r.HasSample()) {
         rays.local() += 1;
+        const ShadingPoint sp = ShadingPointAt(g, i, camera, *in.materials);
         if (ShadowRayOccluded(*in.scene, sp, r.sample.position)) r.W = 0.0f, r.visibility = 0.0f;
       }
       if (!FiniteReservoir(r)) {

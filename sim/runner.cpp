@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/simd.h"
 #include "sim/atomic_file.h"
 #include "sim/checkpoint.h"
 #include "sim/embree_scene.h"
@@ -184,6 +185,7 @@ RunResult Run(const RunOptions& opt) {
       {"frames", {opt.frameBegin, frameEnd}},
       {"seed", seed},
       {"ensemble", std::max(1, opt.ensemble)},
+      {"simd", ActiveSimdTargetName()},
       {"threads", threads},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"cacheDir", refParams.cacheDir}}
@@ -235,6 +237,7 @@ RunResult Run(const RunOptions& opt) {
   keyJson.erase("commandLine");
   keyJson.erase("status");
   keyJson.erase("threads");
+  keyJson.erase("simd");  // every target gives the same bits (DESIGN §3)
   const std::string configKey = keyJson.dump();
   const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
   auto saveCheckpoint = [&](int nextFrame) {

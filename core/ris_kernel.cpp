@@ -1,0 +1,534 @@
+// Highway kernel and scalar twin of initial sampling (core/ris_kernel.h). The per-target part below is compiled
+// once per Highway target (foreach_target.h); the scalar twin and the dispatcher are compiled once (HWY_ONCE).
+//
+// Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, term for term in the same
+// order: glm::dot(a, b) = (a.x b.x + a.y b.y) + a.z b.z, glm::length = sqrt(dot), vec3 / s divides each
+// component. Branches of the scalar code become masks; every early return is mirrored with the scalar test
+// itself (e.g. !(c <= 0), which differs from c > 0 for NaN) and both BSDFs are evaluated then selected, so a
+// value computed on a path the scalar code would not take never reaches a result. No MulAdd (FMA), no
+// approximate reciprocals; float -> int is truncation (ConvertTo), table lookups are gathers.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "core/ris_kernel.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include "hwy/highway.h"
+
+#include <vector>
+
+#include "core/ris_kernel.h"
+#include "core/rng.h"
+#include "core/shading.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace restir {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using DF = hn::ScalableTag<float>;
+using DI = hn::RebindToSigned<DF>;
+using DU = hn::RebindToUnsigned<DF>;
+using VF = hn::Vec<DF>;
+using VI = hn::Vec<DI>;
+using VU = hn::Vec<DU>;
+using MF = hn::Mask<DF>;
+
+// Lane-uniform words of the RNG key (core/rng.h RandomBits), with the first PCG4D LCG step of y and z, which
+// do not depend on the dimension, already applied.
+struct KeyWords {
+  uint32_t y1;  // (frame ^ seed * 0x9E3779B9) after the LCG step
+  uint32_t z1;  // seed after the LCG step
+  uint32_t pass;
+};
+
+// Uniform float in [0, 1) for each lane's pixel at one dimension: RandomBits + BitsToUnitFloat (core/rng.h).
+HWY_INLINE VF UniformV(DF df, VU pixel, const KeyWords& k, uint32_t dimension) {
+  const DU du;
+  const DI di;
+  const uint32_t w0 = (k.pass << 20) ^ (dimension & 0xFFFFFu);
+  const uint32_t w1 = w0 * 1664525u + 1013904223u;
+  // Pcg4d: x is per lane, y z w are uniform until they mix with x.
+  VU x = hn::Add(hn::Mul(pixel, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
+  x = hn::Add(x, hn::Set(du, k.y1 * w1));                          // x += y * w
+  VU y = hn::Add(hn::Set(du, k.y1), hn::Mul(hn::Set(du, k.z1), x));  // y += z * x
+  VU z = hn::Add(hn::Set(du, k.z1), hn::Mul(x, y));                  // z += x * y
+  VU w = hn::Add(hn::Set(du, w1), hn::Mul(y, z));                    // w += y * z
+  x = hn::Xor(x, hn::ShiftRight<16>(x));
+  y = hn::Xor(y, hn::ShiftRight<16>(y));
+  z = hn::Xor(z, hn::ShiftRight<16>(z));
+  w = hn::Xor(w, hn::ShiftRight<16>(w));
+  x = hn::Add(x, hn::Mul(y, w));
+  y = hn::Add(y, hn::Mul(z, x));
+  z = hn::Add(z, hn::Mul(x, y));
+  w = hn::Add(w, hn::Mul(y, z));
+  const VU bits = hn::Xor(x, hn::ShiftRight<7>(w));
+  // bits >> 8 < 2^24: exact as int32 and as float.
+  return hn::Mul(hn::ConvertTo(df, hn::BitCast(di, hn::ShiftRight<8>(bits))), hn::Set(df, 0x1.0p-24f));
+}
+
+HWY_INLINE VF Dot(VF ax, VF ay, VF az, VF bx, VF by, VF bz) {
+  return hn::Add(hn::Add(hn::Mul(ax, bx), hn::Mul(ay, by)), hn::Mul(az, bz));
+}
+
+// !(a <= b): the negation of the scalar code's early-return test (true for NaN, unlike a > b).
+HWY_INLINE MF NotLe(VF a, VF b) { return hn::Not(hn::Le(a, b)); }
+
+// GgxLambda (core/bsdf.h): 0 when c^2 <= 0, else 0.5 (sqrt(1 + alpha alpha tan2) - 1), tan2 = (1 - c^2) / c^2.
+HWY_INLINE VF GgxLambdaV(VF c, VF alpha2) {
+  const DF df;
+  const VF one = hn::Set(df, 1.0f);
+  const VF c2 = hn::Mul(c, c);
+  const VF tan2 = hn::Div(hn::Sub(one, c2), c2);
+  const VF v = hn::Mul(hn::Set(df, 0.5f), hn::Sub(hn::Sqrt(hn::Add(one, hn::Mul(alpha2, tan2))), one));
+  return hn::IfThenZeroElse(hn::Le(c2, hn::Zero(df)), v);
+}
+
+// Table lookups of the light fields, per lane at index `id`. On the SIMD targets, two 32-bit fields share a
+// 64-bit element (LightSamplerSoa::pairs): one gather of N/2 64-bit elements per half packet, then the even and
+// odd 32-bit lanes are the two fields. Half the gathered elements of one field per gather; the values are the
+// same bits either way.
+#if HWY_TARGET != HWY_SCALAR
+using DU64 = hn::Repartition<uint64_t, DF>;
+using DI64 = hn::RebindToSigned<DU64>;
+struct LightIndex {
+  hn::Vec<DI64> lo, hi;  // indices of the packet's lower and upper halves, widened to 64 bits
+};
+HWY_INLINE LightIndex MakeLightIndex(VI id) {
+  const DI64 di64;
+  const hn::Half<DI> dh;
+  return {hn::PromoteTo(di64, hn::LowerHalf(dh, id)), hn::PromoteTo(di64, hn::UpperHalf(dh, id))};
+}
+HWY_INLINE void GatherPair(const std::vector<uint64_t>& table, const LightIndex& ix, VF& first, VF& second) {
+  const DF df;
+  const DU64 du64;
+  const VF lo = hn::BitCast(df, hn::GatherIndex(du64, table.data(), ix.lo));
+  const VF hi = hn::BitCast(df, hn::GatherIndex(du64, table.data(), ix.hi));
+  first = hn::ConcatEven(df, hi, lo);
+  second = hn::ConcatOdd(df, hi, lo);
+}
+#else
+using LightIndex = VI;
+HWY_INLINE LightIndex MakeLightIndex(VI id) { return id; }
+#endif
+
+// The alias-table bin at `bin`: keep probability and alias.
+HWY_INLINE void GatherBin(const LightSamplerSoa& L, VI bin, VF& q, VI& alias) {
+#if HWY_TARGET != HWY_SCALAR
+  VF aliasF;
+  GatherPair(L.pairs[0], MakeLightIndex(bin), q, aliasF);
+  alias = hn::BitCast(DI(), aliasF);
+#else
+  q = hn::GatherIndex(DF(), L.aliasQ.data(), bin);
+  alias = hn::GatherIndex(DI(), L.aliasIndex.data(), bin);
+#endif
+}
+
+// Every light field of light `ix`: p0, e1, e2, normal, radiance (3 each), pdfArea.
+struct LightFields {
+  VF p0[3], e1[3], e2[3], n[3], radiance[3], pdf;
+};
+HWY_INLINE LightFields GatherLight(const LightSamplerSoa& L, const LightIndex& ix) {
+  LightFields f;
+#if HWY_TARGET != HWY_SCALAR
+  GatherPair(L.pairs[1], ix, f.p0[0], f.p0[1]);
+  GatherPair(L.pairs[2], ix, f.p0[2], f.e1[0]);
+  GatherPair(L.pairs[3], ix, f.e1[1], f.e1[2]);
+  GatherPair(L.pairs[4], ix, f.e2[0], f.e2[1]);
+  GatherPair(L.pairs[5], ix, f.e2[2], f.n[0]);
+  GatherPair(L.pairs[6], ix, f.n[1], f.n[2]);
+  GatherPair(L.pairs[7], ix, f.radiance[0], f.radiance[1]);
+  GatherPair(L.pairs[8], ix, f.radiance[2], f.pdf);
+#else
+  const DF df;
+  for (int c = 0; c < 3; ++c) {
+    f.p0[c] = hn::GatherIndex(df, L.p0[c].data(), ix);
+    f.e1[c] = hn::GatherIndex(df, L.e1[c].data(), ix);
+    f.e2[c] = hn::GatherIndex(df, L.e2[c].data(), ix);
+    f.n[c] = hn::GatherIndex(df, L.normal[c].data(), ix);
+    f.radiance[c] = hn::GatherIndex(df, L.radiance[c].data(), ix);
+  }
+  f.pdf = hn::GatherIndex(df, L.pdfArea.data(), ix);
+#endif
+  return f;
+}
+
+struct PacketIn {
+  const float* pos[3];
+  const float* ng[3];
+  const float* ns[3];
+  const float* wo[3];
+  const int32_t* materialId;
+  const uint8_t* active;
+  uint32_t pixelBase;
+};
+
+struct PacketOut {
+  int32_t* lightId;
+  float* position[3];
+  float* normal[3];
+  float* radiance[3];
+  float* pdfArea;
+  float* weightSum;
+  float* targetPdf;
+};
+
+// One packet of Lanes(df) pixels. `in` and `out` point at the packet's first element.
+HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const RisMaterials& mt,
+                          const RisParams& params, const KeyWords& key, const PacketOut& out) {
+  const DF df;
+  const DI di;
+  const DU du;
+  const size_t N = hn::Lanes(df);
+  const VF zero = hn::Zero(df);
+  const VF one = hn::Set(df, 1.0f);
+
+  // Active mask from the byte flags.
+  HWY_ALIGN int32_t activeLanes[hn::MaxLanes(di)];
+  for (size_t k = 0; k < N; ++k) activeLanes[k] = in.active[k] ? -1 : 0;
+  const auto activeI = hn::Ne(hn::Load(di, activeLanes), hn::Zero(di));
+  const MF active = hn::RebindMask(df, activeI);
+
+  VI selId = hn::Zero(di);
+  VF selX = zero, selY = zero, selZ = zero, selTarget = zero, wSum = zero;
+  MF selected = hn::RebindMask(df, hn::Lt(hn::Zero(di), hn::Zero(di)));  // all false
+
+  if (!hn::AllFalse(df, active)) {
+    const VF px = hn::LoadU(df, in.pos[0]), py = hn::LoadU(df, in.pos[1]), pz = hn::LoadU(df, in.pos[2]);
+    const VF gx = hn::LoadU(df, in.ng[0]), gy = hn::LoadU(df, in.ng[1]), gz = hn::LoadU(df, in.ng[2]);
+    const VF nx = hn::LoadU(df, in.ns[0]), ny = hn::LoadU(df, in.ns[1]), nz = hn::LoadU(df, in.ns[2]);
+    const VF ox = hn::LoadU(df, in.wo[0]), oy = hn::LoadU(df, in.wo[1]), oz = hn::LoadU(df, in.wo[2]);
+    // Material fields (inactive lanes read material 0, never used).
+    const VI mid = hn::IfThenElseZero(activeI, hn::LoadU(di, in.materialId));
+    const MF isGgx = hn::RebindMask(
+        df, hn::Eq(hn::GatherIndex(di, mt.type.data(), mid), hn::Set(di, static_cast<int32_t>(BsdfType::kGgx))));
+    const VF ar = hn::GatherIndex(df, mt.albedo[0].data(), mid);
+    const VF ag = hn::GatherIndex(df, mt.albedo[1].data(), mid);
+    const VF ab = hn::GatherIndex(df, mt.albedo[2].data(), mid);
+    const VF alpha = hn::GatherIndex(df, mt.alpha.data(), mid);
+    const VF alpha2 = hn::Mul(alpha, alpha);
+    const bool anyGgx = !hn::AllFalse(df, hn::And(isGgx, active));
+    // Lane-constant parts of EvalBsdf: cos(theta_o) and the diffuse value albedo / pi.
+    const VF cosO = Dot(nx, ny, nz, ox, oy, oz);
+    const MF cosOk = NotLe(cosO, zero);
+    const VF invPi = hn::Set(df, kInvPi);
+    const VF fdR = hn::Mul(ar, invPi), fdG = hn::Mul(ag, invPi), fdB = hn::Mul(ab, invPi);
+    const VF lambdaO = GgxLambdaV(cosO, alpha2);
+
+    const VU pixel = hn::Add(hn::Set(du, in.pixelBase), hn::Iota(du, 0));
+    const uint32_t n = L.Size();
+    const VF nF = hn::Set(df, static_cast<float>(n));
+    const VI nMinus1 = hn::Set(di, static_cast<int32_t>(n - 1));
+    const VF minDistance = hn::Set(df, kMinLightDistance);
+
+    for (int j = 0; j < params.candidates; ++j) {
+      const uint32_t dim = 5u * static_cast<uint32_t>(j);
+      const VF uSelect = UniformV(df, pixel, key, dim);
+      const VF uCoin = UniformV(df, pixel, key, dim + 1);
+      const VF uPoint0 = UniformV(df, pixel, key, dim + 2);
+      const VF uPoint1 = UniformV(df, pixel, key, dim + 3);
+      const VF uSel = UniformV(df, pixel, key, dim + 4);
+
+      // AliasTable::Sample: i = min(uint(uSelect n), n - 1); keep i when uCoin < q_i, else its alias.
+      const VI bin = hn::Min(hn::ConvertTo(di, hn::Mul(uSelect, nF)), nMinus1);
+      VF q;
+      VI alias;
+      GatherBin(L, bin, q, alias);
+      const VI id = hn::IfThenElse(hn::RebindMask(di, hn::Lt(uCoin, q)), bin, alias);
+      const LightFields lf = GatherLight(L, MakeLightIndex(id));
+
+      // SampleTrianglePoint: p0 + b0 e1 + b1 e2 with su0 = sqrt(u0), b0 = 1 - su0, b1 = u1 su0.
+      const VF su0 = hn::Sqrt(uPoint0);
+      const VF b0 = hn::Sub(one, su0);
+      const VF b1 = hn::Mul(uPoint1, su0);
+      VF yp[3];
+      for (int c = 0; c < 3; ++c) yp[c] = hn::Add(hn::Add(lf.p0[c], hn::Mul(b0, lf.e1[c])), hn::Mul(b1, lf.e2[c]));
+
+      // ConnectToLight (core/shading.h).
+      const VF dx = hn::Sub(yp[0], px), dy = hn::Sub(yp[1], py), dz = hn::Sub(yp[2], pz);
+      const VF d2 = Dot(dx, dy, dz, dx, dy, dz);
+      const VF dist = hn::Sqrt(d2);
+      const VF wx = hn::Div(dx, dist), wy = hn::Div(dy, dist), wz = hn::Div(dz, dist);
+      const VF lnx = lf.n[0], lny = lf.n[1], lnz = lf.n[2];
+      const VF cosX = Dot(nx, ny, nz, wx, wy, wz);
+      const VF cosY = hn::Neg(Dot(lnx, lny, lnz, wx, wy, wz));
+      const VF cosG = Dot(gx, gy, gz, wx, wy, wz);
+      const VF geometry = hn::Div(hn::Mul(cosX, cosY), d2);
+      // Path geometry is nonzero only past every ConnectToLight test; UnshadowedContribution then needs G > 0.
+      const MF contributes =
+          hn::And(hn::And(hn::And(hn::Gt(dist, minDistance), NotLe(cosX, zero)),
+                          hn::And(NotLe(cosY, zero), NotLe(cosG, zero))),
+                  hn::And(NotLe(geometry, zero), active));
+
+      // EvalBsdf (core/bsdf.cpp): zero unless cos(theta_o) > 0 and cos(theta_i) > 0 (cos(theta_i) == cosX).
+      const MF bsdfOk = hn::And(cosOk, NotLe(cosX, zero));
+      VF fr = fdR, fg = fdG, fb = fdB;
+      if (anyGgx && !hn::AllFalse(df, hn::And(hn::And(contributes, bsdfOk), isGgx))) {
+        const VF hsx = hn::Add(ox, wx), hsy = hn::Add(oy, wy), hsz = hn::Add(oz, wz);
+        const VF hLen = hn::Sqrt(Dot(hsx, hsy, hsz, hsx, hsy, hsz));
+        const VF hx = hn::Div(hsx, hLen), hy = hn::Div(hsy, hLen), hz = hn::Div(hsz, hLen);
+        // GgxD(dot(n, h), alpha).
+        const VF cosH = Dot(nx, ny, nz, hx, hy, hz);
+        const VF c2 = hn::Mul(cosH, cosH);
+        const VF denom = hn::Add(hn::Mul(c2, hn::Sub(alpha2, one)), one);
+        const VF dTerm = hn::IfThenZeroElse(
+            hn::Le(cosH, zero), hn::Div(alpha2, hn::Mul(hn::Mul(hn::Set(df, kPi), denom), denom)));
+        // Height-correlated Smith: 1 / (1 + Lambda(cosO) + Lambda(cosI)).
+        const VF g = hn::Div(one, hn::Add(hn::Add(one, lambdaO), GgxLambdaV(cosX, alpha2)));
+        // SchlickFresnel(albedo, dot(wi, h)): m = 1 - min(1, max(0, c)) with std::min/std::max semantics.
+        const VF cosT = Dot(wx, wy, wz, hx, hy, hz);
+        const VF clamped0 = hn::IfThenElse(hn::Lt(zero, cosT), cosT, zero);     // std::max(0, c)
+        const VF clamped = hn::IfThenElse(hn::Lt(clamped0, one), clamped0, one);  // std::min(1, .)
+        const VF m = hn::Sub(one, clamped);
+        const VF mm = hn::Mul(m, m);
+        const VF m5 = hn::Mul(hn::Mul(mm, mm), m);
+        const VF scale = hn::Div(hn::Mul(dTerm, g), hn::Mul(hn::Mul(hn::Set(df, 4.0f), cosO), cosX));
+        const MF ggxOk = hn::Gt(hLen, zero);
+        const VF sr = hn::Mul(hn::Add(ar, hn::Mul(hn::Sub(one, ar), m5)), scale);
+        const VF sg = hn::Mul(hn::Add(ag, hn::Mul(hn::Sub(one, ag), m5)), scale);
+        const VF sb = hn::Mul(hn::Add(ab, hn::Mul(hn::Sub(one, ab), m5)), scale);
+        fr = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sr), fr);
+        fg = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sg), fg);
+        fb = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sb), fb);
+      }
+      fr = hn::IfThenElseZero(bsdfOk, fr);
+      fg = hn::IfThenElseZero(bsdfOk, fg);
+      fb = hn::IfThenElseZero(bsdfOk, fb);
+
+      // L_e f_r G, then its Rec. 709 luminance (TargetFunction).
+      const VF lr = lf.radiance[0], lg = lf.radiance[1], lb = lf.radiance[2];
+      const VF cr = hn::Mul(hn::Mul(lr, fr), geometry);
+      const VF cg = hn::Mul(hn::Mul(lg, fg), geometry);
+      const VF cb = hn::Mul(hn::Mul(lb, fb), geometry);
+      const VF lum = hn::Add(hn::Add(hn::Mul(hn::Set(df, 0.2126f), cr), hn::Mul(hn::Set(df, 0.7152f), cg)),
+                             hn::Mul(hn::Set(df, 0.0722f), cb));
+      const VF target = hn::IfThenElseZero(contributes, lum);
+
+      // RisWeight and StreamCandidate (core/reservoir.h).
+      const VF pdf = lf.pdf;
+      const VF weight = hn::IfThenElseZero(hn::Gt(pdf, zero), hn::Div(target, pdf));
+      const MF positive = hn::And(hn::Gt(weight, zero), active);
+      wSum = hn::IfThenElse(positive, hn::Add(wSum, weight), wSum);
+      const MF take = hn::And(positive, hn::Lt(hn::Mul(uSel, wSum), weight));
+      selected = hn::Or(selected, take);
+      selId = hn::IfThenElse(hn::RebindMask(di, take), id, selId);
+      selX = hn::IfThenElse(take, yp[0], selX);
+      selY = hn::IfThenElse(take, yp[1], selY);
+      selZ = hn::IfThenElse(take, yp[2], selZ);
+      selTarget = hn::IfThenElse(take, target, selTarget);
+    }
+  }
+
+  // The selected sample's light fields, zero where nothing was selected (selId is 0 there: a valid index).
+  const auto selectedI = hn::RebindMask(di, selected);
+  hn::StoreU(hn::IfThenElseZero(selectedI, selId), di, out.lightId);
+  hn::StoreU(selX, df, out.position[0]);
+  hn::StoreU(selY, df, out.position[1]);
+  hn::StoreU(selZ, df, out.position[2]);
+  const bool any = !hn::AllFalse(df, selected);
+  for (int c = 0; c < 3; ++c) {
+    hn::StoreU(any ? hn::IfThenElseZero(selected, hn::GatherIndex(df, L.normal[c].data(), selId)) : zero, df,
+               out.normal[c]);
+    hn::StoreU(any ? hn::IfThenElseZero(selected, hn::GatherIndex(df, L.radiance[c].data(), selId)) : zero, df,
+               out.radiance[c]);
+  }
+  hn::StoreU(any ? hn::IfThenElseZero(selected, hn::GatherIndex(df, L.pdfArea.data(), selId)) : zero, df,
+             out.pdfArea);
+  hn::StoreU(wSum, df, out.weightSum);
+  hn::StoreU(selTarget, df, out.targetPdf);
+}
+
+void RisKernel(const RisPixels& pixels, const LightSamplerSoa& lights, const RisMaterials& materials,
+               const RisParams& params, const RisOutput& out) {
+  const DF df;
+  const size_t N = hn::Lanes(df);
+  KeyWords key;
+  key.y1 = (params.frame ^ (params.seed * 0x9E3779B9u)) * 1664525u + 1013904223u;
+  key.z1 = params.seed * 1664525u + 1013904223u;
+  key.pass = params.pass;
+  const bool usable = lights.Size() > 0 && materials.Size() > 0;
+  static const uint8_t kNone[64] = {};
+
+  auto packetIn = [&](size_t k) {
+    PacketIn in;
+    for (int c = 0; c < 3; ++c) {
+      in.pos[c] = pixels.position[c] + k;
+      in.ng[c] = pixels.geometricNormal[c] + k;
+      in.ns[c] = pixels.shadingNormal[c] + k;
+      in.wo[c] = pixels.wo[c] + k;
+    }
+    in.materialId = pixels.materialId + k;
+    in.active = usable ? pixels.active + k : kNone;
+    in.pixelBase = pixels.pixelBase + static_cast<uint32_t>(k);
+    return in;
+  };
+  auto packetOut = [&](size_t k) {
+    PacketOut o;
+    o.lightId = out.lightId + k;
+    for (int c = 0; c < 3; ++c) {
+      o.position[c] = out.position[c] + k;
+      o.normal[c] = out.normal[c] + k;
+      o.radiance[c] = out.radiance[c] + k;
+    }
+    o.pdfArea = out.pdfArea + k;
+    o.weightSum = out.weightSum + k;
+    o.targetPdf = out.targetPdf + k;
+    return o;
+  };
+
+  size_t k = 0;
+  for (; k + N <= pixels.count; k += N) RisPacket(packetIn(k), lights, materials, params, key, packetOut(k));
+  if (k == pixels.count) return;
+
+  // Tail: copy the remaining pixels into a padded packet whose extra lanes are inactive.
+  constexpr size_t kMax = hn::MaxLanes(DF());
+  const size_t rest = pixels.count - k;
+  HWY_ALIGN float inF[12][kMax] = {};
+  HWY_ALIGN int32_t inMat[kMax] = {};
+  uint8_t inActive[kMax] = {};
+  const PacketIn src = packetIn(k);
+  PacketIn in = src;
+  for (int c = 0; c < 3; ++c) {
+    const float* const* fields[4] = {src.pos, src.ng, src.ns, src.wo};
+    for (int f = 0; f < 4; ++f) {
+      for (size_t l = 0; l < rest; ++l) inF[f * 3 + c][l] = fields[f][c][l];
+    }
+    in.pos[c] = inF[0 * 3 + c];
+    in.ng[c] = inF[1 * 3 + c];
+    in.ns[c] = inF[2 * 3 + c];
+    in.wo[c] = inF[3 * 3 + c];
+  }
+  for (size_t l = 0; l < rest; ++l) {
+    inMat[l] = src.materialId[l];
+    inActive[l] = src.active[l];
+  }
+  in.materialId = inMat;
+  in.active = inActive;
+  HWY_ALIGN float outF[12][kMax];
+  HWY_ALIGN int32_t outId[kMax];
+  PacketOut o;
+  o.lightId = outId;
+  for (int c = 0; c < 3; ++c) {
+    o.position[c] = outF[c];
+    o.normal[c] = outF[3 + c];
+    o.radiance[c] = outF[6 + c];
+  }
+  o.pdfArea = outF[9];
+  o.weightSum = outF[10];
+  o.targetPdf = outF[11];
+  RisPacket(in, lights, materials, params, key, o);
+  const PacketOut dst = packetOut(k);
+  for (size_t l = 0; l < rest; ++l) {
+    dst.lightId[l] = outId[l];
+    for (int c = 0; c < 3; ++c) {
+      dst.position[c][l] = o.position[c][l];
+      dst.normal[c][l] = o.normal[c][l];
+      dst.radiance[c][l] = o.radiance[c][l];
+    }
+    dst.pdfArea[l] = o.pdfArea[l];
+    dst.weightSum[l] = o.weightSum[l];
+    dst.targetPdf[l] = o.targetPdf[l];
+  }
+}
+
+const char* DispatchedTargetName() { return hwy::TargetName(HWY_TARGET); }
+
+// NOLINTNEXTLINE(google-readability-namespace-comments)
+}  // namespace HWY_NAMESPACE
+}  // namespace restir
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+
+#include "core/reservoir.h"
+#include "core/shading.h"
+
+namespace restir {
+
+HWY_EXPORT(RisKernel);
+HWY_EXPORT(DispatchedTargetName);
+
+RisMaterials MakeRisMaterials(const std::vector<Bsdf>& bsdfs) {
+  RisMaterials m;
+  for (const Bsdf& b : bsdfs) {
+    m.type.push_back(static_cast<int32_t>(b.type));
+    for (int c = 0; c < 3; ++c) m.albedo[c].push_back(b.albedo[c]);
+    m.alpha.push_back(b.alpha);
+  }
+  return m;
+}
+
+namespace {
+
+// LightSampler::Sample on the SoA copy: the same operations on the same values.
+LightSample SampleLightSoa(const LightSamplerSoa& L, float uSelect, float uCoin, float uPoint0, float uPoint1) {
+  const uint32_t n = L.Size();
+  uint32_t i = static_cast<uint32_t>(uSelect * static_cast<float>(n));  // AliasTable::Sample
+  if (i >= n) i = n - 1;
+  LightSample s;
+  s.lightId = uCoin < L.aliasQ[i] ? i : static_cast<uint32_t>(L.aliasIndex[i]);
+  LightTriangle t;
+  for (int c = 0; c < 3; ++c) {
+    t.p0[c] = L.p0[c][s.lightId];
+    t.e1[c] = L.e1[c][s.lightId];
+    t.e2[c] = L.e2[c][s.lightId];
+  }
+  s.position = SampleTrianglePoint(t, uPoint0, uPoint1);
+  s.normal = Vec3(L.normal[0][s.lightId], L.normal[1][s.lightId], L.normal[2][s.lightId]);
+  s.radiance = Vec3(L.radiance[0][s.lightId], L.radiance[1][s.lightId], L.radiance[2][s.lightId]);
+  s.pdfArea = L.pdfArea[s.lightId];
+  return s;
+}
+
+}  // namespace
+
+void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights, const RisMaterials& materials,
+                              const RisParams& params, const RisOutput& out) {
+  const bool usable = lights.Size() > 0 && materials.Size() > 0;
+  for (size_t k = 0; k < px.count; ++k) {
+    Reservoir r;
+    r.sample = LightSample{};
+    r.sample.position = r.sample.normal = r.sample.radiance = Vec3(0.0f);
+    if (usable && px.active[k]) {
+      ShadingPoint sp;
+      sp.position = Vec3(px.position[0][k], px.position[1][k], px.position[2][k]);
+      sp.geometricNormal = Vec3(px.geometricNormal[0][k], px.geometricNormal[1][k], px.geometricNormal[2][k]);
+      sp.shadingNormal = Vec3(px.shadingNormal[0][k], px.shadingNormal[1][k], px.shadingNormal[2][k]);
+      sp.wo = Vec3(px.wo[0][k], px.wo[1][k], px.wo[2][k]);
+      const size_t m = static_cast<size_t>(px.materialId[k]);
+      sp.bsdf.type = static_cast<BsdfType>(materials.type[m]);
+      sp.bsdf.albedo = Vec3(materials.albedo[0][m], materials.albedo[1][m], materials.albedo[2][m]);
+      sp.bsdf.alpha = materials.alpha[m];
+      // The pipeline's initial pass before the kernel existed (sim/pipeline.cpp), candidate by candidate.
+      Sampler s(RngKey{params.seed, params.frame, px.pixelBase + static_cast<uint32_t>(k), params.pass});
+      for (int j = 0; j < params.candidates; ++j) {
+        const float u0 = s.Next(), u1 = s.Next(), u2 = s.Next(), u3 = s.Next(), uSel = s.Next();
+        const LightSample y = SampleLightSoa(lights, u0, u1, u2, u3);
+        const float target = TargetFunction(UnshadowedContribution(sp, y));
+        StreamCandidate(r, y, target, RisWeight(target, y.pdfArea), uSel);
+      }
+    }
+    out.lightId[k] = static_cast<int32_t>(r.sample.lightId);
+    for (int c = 0; c < 3; ++c) {
+      out.position[c][k] = r.sample.position[c];
+      out.normal[c][k] = r.sample.normal[c];
+      out.radiance[c][k] = r.sample.radiance[c];
+    }
+    out.pdfArea[k] = r.sample.pdfArea;
+    out.weightSum[k] = r.weightSum;
+    out.targetPdf[k] = r.targetPdf;
+  }
+}
+
+void RisInitialSampling(const RisPixels& pixels, const LightSamplerSoa& lights, const RisMaterials& materials,
+                        const RisParams& params, const RisOutput& out) {
+  if (UseScalarTwins()) return RisInitialSamplingScalar(pixels, lights, materials, params, out);
+  HWY_DYNAMIC_DISPATCH(RisKernel)(pixels, lights, materials, params, out);
+}
+
+const char* RisKernelDispatchedTargetName() {
+  if (UseScalarTwins()) return "scalar";
+  return HWY_DYNAMIC_DISPATCH(DispatchedTargetName)();
+}
+
+}  // namespace restir
+
+#endif  // HWY_ONCE
