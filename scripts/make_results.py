@@ -86,8 +86,8 @@ def main(argv):
         if is_candidate_count_run(run):
             print(f"### {seq}: history counted in candidates (seed 003's representedM)\n")
             print(f"The same sequence with `--set initial.countCandidates=true`: a reservoir's confidence counts "
-                  f"its candidates ({run['presets']['ris']['initial.candidates']} per frame) rather than one per "
-                  f"frame, so the cap `temporal.maxHistory` = {run['presets']['temporal']['temporal.maxHistory']} "
+                  f"its candidates ({run['presets']['ris']['settings']['initial.candidates']} per frame) rather than one per "
+                  f"frame, so the cap `temporal.maxHistory` = {run['presets']['temporal']['settings']['temporal.maxHistory']} "
                   f"is in candidates, as in seed 003's code.\n")
         else:
             print(f"## {seq} — {w}×{h}, frames {f0}–{f1 - 1}, seed {run['seed']}\n")
