@@ -330,12 +330,10 @@ void EmbreeScene::Update(const FrameState& state) {
   lights_ = BuildLightTrianglesFrom(im.lights, state.lightOn, &lightGroup_);
 }
 
-SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
-  SurfaceHit out;
-  const Impl& im = *impl_;
-  const Impl::Slot* slot = im.SlotFor(frame);
+RawHit EmbreeScene::IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  RawHit out;
+  const Impl::Slot* slot = impl_->SlotFor(frame);
   if (!slot || !(tmax > 0.0f)) return out;
-
   RTCRayHit rh;
   rh.ray = Impl::MakeRay(org, dir, tmax);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -344,20 +342,45 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   rtcIntersect1(slot->top, &ctx, &rh);
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
+  out.t = rh.ray.tfar;
+  out.ngX = rh.hit.Ng_x;
+  out.ngY = rh.hit.Ng_y;
+  out.ngZ = rh.hit.Ng_z;
+  out.u = rh.hit.u;
+  out.v = rh.hit.v;
+  out.geomId = rh.hit.geomID;
+  out.primId = rh.hit.primID;
+  out.instId = rh.hit.instID[0];
+  return out;
+}
 
-  const uint32_t inst = rh.hit.instID[0];
+SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  SurfaceHit out;
+  const Impl& im = *impl_;
+  const Impl::Slot* slot = im.SlotFor(frame);
+  if (!slot || !(tmax > 0.0f)) return out;
+
+  RawHit rh;
+  if (hook_ == nullptr) [[likely]] {
+    rh = IntersectRaw(org, dir, tmax, frame);
+  } else if (!hook_->AnswerIntersect(org, dir, tmax, frame, rh)) {
+    rh = IntersectRaw(org, dir, tmax, frame);
+    hook_->TracedIntersect(org, dir, tmax, frame, rh);
+  }
+  if (rh.geomId == RTC_INVALID_GEOMETRY_ID) return out;
+
+  const uint32_t inst = rh.instId;
   const uint32_t n = static_cast<uint32_t>(im.objects.size());
   const bool isStatic = inst == im.staticInstanceId;
-  const uint32_t objectOrLights = isStatic ? rh.hit.geomID : inst;
+  const uint32_t objectOrLights = isStatic ? rh.geomId : inst;
 
   out.hit = true;
-  out.t = rh.ray.tfar;
+  out.t = rh.t;
   out.position = org + out.t * dir;
 
   // Embree 3 reports Ng in the object space of the instanced geometry (unnormalised); static geometry and
   // emitters are world space under an identity instance, so only animated instances need the normal matrix.
-  Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  Vec3 ng(rh.ngX, rh.ngY, rh.ngZ);
   if (!isStatic && objectOrLights < n) ng = slot->normalToWorld[objectOrLights] * ng;
   ng = glm::normalize(ng);
   if (glm::dot(ng, dir) > 0.0f) ng = -ng;
@@ -365,7 +388,7 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   out.shadingNormal = ng;
 
   if (objectOrLights >= n) {  // emitter
-    const uint32_t prim = rh.hit.primID;
+    const uint32_t prim = rh.primId;
     out.objectId = lightObjectId_;
     out.materialId = -1;
     out.lightId = static_cast<int32_t>(prim);
@@ -379,10 +402,10 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   out.materialId = rec.material;
   out.lightId = -1;
   out.frontFace = true;
-  if (!rec.normals.empty() && rh.hit.primID < rec.triangles.size()) {
-    const glm::uvec3 tri = rec.triangles[rh.hit.primID];
-    const float u = rh.hit.u;
-    const float v = rh.hit.v;
+  if (!rec.normals.empty() && rh.primId < rec.triangles.size()) {
+    const glm::uvec3 tri = rec.triangles[rh.primId];
+    const float u = rh.u;
+    const float v = rh.v;
     // Embree's barycentrics: u weighs vertex 1, v weighs vertex 2.
     Vec3 ns = (1.0f - u - v) * rec.normals[tri.x] + u * rec.normals[tri.y] + v * rec.normals[tri.z];
     if (!isStatic) ns = slot->normalToWorld[objectOrLights] * ns;
@@ -397,6 +420,15 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
 }
 
 bool EmbreeScene::Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  if (hook_ == nullptr) [[likely]] return OccludedRaw(org, dir, tmax, frame);
+  bool occluded = false;
+  if (hook_->AnswerOccluded(org, dir, tmax, frame, occluded)) return occluded;
+  occluded = OccludedRaw(org, dir, tmax, frame);
+  hook_->TracedOccluded(org, dir, tmax, frame, occluded);
+  return occluded;
+}
+
+bool EmbreeScene::OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
   RTCScene scene = impl_->SceneFor(frame);
   if (!scene || !(tmax > 0.0f)) return false;
   RTCRay ray = Impl::MakeRay(org, dir, tmax);
@@ -407,21 +439,17 @@ bool EmbreeScene::Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFr
   return ray.tfar == -std::numeric_limits<float>::infinity();
 }
 
-void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count, SceneFrame frame) const {
-  RTCScene scene = impl_->SceneFor(frame);
-  if (!scene) {
-    std::fill(occluded, occluded + count, uint8_t{0});
-    return;
-  }
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  // Shadow rays of one pass are incoherent (different pixels, different lights).
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  for (size_t base = 0; base < count; base += 16) {
-    alignas(64) RTCRay16 packet;
-    alignas(64) int valid[16];
-    const size_t lanes = std::min<size_t>(16, count - base);
-    for (size_t i = 0; i < 16; ++i) {
+namespace {
+
+// Packets of N shadow rays (RTCRay4/8/16); lanes past the end or with tmax <= 0 are inactive.
+template <int N, typename Packet, typename Trace>
+void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* rays, uint8_t* occluded,
+                     size_t count, Trace trace) {
+  for (size_t base = 0; base < count; base += N) {
+    alignas(64) Packet packet;
+    alignas(64) int valid[N];
+    const size_t lanes = std::min<size_t>(N, count - base);
+    for (size_t i = 0; i < static_cast<size_t>(N); ++i) {
       const bool active = i < lanes && rays[base + i].tmax > 0.0f;
       const ShadowRay& r = rays[base + (i < lanes ? i : 0)];
       valid[i] = active ? -1 : 0;
@@ -438,9 +466,75 @@ void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t
       packet.id[i] = static_cast<unsigned>(i);
       packet.flags[i] = 0;
     }
-    rtcOccluded16(valid, scene, &ctx, &packet);
+    trace(valid, scene, &ctx, &packet);
     for (size_t i = 0; i < lanes; ++i) {
       occluded[base + i] = valid[i] != 0 && packet.tfar[i] == -std::numeric_limits<float>::infinity() ? 1 : 0;
+    }
+  }
+}
+
+}  // namespace
+
+void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count, SceneFrame frame) const {
+  OccludedBatch(OcclusionApi::k16, rays, occluded, count, frame);
+}
+
+void EmbreeScene::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
+                                SceneFrame frame) const {
+  if (hook_ != nullptr) {  // recorded or answered ray by ray (benchmark only)
+    for (size_t i = 0; i < count; ++i) occluded[i] = Occluded(rays[i].org, rays[i].dir, rays[i].tmax, frame) ? 1 : 0;
+    return;
+  }
+  RTCScene scene = impl_->SceneFor(frame);
+  if (!scene) {
+    std::fill(occluded, occluded + count, uint8_t{0});
+    return;
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  // Shadow rays of one pass are incoherent (different pixels, different lights).
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  switch (api) {
+    case OcclusionApi::k1:
+      for (size_t i = 0; i < count; ++i)
+        occluded[i] = OccludedRaw(rays[i].org, rays[i].dir, rays[i].tmax, frame) ? 1 : 0;
+      return;
+    case OcclusionApi::k4:
+      OccludedPackets<4, RTCRay4>(scene, ctx, rays, occluded, count,
+                                  [](const int* v, RTCScene s, RTCIntersectContext* c, RTCRay4* p) {
+                                    rtcOccluded4(v, s, c, p);
+                                  });
+      return;
+    case OcclusionApi::k8:
+      OccludedPackets<8, RTCRay8>(scene, ctx, rays, occluded, count,
+                                  [](const int* v, RTCScene s, RTCIntersectContext* c, RTCRay8* p) {
+                                    rtcOccluded8(v, s, c, p);
+                                  });
+      return;
+    case OcclusionApi::k16:
+      OccludedPackets<16, RTCRay16>(scene, ctx, rays, occluded, count,
+                                    [](const int* v, RTCScene s, RTCIntersectContext* c, RTCRay16* p) {
+                                      rtcOccluded16(v, s, c, p);
+                                    });
+      return;
+    case OcclusionApi::kStream1M: {
+      // In chunks, so the RTCRay copies stay in cache. An inactive ray (tmax <= 0) gets tnear > tfar, which
+      // Embree skips, so it keeps its tfar and reads as unoccluded.
+      constexpr size_t kChunk = 256;
+      alignas(64) RTCRay chunk[kChunk];
+      for (size_t base = 0; base < count; base += kChunk) {
+        const size_t m = std::min(kChunk, count - base);
+        for (size_t i = 0; i < m; ++i) {
+          const ShadowRay& r = rays[base + i];
+          const bool active = r.tmax > 0.0f;
+          chunk[i] = Impl::MakeRay(r.org, active ? r.dir : Vec3(0.0f, 0.0f, 1.0f), active ? r.tmax : 0.0f);
+          if (!active) chunk[i].tnear = 1.0f;
+        }
+        rtcOccluded1M(scene, &ctx, chunk, static_cast<unsigned>(m), sizeof(RTCRay));
+        for (size_t i = 0; i < m; ++i)
+          occluded[base + i] = chunk[i].tfar == -std::numeric_limits<float>::infinity() ? 1 : 0;
+      }
+      return;
     }
   }
 }

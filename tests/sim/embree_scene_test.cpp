@@ -344,6 +344,60 @@ TEST(EmbreeScene, OccludedBatchMatchesOccludedForRandomRays) {
   scene.OccludedBatch(rays.data(), tail.data(), tail.size());
   for (size_t i = 0; i < tail.size(); ++i)
     EXPECT_EQ(tail[i] != 0, scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax));
+  // Every Embree entry point gives the same answers (bench/frame_bench.cpp compares their speed).
+  for (OcclusionApi api : {OcclusionApi::k1, OcclusionApi::k4, OcclusionApi::k8, OcclusionApi::k16,
+                           OcclusionApi::kStream1M}) {
+    for (SceneFrame f : {SceneFrame::kCurrent, SceneFrame::kPrevious}) {
+      std::vector<uint8_t> batch(kRays - 3, 7);  // not a multiple of any packet width
+      scene.OccludedBatch(api, rays.data(), batch.data(), batch.size(), f);
+      size_t mismatches = 0;
+      for (size_t i = 0; i < batch.size(); ++i)
+        mismatches += (batch[i] != 0) != scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax, f) || batch[i] > 1;
+      EXPECT_EQ(mismatches, 0u) << "api " << static_cast<int>(api);
+    }
+  }
+}
+
+// The benchmark's RayHook sees every query with Embree's answer, and can answer in Embree's place.
+TEST(EmbreeScene, RayHookRecordsAndAnswersQueries) {
+  Sequence s = BaseSequence();
+  s.objects.push_back(MakeObject("floor", QuadMesh(), false));
+  s.lights.push_back(QuadLight("l", 4.0f, Vec3(3)));
+  EmbreeScene scene(s);
+  scene.Update(StateFor(s, {Trs(Vec3(0, -2, 0), Vec3(-90, 0, 0), Vec3(6))}, 0));
+  struct Hook : RayHook {
+    bool answer = false;
+    mutable int occluded = 0, intersect = 0, answered = 0;
+    bool AnswerOccluded(const Vec3&, const Vec3&, float, SceneFrame, bool& o) const override {
+      if (!answer) return false;
+      ++answered;
+      o = true;
+      return true;
+    }
+    void TracedOccluded(const Vec3&, const Vec3&, float, SceneFrame, bool) const override { ++occluded; }
+    void TracedIntersect(const Vec3&, const Vec3&, float, SceneFrame, const RawHit& h) const override {
+      ++intersect;
+      EXPECT_NE(h.geomId, 0xffffffffu);
+    }
+  } hook;
+  const Vec3 org(0, 0, 0), down(0, -1, 0), up(0, 1, 0);  // floor 2 below, light 4 above: up to 3 is clear
+  const bool blockedBelow = scene.Occluded(org, down, 10.0f);
+  EXPECT_TRUE(blockedBelow);
+  const SurfaceHit below = scene.Intersect(org, down, 100.0f);
+  scene.SetRayHook(&hook);
+  EXPECT_EQ(scene.Occluded(org, down, 10.0f), blockedBelow);
+  EXPECT_FALSE(scene.Occluded(org, up, 3.0f));
+  const SurfaceHit hooked = scene.Intersect(org, down, 100.0f);
+  EXPECT_EQ(hooked.t, below.t);
+  EXPECT_EQ(hook.occluded, 2);
+  EXPECT_EQ(hook.intersect, 1);
+  hook.answer = true;
+  EXPECT_TRUE(scene.Occluded(org, up, 3.0f));
+  EXPECT_EQ(hook.answered, 1);
+  EXPECT_EQ(hook.occluded, 2);
+  scene.SetRayHook(nullptr);
+  EXPECT_FALSE(scene.Occluded(org, up, 3.0f));
+  EXPECT_EQ(hook.answered, 1);
 }
 
 TEST(EmbreeScene, OffsetRayOriginLeavesTheSurfaceOnTheSideOfTheRay) {
