@@ -1,6 +1,7 @@
 // Binary serialisation for per-frame checkpoints (`restir-sim run --resume`): plain little-endian bytes of
 // trivially copyable values and of vectors of them. A checkpoint is only read back by the same binary, so no
-// versioning beyond a magic number and the run's configuration hash is needed.
+// versioning beyond a magic number and the run's configuration hash is needed. Writer and reader share their
+// method names (Pod, Vector, String, Count), so one template lists a checkpoint's fields for both directions.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +30,8 @@ class BinaryWriter {
     Pod(static_cast<uint64_t>(s.size()));
     bytes_.append(s);
   }
+  // The number of elements that follow (a reader checks it against the bytes left).
+  void Count(const uint64_t& n) { Pod(n); }
   const std::string& Bytes() const { return bytes_; }
 
  private:
@@ -61,6 +64,11 @@ class BinaryReader {
     Need(n);
     s.assign(bytes_.data() + pos_, n);
     pos_ += n;
+  }
+  // At least one byte per element must remain, so a damaged count cannot make the caller allocate wildly.
+  void Count(uint64_t& n) {
+    Pod(n);
+    Need(n);
   }
   bool AtEnd() const { return pos_ == bytes_.size(); }
 

@@ -130,6 +130,7 @@ class Pipeline {
   const PipelineSettings& Settings() const { return settings_; }
   // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).
   const std::vector<Reservoir>& History() const { return previousReservoirs_; }
+  std::vector<Reservoir>& History() { return previousReservoirs_; }
   void RestoreHistory(std::vector<Reservoir> reservoirs) { previousReservoirs_ = std::move(reservoirs); }
 
  private:

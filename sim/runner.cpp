@@ -92,38 +92,43 @@ std::string FormatDuration(double seconds) {
   return buf;
 }
 
-void WriteGbuffer(BinaryWriter& w, const GBuffer& g) {
-  w.Pod(g.width);
-  w.Pod(g.height);
-  for (const auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth,
-                        &g.prevX, &g.prevY})
-    w.Vector(*v);
-  for (const auto* v : {&g.objectId, &g.materialId, &g.lightId}) w.Vector(*v);
-  w.Vector(g.prevValid);
-  w.Vector(g.disoccluded);
-}
-
-void ReadGbuffer(BinaryReader& r, GBuffer& g) {
-  r.Pod(g.width);
-  r.Pod(g.height);
+// Checkpoint fields, one list for both directions (Io is BinaryWriter or BinaryReader).
+template <typename Io>
+void TransferGbuffer(Io& io, GBuffer& g) {
+  io.Pod(g.width);
+  io.Pod(g.height);
   for (auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth, &g.prevX,
                   &g.prevY})
-    r.Vector(*v);
-  for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) r.Vector(*v);
-  r.Vector(g.prevValid);
-  r.Vector(g.disoccluded);
+    io.Vector(*v);
+  for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) io.Vector(*v);
+  io.Vector(g.prevValid);
+  io.Vector(g.disoccluded);
 }
 
-void WriteImage(BinaryWriter& w, const ImageRgb& img) {
-  w.Pod(img.width);
-  w.Pod(img.height);
-  w.Vector(img.pixels);
+template <typename Io>
+void TransferImage(Io& io, ImageRgb& img) {
+  io.Pod(img.width);
+  io.Pod(img.height);
+  io.Vector(img.pixels);
 }
 
-void ReadImage(BinaryReader& r, ImageRgb& img) {
-  r.Pod(img.width);
-  r.Pod(img.height);
-  r.Vector(img.pixels);
+template <typename Io>
+void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
+  uint64_t n = rows.size();
+  io.Count(n);
+  rows.resize(n);
+  for (FrameMetricsRow& row : rows) {
+    io.Pod(row.frame);
+    io.String(row.preset);
+    io.String(row.imageHash);
+    uint64_t values = row.values.size();
+    io.Count(values);
+    row.values.resize(values);
+    for (auto& [name, value] : row.values) {
+      io.String(name);
+      io.Pod(value);
+    }
+  }
 }
 
 // A run killed while writing leaves its temporary (name.tmpPID.ext, see atomic_file.cpp) behind; the next run in
@@ -166,6 +171,9 @@ RunResult Run(const RunOptions& opt) {
     for (const std::string& assignment : opt.settings) ApplySettingAssignment(presets.back().settings, assignment);
   }
   const uint32_t seed = opt.seed.value_or(seq.seed);
+  // Per preset, K pipelines (--ensemble K): member k runs with seed + k; member 0 is the run's own estimate.
+  // The split needs a reference, so without one the other members would be rendered for nothing.
+  const int members = opt.reference ? std::max(1, opt.ensemble) : 1;
   ReferenceParams refParams;
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
   refParams.cacheDir = opt.cacheDir;
@@ -184,7 +192,7 @@ RunResult Run(const RunOptions& opt) {
       {"resolution", {width, height}},
       {"frames", {opt.frameBegin, frameEnd}},
       {"seed", seed},
-      {"ensemble", std::max(1, opt.ensemble)},
+      {"ensemble", members},
       {"simd", ActiveSimdTargetName()},
       {"threads", threads},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
@@ -200,8 +208,6 @@ RunResult Run(const RunOptions& opt) {
 
   EmbreeScene scene(seq);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
-  // Per preset, K pipelines (--ensemble K): member k runs with seed + k; member 0 is the run's own estimate.
-  const int members = std::max(1, opt.ensemble);
   std::vector<std::unique_ptr<Pipeline>> pipelines;
   for (const Preset& p : presets)
     for (int k = 0; k < members; ++k) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
@@ -240,36 +246,30 @@ RunResult Run(const RunOptions& opt) {
   keyJson.erase("simd");  // every target gives the same bits (DESIGN §3)
   const std::string configKey = keyJson.dump();
   const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
+  // Everything the next frame reads, in one list for writing and reading.
+  auto transferState = [&](auto& io, int& nextFrame) {
+    io.Pod(nextFrame);
+    TransferGbuffer(io, previous);
+    io.Pod(previousState.frame);
+    io.Pod(previousState.camera);
+    io.Vector(previousState.objectToWorld);
+    io.Vector(previousState.lightOn);
+    io.Vector(previousLights);
+    TransferImage(io, previousReference);
+    for (size_t p = 0; p < presets.size(); ++p) {
+      TransferImage(io, previousImages[p]);
+      TransferImage(io, accumSum[p]);
+      for (int k = 0; k < members; ++k) io.Vector(pipelines[p * members + k]->History());
+    }
+    io.Pod(accumFrames);
+    io.Vector(disoccAge);
+    TransferRows(io, result.rows);
+  };
   auto saveCheckpoint = [&](int nextFrame) {
     BinaryWriter w;
     w.Pod(kCheckpointMagic);
     w.String(configKey);
-    w.Pod(nextFrame);
-    WriteGbuffer(w, previous);
-    w.Pod(previousState.frame);
-    w.Pod(previousState.camera);
-    w.Vector(previousState.objectToWorld);
-    w.Vector(previousState.lightOn);
-    w.Vector(previousLights);
-    WriteImage(w, previousReference);
-    for (size_t p = 0; p < presets.size(); ++p) {
-      WriteImage(w, previousImages[p]);
-      WriteImage(w, accumSum[p]);
-      for (int k = 0; k < members; ++k) w.Vector(pipelines[p * members + k]->History());
-    }
-    w.Pod(accumFrames);
-    w.Vector(disoccAge);
-    w.Pod(static_cast<uint64_t>(result.rows.size()));
-    for (const FrameMetricsRow& row : result.rows) {
-      w.Pod(row.frame);
-      w.String(row.preset);
-      w.String(row.imageHash);
-      w.Pod(static_cast<uint64_t>(row.values.size()));
-      for (const auto& [name, value] : row.values) {
-        w.String(name);
-        w.Pod(value);
-      }
-    }
+    transferState(w, nextFrame);
     WriteFileAtomic(checkpointPath, w.Bytes());
   };
   int firstFrame = opt.frameBegin;
@@ -280,47 +280,11 @@ RunResult Run(const RunOptions& opt) {
       BinaryReader r(bytes);
       uint64_t magic = 0;
       std::string key;
-      int nextFrame = 0;
       if (!bytes.empty()) r.Pod(magic);
       if (magic == kCheckpointMagic) r.String(key);
       if (magic == kCheckpointMagic && key == configKey) {
-        r.Pod(nextFrame);
-        ReadGbuffer(r, previous);
-        r.Pod(previousState.frame);
-        r.Pod(previousState.camera);
-        r.Vector(previousState.objectToWorld);
-        r.Vector(previousState.lightOn);
-        r.Vector(previousLights);
-        ReadImage(r, previousReference);
-        for (size_t p = 0; p < presets.size(); ++p) {
-          ReadImage(r, previousImages[p]);
-          ReadImage(r, accumSum[p]);
-          for (int k = 0; k < members; ++k) {
-            std::vector<Reservoir> history;
-            r.Vector(history);
-            pipelines[p * members + k]->RestoreHistory(std::move(history));
-          }
-        }
-        r.Pod(accumFrames);
-        r.Vector(disoccAge);
-        uint64_t rows = 0;
-        r.Pod(rows);
-        for (uint64_t k = 0; k < rows; ++k) {
-          FrameMetricsRow row;
-          r.Pod(row.frame);
-          r.String(row.preset);
-          r.String(row.imageHash);
-          uint64_t values = 0;
-          r.Pod(values);
-          for (uint64_t v = 0; v < values; ++v) {
-            std::string name;
-            double value = 0.0;
-            r.String(name);
-            r.Pod(value);
-            row.values.emplace_back(std::move(name), value);
-          }
-          result.rows.push_back(std::move(row));
-        }
+        int nextFrame = 0;
+        transferState(r, nextFrame);
         if (!r.AtEnd()) throw std::runtime_error("trailing bytes");
         firstFrame = nextFrame;
         result.resumedAtFrame = nextFrame;
@@ -408,7 +372,7 @@ RunResult Run(const RunOptions& opt) {
           ink.seed = seed + static_cast<uint32_t>(k);
           images.push_back(pipelines[p * members + k]->RenderFrame(ink).image);
         }
-        if (opt.reference) ens = MeasureEnsemble(images, ref.mean, ref.standardError, ensembleBias, ensembleVariance);
+        ens = MeasureEnsemble(images, ref.mean, ref.standardError, ensembleBias, ensembleVariance);
       }
       if (stateChanged) {
         accumSum[p] = fr.image;
