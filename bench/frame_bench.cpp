@@ -7,8 +7,9 @@
 //                `reps` times from the same history and the fastest repetition counts.
 //   ray floor    the exact rays that frame traced (recorded through EmbreeScene's RayHook in a capture render of
 //                the same frame, checked bit-identical by image hash) traced alone with Embree, in the same
-//                batching as the passes (rtcIntersect1 / rtcOccluded1 one at a time, parallel over the rays in
-//                capture order), per pass.
+//                batching as the passes (primary rays rtcIntersect1 one at a time, shadow rays through
+//                EmbreeScene::OccludedBatch with the passes' entry point, in blocks of consecutive captured rays),
+//                parallel over the rays in capture order, per pass.
 //   kernel floor each pass re-rendered with every ray answered from memory (the RayHook replays the captured
 //                answers), minus the cost of those lookups measured alone: the pass's kernels and data movement
 //                with visibility precomputed. Scene update and reprojection trace no rays and count whole.
@@ -77,6 +78,7 @@ int Height() { return EnvInt("RESTIR_BENCH_HEIGHT", 1080); }
 int Reps() { return std::max(1, EnvInt("RESTIR_BENCH_REPS", 2)); }
 int FloorReps() { return std::max(1, EnvInt("RESTIR_BENCH_FLOOR_REPS", 2)); }
 
+constexpr size_t kFloorBlock = 256;  // captured shadow rays per OccludedBatch call of the ray floor
 constexpr int kHistoryFrame = 0;   // rendered once: gives the measured frame its temporal input
 constexpr int kMeasuredFrame = 1;  // the steady-state frame that is timed, captured and replayed
 constexpr const char* kSequence = RESTIR_SOURCE_DIR "/sequences/window_bars_pan.json";
@@ -405,7 +407,7 @@ struct StageTimes {
   }
 };
 
-StageTimes RenderOnce(Driver& d, Pipeline& p, const std::vector<Reservoir>& history) {
+StageTimes RenderOnce(Driver& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
   p.RestoreHistory(history);
   StageTimes s;
   const double cpu0 = ThreadCpuMs();
@@ -440,7 +442,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   pipeline.RenderFrame(d.Inputs());
   d.EndFrame();
   d.BeginFrame(kMeasuredFrame);
-  const std::vector<Reservoir> history = pipeline.History();
+  const std::vector<StoredReservoir> history = pipeline.History();
   const double sceneUpdate = d.MsSceneUpdate();
 
   // Timed repetitions of the steady-state frame (2 threads, or whatever TBB is allowed), fastest counts.
@@ -493,7 +495,8 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   c["capture_hash_match"] = cap.hash == frameHash ? 1 : 0;
   c["capture_complete"] = rec.ShadowCount() == shadowRays && rec.PrimaryCount() == pixels ? 1 : 0;
 
-  // Ray floor per pass: the captured rays alone, rtcOccluded1 / rtcIntersect1 one at a time, parallel.
+  // Ray floor per pass: the captured rays alone (primary rays rtcIntersect1 one at a time, shadow rays in
+  // batches as the passes trace them), parallel.
   const EmbreeScene& scene = d.Scene();
   std::atomic<uint64_t> mismatches{0};
   const std::vector<CapturedRay>& prim = rec.Primary();
@@ -515,12 +518,29 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     const RawHit hit = scene.IntersectRaw(prim[i].org, prim[i].dir, prim[i].tmax);
     if (uint8_t(hit.geomId != ~0u) != prim[i].answer) mismatches.fetch_add(1, std::memory_order_relaxed);
   });
+  // Shadow rays go through OccludedBatch with the passes' entry point, in blocks of consecutive captured rays
+  // (one thread's rays of a few pixel batches), each block split by scene frame as the passes split theirs.
+  auto traceBlock = [&](size_t begin, size_t end) {
+    ShadowRay batch[2][kFloorBlock];
+    size_t index[2][kFloorBlock], count[2] = {0, 0};
+    for (size_t i = begin; i < end; ++i) {
+      const int f = shad[i].previous ? 1 : 0;
+      batch[f][count[f]] = ShadowRay{shad[i].org, shad[i].dir, shad[i].tmax};
+      index[f][count[f]++] = i;
+    }
+    for (int f = 0; f < 2; ++f) {
+      uint8_t occluded[kFloorBlock];
+      if (count[f] == 0) continue;
+      scene.OccludedBatch(batch[f], occluded, count[f], f ? SceneFrame::kPrevious : SceneFrame::kCurrent);
+      for (size_t k = 0; k < count[f]; ++k)
+        if (occluded[k] != shad[index[f][k]].answer) mismatches.fetch_add(1, std::memory_order_relaxed);
+    }
+  };
   for (const auto& [name, r] : range) {
-    rayFloor[name] = TimeParallel(r.first, r.second, FloorReps(), [&](size_t i) {
-      const CapturedRay& ray = shad[i];
-      const bool occ = scene.OccludedRaw(ray.org, ray.dir, ray.tmax,
-                                         ray.previous ? SceneFrame::kPrevious : SceneFrame::kCurrent);
-      if (uint8_t(occ) != ray.answer) mismatches.fetch_add(1, std::memory_order_relaxed);
+    const size_t blocks = (r.second - r.first + kFloorBlock - 1) / kFloorBlock;
+    rayFloor[name] = TimeParallel(0, blocks, FloorReps(), [&](size_t b) {
+      const size_t begin = r.first + b * kFloorBlock;
+      traceBlock(begin, std::min(r.second, begin + kFloorBlock));
     });
   }
 
@@ -531,9 +551,9 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     const double cpu0 = ThreadCpuMs();
     for (size_t i = 0; i < primaryCount; ++i)
       benchmark::DoNotOptimize(scene.IntersectRaw(prim[i].org, prim[i].dir, prim[i].tmax));
-    for (size_t i = 0; i < shadowCount; ++i)
-      benchmark::DoNotOptimize(scene.OccludedRaw(shad[i].org, shad[i].dir, shad[i].tmax,
-                                                 shad[i].previous ? SceneFrame::kPrevious : SceneFrame::kCurrent));
+    for (const auto& [name, r] : range)
+      for (size_t begin = r.first; begin < r.second; begin += kFloorBlock)
+        traceBlock(begin, std::min(r.second, begin + kFloorBlock));
     rayFloorCpu1 = ThreadCpuMs() - cpu0;
   }
 
@@ -772,10 +792,10 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
     const FrameResult fr = p.RenderFrame(d.Inputs());
     state.SetIterationTime(MsSince(t0) / 1000.0);
     const double gbuffers = GBufferBytes(d.Current()) + GBufferBytes(d.Previous());
-    // Pipeline: reservoirs_ and previousReservoirs_ always, spatialInput_ with spatial reuse (private members,
-    // so counted from sizeof and the pixel count); cell lists with stochastic pairwise MIS; Cell is 32 bytes.
-    const int reservoirBuffers = preset->settings.spatial.enabled ? 3 : 2;
-    const double reservoirs = double(reservoirBuffers) * sizeof(Reservoir) * n;
+    // Pipeline: its reservoir buffers (private members, so counted from sizeof and the pixel count); cell lists
+    // with stochastic pairwise MIS; Cell is 32 bytes.
+    const int reservoirBuffers = Pipeline::kReservoirBuffers;
+    const double reservoirs = double(reservoirBuffers) * sizeof(StoredReservoir) * n;
     const double cells = VecBytes(p.PixelCells()) + VecBytes(p.CellPixels()) + 32.0 * double(p.CellCount());
     const double frame = VecBytes(fr.image.pixels) + VecBytes(fr.temporalAccepted);
     // sim/runner.cpp, per preset: previousImages + accumSum (ImageRgb each); shared: the reference's mean and
@@ -789,7 +809,7 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
     state.counters["bpp_total"] = (gbuffers + reservoirs + cells + frame) / n;
     state.counters["bpp_runner_per_preset"] = runnerPerPreset;
     state.counters["bpp_runner_shared"] = runnerShared;
-    state.counters["sizeof_reservoir"] = sizeof(Reservoir);
+    state.counters["sizeof_reservoir"] = sizeof(StoredReservoir);
     state.counters["reservoir_buffers"] = reservoirBuffers;
     state.counters["width"] = w;
     state.counters["height"] = h;

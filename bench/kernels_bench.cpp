@@ -1,4 +1,4 @@
-// Microbenchmarks of the resampling kernels (DESIGN §9): items are pixels.
+// Microbenchmarks of the resampling kernels (DESIGN §9): items are pixels (BM_TargetKernel: pairs).
 #include <benchmark/benchmark.h>
 
 #include <string>
@@ -11,6 +11,7 @@
 #include "core/rng.h"
 #include "core/simd.h"
 #include "core/shading.h"
+#include "core/target_kernel.h"
 
 namespace restir {
 namespace {
@@ -27,6 +28,41 @@ std::vector<LightTriangle> GridLights(int count) {
     lights.push_back(t);
   }
   return lights;
+}
+
+// Two diffuse materials and a GGX one (alpha 0.09), the kernel benchmarks' receivers run through them.
+RisMaterials BenchMaterials() {
+  std::vector<Bsdf> bsdfs(3);
+  bsdfs[0].albedo = Vec3(0.6f);
+  bsdfs[1].albedo = Vec3(0.3f, 0.5f, 0.7f);
+  bsdfs[2].type = BsdfType::kGgx;
+  bsdfs[2].albedo = Vec3(0.9f, 0.8f, 0.6f);
+  bsdfs[2].alpha = 0.09f;
+  return MakeRisMaterials(bsdfs);
+}
+
+// Times `body` once per iteration with the kernels forced onto `target` (a kernel benchmark per target, scalar
+// twin included); `items` per call.
+template <typename F>
+void TimeOnTarget(benchmark::State& state, SimdTarget target, int64_t items, F&& body) {
+  if (!SetSimdTarget(target)) {
+    state.SkipWithError("target not supported");
+    return;
+  }
+  for (auto _ : state) {
+    body();
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * items);
+  state.SetLabel(ActiveSimdTargetName());
+  SetSimdTarget(SimdTarget::kAuto);
+}
+
+// Registers `name`/<target> for every target this machine supports, in this one binary.
+bool RegisterPerTarget(const char* name, void (*fn)(benchmark::State&, SimdTarget)) {
+  for (SimdTarget t : SupportedSimdTargets())
+    benchmark::RegisterBenchmark((std::string(name) + "/" + SimdTargetName(t)).c_str(), fn, t);
+  return true;
 }
 
 // Streaming RIS over M = 32 candidates for one receiver per item (the initial-sampling pass without rays).
@@ -60,13 +96,7 @@ BENCHMARK(BM_InitialRis);
 void BM_RisKernel(benchmark::State& state, SimdTarget target) {
   const std::vector<LightTriangle> lights = GridLights(72);
   const LightSampler sampler(lights, LightSelection::kPower);
-  std::vector<Bsdf> bsdfs(3);
-  bsdfs[0].albedo = Vec3(0.6f);
-  bsdfs[1].albedo = Vec3(0.3f, 0.5f, 0.7f);
-  bsdfs[2].type = BsdfType::kGgx;
-  bsdfs[2].albedo = Vec3(0.9f, 0.8f, 0.6f);
-  bsdfs[2].alpha = 0.09f;
-  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const RisMaterials materials = BenchMaterials();
   const size_t n = 1920;
   std::vector<float> in[12];
   for (auto& v : in) v.resize(n);
@@ -107,28 +137,56 @@ void BM_RisKernel(benchmark::State& state, SimdTarget target) {
   out.weightSum = outF[10].data();
   out.targetPdf = outF[11].data();
   const RisParams params{1, 0, static_cast<uint32_t>(RngPass::kInitial), 32};
-  if (!SetSimdTarget(target)) {
-    state.SkipWithError("target not supported");
-    return;
-  }
   uint32_t row = 0;
-  for (auto _ : state) {
+  TimeOnTarget(state, target, static_cast<int64_t>(n), [&] {
     px.pixelBase = (row++ % 1080) * static_cast<uint32_t>(n);
     RisInitialSampling(px, sampler.Soa(), materials, params, out);
     benchmark::DoNotOptimize(outF[10].data());
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(n));
-  state.SetLabel(ActiveSimdTargetName());
-  SetSimdTarget(SimdTarget::kAuto);
+  });
 }
+[[maybe_unused]] const bool kRisKernelRegistered = RegisterPerTarget("BM_RisKernel", BM_RisKernel);
 
-// One BM_RisKernel/<target> per target this machine supports, in the same binary.
-[[maybe_unused]] const bool kRisKernelRegistered = [] {
-  for (SimdTarget t : SupportedSimdTargets())
-    benchmark::RegisterBenchmark((std::string("BM_RisKernel/") + SimdTargetName(t)).c_str(), BM_RisKernel, t);
-  return true;
-}();
+// The target-evaluation kernel (core/target_kernel.h) on one SIMD target per benchmark, scalar twin included:
+// 4096 pairs of a floor receiver (the BM_RisKernel row and camera, materials in the same runs of 40) and a
+// random point on one of the 72 grid lights, as a reuse pass gathers them. p̂ and the RGB contribution are both
+// written. Items are pairs.
+void BM_TargetKernel(benchmark::State& state, SimdTarget target) {
+  const std::vector<LightTriangle> lights = GridLights(72);
+  const RisMaterials materials = BenchMaterials();
+  const size_t n = 4096;
+  std::vector<float> in[21];  // eye, position, geometric normal, shading normal, light position, normal, radiance
+  for (auto& v : in) v.resize(n);
+  std::vector<int32_t> material(n);
+  const Vec3 camera(0.0f, 1.5f, 6.0f);
+  for (size_t k = 0; k < n; ++k) {
+    const Vec3 p(float(k % 1920) / 1920.0f * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f);
+    const RngKey key{1, 0, static_cast<uint32_t>(k), 2};
+    const LightTriangle& t = lights[static_cast<size_t>(UniformFloat(key, 0) * 72.0f) % 72];
+    const Vec3 y = SampleTrianglePoint(t, UniformFloat(key, 1), UniformFloat(key, 2));
+    for (int c = 0; c < 3; ++c) {
+      in[c][k] = camera[c];
+      in[3 + c][k] = p[c];
+      in[6 + c][k] = in[9 + c][k] = c == 1 ? 1.0f : 0.0f;
+      in[12 + c][k] = y[c];
+      in[15 + c][k] = t.normal[c];
+      in[18 + c][k] = t.radiance[c];
+    }
+    material[k] = static_cast<int32_t>(k / 40 % 3);
+  }
+  const float* fields[kTargetPairFields];
+  for (int f = 0; f < kTargetPairFields; ++f) fields[f] = in[f].data();
+  const TargetPairs pairs = MakeTargetPairs(fields, material.data(), n);
+  std::vector<float> outF[4];
+  for (auto& v : outF) v.resize(n);
+  TargetResults out;
+  out.target = outF[0].data();
+  for (int c = 0; c < 3; ++c) out.contribution[c] = outF[1 + c].data();
+  TimeOnTarget(state, target, static_cast<int64_t>(n), [&] {
+    EvaluateTargets(pairs, materials, out);
+    benchmark::DoNotOptimize(outF[0].data());
+  });
+}
+[[maybe_unused]] const bool kTargetKernelRegistered = RegisterPerTarget("BM_TargetKernel", BM_TargetKernel);
 
 // A 6-input GRIS combination (canonical + temporal-like + 4 neighbours) with analytic targets, per family.
 void BM_GrisCombine(benchmark::State& state) {

@@ -1,12 +1,9 @@
 // Highway kernel and scalar twin of initial sampling (core/ris_kernel.h). The per-target part below is compiled
 // once per Highway target (foreach_target.h); the scalar twin and the dispatcher are compiled once (HWY_ONCE).
 //
-// Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, term for term in the same
-// order: glm::dot(a, b) = (a.x b.x + a.y b.y) + a.z b.z, glm::length = sqrt(dot), vec3 / s divides each
-// component. Branches of the scalar code become masks; every early return is mirrored with the scalar test
-// itself (e.g. !(c <= 0), which differs from c > 0 for NaN) and both BSDFs are evaluated then selected, so a
-// value computed on a path the scalar code would not take never reaches a result. No MulAdd (FMA), no
-// approximate reciprocals; float -> int is truncation (ConvertTo), table lookups are gathers.
+// Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, in the same order, with
+// per-lane IEEE operations only (core/shading-inl.h holds the shading equations and states the rules); here too
+// float -> int is truncation (ConvertTo) and table lookups are gathers.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/ris_kernel.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
@@ -17,20 +14,16 @@
 
 #include "core/ris_kernel.h"
 #include "core/rng.h"
+#include "core/shading-inl.h"
 #include "core/shading.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace restir {
 namespace HWY_NAMESPACE {
-namespace hn = hwy::HWY_NAMESPACE;
 
-using DF = hn::ScalableTag<float>;
-using DI = hn::RebindToSigned<DF>;
+// DF, DI, VF, VI, MF and hn come from core/shading-inl.h.
 using DU = hn::RebindToUnsigned<DF>;
-using VF = hn::Vec<DF>;
-using VI = hn::Vec<DI>;
 using VU = hn::Vec<DU>;
-using MF = hn::Mask<DF>;
 
 // Lane-uniform words of the RNG key (core/rng.h RandomBits), with the first PCG4D LCG step of y and z, which
 // do not depend on the dimension, already applied.
@@ -63,23 +56,6 @@ HWY_INLINE VF UniformV(DF df, VU pixel, const KeyWords& k, uint32_t dimension) {
   const VU bits = hn::Xor(x, hn::ShiftRight<7>(w));
   // bits >> 8 < 2^24: exact as int32 and as float.
   return hn::Mul(hn::ConvertTo(df, hn::BitCast(di, hn::ShiftRight<8>(bits))), hn::Set(df, 0x1.0p-24f));
-}
-
-HWY_INLINE VF Dot(VF ax, VF ay, VF az, VF bx, VF by, VF bz) {
-  return hn::Add(hn::Add(hn::Mul(ax, bx), hn::Mul(ay, by)), hn::Mul(az, bz));
-}
-
-// !(a <= b): the negation of the scalar code's early-return test (true for NaN, unlike a > b).
-HWY_INLINE MF NotLe(VF a, VF b) { return hn::Not(hn::Le(a, b)); }
-
-// GgxLambda (core/bsdf.h): 0 when c^2 <= 0, else 0.5 (sqrt(1 + alpha alpha tan2) - 1), tan2 = (1 - c^2) / c^2.
-HWY_INLINE VF GgxLambdaV(VF c, VF alpha2) {
-  const DF df;
-  const VF one = hn::Set(df, 1.0f);
-  const VF c2 = hn::Mul(c, c);
-  const VF tan2 = hn::Div(hn::Sub(one, c2), c2);
-  const VF v = hn::Mul(hn::Set(df, 0.5f), hn::Sub(hn::Sqrt(hn::Add(one, hn::Mul(alpha2, tan2))), one));
-  return hn::IfThenZeroElse(hn::Le(c2, hn::Zero(df)), v);
 }
 
 // Table lookups of the light fields, per lane at index `id`. On the SIMD targets, two 32-bit fields share a
@@ -192,32 +168,22 @@ HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const Ri
   MF selected = hn::RebindMask(df, hn::Lt(hn::Zero(di), hn::Zero(di)));  // all false
 
   if (!hn::AllFalse(df, active)) {
-    const VF px = hn::LoadU(df, in.pos[0]), py = hn::LoadU(df, in.pos[1]), pz = hn::LoadU(df, in.pos[2]);
-    const VF gx = hn::LoadU(df, in.ng[0]), gy = hn::LoadU(df, in.ng[1]), gz = hn::LoadU(df, in.ng[2]);
-    const VF nx = hn::LoadU(df, in.ns[0]), ny = hn::LoadU(df, in.ns[1]), nz = hn::LoadU(df, in.ns[2]);
-    const VF ox = hn::LoadU(df, in.wo[0]), oy = hn::LoadU(df, in.wo[1]), oz = hn::LoadU(df, in.wo[2]);
-    // Material fields (inactive lanes read material 0, never used).
+    VF x[3], ng[3], ns[3], wo[3];
+    for (int c = 0; c < 3; ++c) {
+      x[c] = hn::LoadU(df, in.pos[c]);
+      ng[c] = hn::LoadU(df, in.ng[c]);
+      ns[c] = hn::LoadU(df, in.ns[c]);
+      wo[c] = hn::LoadU(df, in.wo[c]);
+    }
+    // Inactive lanes read material 0, never used (their material id may be invalid).
     const VI mid = hn::IfThenElseZero(activeI, hn::LoadU(di, in.materialId));
-    const MF isGgx = hn::RebindMask(
-        df, hn::Eq(hn::GatherIndex(di, mt.type.data(), mid), hn::Set(di, static_cast<int32_t>(BsdfType::kGgx))));
-    const VF ar = hn::GatherIndex(df, mt.albedo[0].data(), mid);
-    const VF ag = hn::GatherIndex(df, mt.albedo[1].data(), mid);
-    const VF ab = hn::GatherIndex(df, mt.albedo[2].data(), mid);
-    const VF alpha = hn::GatherIndex(df, mt.alpha.data(), mid);
-    const VF alpha2 = hn::Mul(alpha, alpha);
-    const bool anyGgx = !hn::AllFalse(df, hn::And(isGgx, active));
-    // Lane-constant parts of EvalBsdf: cos(theta_o) and the diffuse value albedo / pi.
-    const VF cosO = Dot(nx, ny, nz, ox, oy, oz);
-    const MF cosOk = NotLe(cosO, zero);
-    const VF invPi = hn::Set(df, kInvPi);
-    const VF fdR = hn::Mul(ar, invPi), fdG = hn::Mul(ag, invPi), fdB = hn::Mul(ab, invPi);
-    const VF lambdaO = GgxLambdaV(cosO, alpha2);
+    // The receiver-only parts of EvalBsdf, once for all M candidates.
+    const ShadingPointV sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(mt, mid));
 
     const VU pixel = hn::Add(hn::Set(du, in.pixelBase), hn::Iota(du, 0));
     const uint32_t n = L.Size();
     const VF nF = hn::Set(df, static_cast<float>(n));
     const VI nMinus1 = hn::Set(di, static_cast<int32_t>(n - 1));
-    const VF minDistance = hn::Set(df, kMinLightDistance);
 
     for (int j = 0; j < params.candidates; ++j) {
       const uint32_t dim = 5u * static_cast<uint32_t>(j);
@@ -242,65 +208,12 @@ HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const Ri
       VF yp[3];
       for (int c = 0; c < 3; ++c) yp[c] = hn::Add(hn::Add(lf.p0[c], hn::Mul(b0, lf.e1[c])), hn::Mul(b1, lf.e2[c]));
 
-      // ConnectToLight (core/shading.h).
-      const VF dx = hn::Sub(yp[0], px), dy = hn::Sub(yp[1], py), dz = hn::Sub(yp[2], pz);
-      const VF d2 = Dot(dx, dy, dz, dx, dy, dz);
-      const VF dist = hn::Sqrt(d2);
-      const VF wx = hn::Div(dx, dist), wy = hn::Div(dy, dist), wz = hn::Div(dz, dist);
-      const VF lnx = lf.n[0], lny = lf.n[1], lnz = lf.n[2];
-      const VF cosX = Dot(nx, ny, nz, wx, wy, wz);
-      const VF cosY = hn::Neg(Dot(lnx, lny, lnz, wx, wy, wz));
-      const VF cosG = Dot(gx, gy, gz, wx, wy, wz);
-      const VF geometry = hn::Div(hn::Mul(cosX, cosY), d2);
-      // Path geometry is nonzero only past every ConnectToLight test; UnshadowedContribution then needs G > 0.
-      const MF contributes =
-          hn::And(hn::And(hn::And(hn::Gt(dist, minDistance), NotLe(cosX, zero)),
-                          hn::And(NotLe(cosY, zero), NotLe(cosG, zero))),
-                  hn::And(NotLe(geometry, zero), active));
-
-      // EvalBsdf (core/bsdf.cpp): zero unless cos(theta_o) > 0 and cos(theta_i) > 0 (cos(theta_i) == cosX).
-      const MF bsdfOk = hn::And(cosOk, NotLe(cosX, zero));
-      VF fr = fdR, fg = fdG, fb = fdB;
-      if (anyGgx && !hn::AllFalse(df, hn::And(hn::And(contributes, bsdfOk), isGgx))) {
-        const VF hsx = hn::Add(ox, wx), hsy = hn::Add(oy, wy), hsz = hn::Add(oz, wz);
-        const VF hLen = hn::Sqrt(Dot(hsx, hsy, hsz, hsx, hsy, hsz));
-        const VF hx = hn::Div(hsx, hLen), hy = hn::Div(hsy, hLen), hz = hn::Div(hsz, hLen);
-        // GgxD(dot(n, h), alpha).
-        const VF cosH = Dot(nx, ny, nz, hx, hy, hz);
-        const VF c2 = hn::Mul(cosH, cosH);
-        const VF denom = hn::Add(hn::Mul(c2, hn::Sub(alpha2, one)), one);
-        const VF dTerm = hn::IfThenZeroElse(
-            hn::Le(cosH, zero), hn::Div(alpha2, hn::Mul(hn::Mul(hn::Set(df, kPi), denom), denom)));
-        // Height-correlated Smith: 1 / (1 + Lambda(cosO) + Lambda(cosI)).
-        const VF g = hn::Div(one, hn::Add(hn::Add(one, lambdaO), GgxLambdaV(cosX, alpha2)));
-        // SchlickFresnel(albedo, dot(wi, h)): m = 1 - min(1, max(0, c)) with std::min/std::max semantics.
-        const VF cosT = Dot(wx, wy, wz, hx, hy, hz);
-        const VF clamped0 = hn::IfThenElse(hn::Lt(zero, cosT), cosT, zero);     // std::max(0, c)
-        const VF clamped = hn::IfThenElse(hn::Lt(clamped0, one), clamped0, one);  // std::min(1, .)
-        const VF m = hn::Sub(one, clamped);
-        const VF mm = hn::Mul(m, m);
-        const VF m5 = hn::Mul(hn::Mul(mm, mm), m);
-        const VF scale = hn::Div(hn::Mul(dTerm, g), hn::Mul(hn::Mul(hn::Set(df, 4.0f), cosO), cosX));
-        const MF ggxOk = hn::Gt(hLen, zero);
-        const VF sr = hn::Mul(hn::Add(ar, hn::Mul(hn::Sub(one, ar), m5)), scale);
-        const VF sg = hn::Mul(hn::Add(ag, hn::Mul(hn::Sub(one, ag), m5)), scale);
-        const VF sb = hn::Mul(hn::Add(ab, hn::Mul(hn::Sub(one, ab), m5)), scale);
-        fr = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sr), fr);
-        fg = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sg), fg);
-        fb = hn::IfThenElse(isGgx, hn::IfThenElseZero(ggxOk, sb), fb);
-      }
-      fr = hn::IfThenElseZero(bsdfOk, fr);
-      fg = hn::IfThenElseZero(bsdfOk, fg);
-      fb = hn::IfThenElseZero(bsdfOk, fb);
-
-      // L_e f_r G, then its Rec. 709 luminance (TargetFunction).
-      const VF lr = lf.radiance[0], lg = lf.radiance[1], lb = lf.radiance[2];
-      const VF cr = hn::Mul(hn::Mul(lr, fr), geometry);
-      const VF cg = hn::Mul(hn::Mul(lg, fg), geometry);
-      const VF cb = hn::Mul(hn::Mul(lb, fb), geometry);
-      const VF lum = hn::Add(hn::Add(hn::Mul(hn::Set(df, 0.2126f), cr), hn::Mul(hn::Set(df, 0.7152f), cg)),
-                             hn::Mul(hn::Set(df, 0.0722f), cb));
-      const VF target = hn::IfThenElseZero(contributes, lum);
+      // TargetFunction(UnshadowedContribution(sp, y)) (core/shading.h); inactive lanes give +0.
+      LightPathV path = ConnectToLightV(sp, yp, lf.n);
+      path.connects = hn::And(path.connects, active);
+      VF contribution[3];
+      UnshadowedContributionV(sp, path, lf.radiance, contribution);
+      const VF target = LuminanceV(contribution);
 
       // RisWeight and StreamCandidate (core/reservoir.h).
       const VF pdf = lf.pdf;
@@ -493,10 +406,7 @@ void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights
       sp.geometricNormal = Vec3(px.geometricNormal[0][k], px.geometricNormal[1][k], px.geometricNormal[2][k]);
       sp.shadingNormal = Vec3(px.shadingNormal[0][k], px.shadingNormal[1][k], px.shadingNormal[2][k]);
       sp.wo = Vec3(px.wo[0][k], px.wo[1][k], px.wo[2][k]);
-      const size_t m = static_cast<size_t>(px.materialId[k]);
-      sp.bsdf.type = static_cast<BsdfType>(materials.type[m]);
-      sp.bsdf.albedo = Vec3(materials.albedo[0][m], materials.albedo[1][m], materials.albedo[2][m]);
-      sp.bsdf.alpha = materials.alpha[m];
+      sp.bsdf = materials.At(static_cast<size_t>(px.materialId[k]));
       // The pipeline's initial pass before the kernel existed (sim/pipeline.cpp), candidate by candidate.
       Sampler s(RngKey{params.seed, params.frame, px.pixelBase + static_cast<uint32_t>(k), params.pass});
       for (int j = 0; j < params.candidates; ++j) {

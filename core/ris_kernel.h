@@ -37,6 +37,10 @@ struct RisMaterials {
   std::vector<float> albedo[3];   // Bsdf::albedo r g b
   std::vector<float> alpha;       // Bsdf::alpha
   size_t Size() const { return type.size(); }
+  // The Bsdf of entry m, as the scalar twins read it.
+  Bsdf At(size_t m) const {
+    return Bsdf{static_cast<BsdfType>(type[m]), Vec3(albedo[0][m], albedo[1][m], albedo[2][m]), alpha[m]};
+  }
 };
 RisMaterials MakeRisMaterials(const std::vector<Bsdf>& bsdfs);
 

@@ -476,7 +476,7 @@ void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* 
 }  // namespace
 
 void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count, SceneFrame frame) const {
-  OccludedBatch(OcclusionApi::k16, rays, occluded, count, frame);
+  OccludedBatch(kPassOcclusionApi, rays, occluded, count, frame);
 }
 
 void EmbreeScene::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,

@@ -54,6 +54,9 @@ enum class OcclusionApi : uint8_t {
   k16,        // rtcOccluded16 packets
   kStream1M,  // rtcOccluded1M stream of RTCRay
 };
+// The entry point the passes batch their shadow rays through: the fastest on captured frames
+// (docs/performance.md, "Shadow-ray entry points").
+inline constexpr OcclusionApi kPassOcclusionApi = OcclusionApi::k4;
 
 // Optional observer of every query an EmbreeScene answers, for the frame benchmark: it records the exact rays a
 // frame traces (ray floor) and can answer them from memory instead of Embree (kernel floor). Unset (the default)

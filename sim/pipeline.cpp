@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "core/ris_kernel.h"
 #include "core/rng.h"
 #include "core/spmis.h"
+#include "core/target_kernel.h"
 
 namespace restir {
 
@@ -61,65 +63,274 @@ Vec3 DirectEmission(const GBuffer& g, size_t i, const std::vector<LightTriangle>
   return glm::dot(t.normal, g.GeometricNormal(i)) > 0.0f ? t.radiance : Vec3(0.0f);
 }
 
-bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
-                       SceneFrame frame) {
-  const Vec3 toLight = lightPosition - sp.position;
+ShadowRay MakeShadowRay(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition) {
+  const Vec3 toLight = lightPosition - position;
   const float d = glm::length(toLight);
-  const Vec3 dir = toLight / d;
-  const Vec3 org = OffsetRayOrigin(sp.position, sp.geometricNormal, dir);
+  ShadowRay ray;
+  ray.dir = toLight / d;
+  ray.org = OffsetRayOrigin(position, geometricNormal, ray.dir);
   // Stop a relative 1e-3 short of the light point so the emitter itself never counts as an occluder.
-  const float tmax = glm::length(lightPosition - org) * (1.0f - 1e-3f);
-  return scene.Occluded(org, dir, tmax, frame);
+  ray.tmax = glm::length(lightPosition - ray.org) * (1.0f - 1e-3f);
+  return ray;
 }
 
-// A resampling domain: a surface in a frame, with that frame's lights and scene (DESIGN §4 "p̂ from i").
-struct Domain {
-  ShadingPoint sp;
+bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
+                       SceneFrame frame) {
+  const ShadowRay ray = MakeShadowRay(sp.position, sp.geometricNormal, lightPosition);
+  return scene.Occluded(ray.org, ray.dir, ray.tmax, frame);
+}
+
+StoredReservoir Store(const Reservoir& r) {
+  StoredReservoir s;
+  s.lightId = r.sample.lightId;
+  s.position = r.sample.position;
+  s.normal = r.sample.normal;
+  s.targetPdf = r.targetPdf;
+  s.W = r.W;
+  s.confidence = r.confidence;
+  s.visibility = r.visibility;
+  return s;
+}
+
+Reservoir Load(const StoredReservoir& s) {
+  Reservoir r;
+  r.sample.lightId = s.lightId;
+  r.sample.position = s.position;
+  r.sample.normal = s.normal;
+  r.sample.radiance = Vec3(0.0f);
+  r.targetPdf = s.targetPdf;
+  r.W = s.W;
+  r.confidence = s.confidence;
+  r.visibility = s.visibility;
+  return r;
+}
+
+namespace {
+
+// Pixels per batch: a batch's target entries go through the SIMD kernel in one call and its shadow rays through
+// Embree's packet interface in one call per frame. Small enough that a batch's combinations stay in cache.
+constexpr int kBatchPixels = 64;
+// A combination's domains: its inputs, plus (stochastic pairwise) the pixels its canonical draws picked.
+constexpr int kMaxDomains = 2 * kMaxGrisInputs;
+
+// A frame a domain lives in: its G-buffer, camera, light list and scene (DESIGN §4 "p̂ from i").
+struct FrameView {
+  const GBuffer* gbuffer = nullptr;
+  Vec3 eye{0.0f};
   const std::vector<LightTriangle>* lights = nullptr;
-  SceneFrame frame = SceneFrame::kCurrent;
+  SceneFrame scene = SceneFrame::kCurrent;
+};
+
+}  // namespace
+
+enum class Entry : uint8_t { kUnknown, kQueued, kKnown };
+
+// One pixel's GRIS combination while its batch is assembled: the inputs (input 0 canonical), the domains and
+// the entries p̂_j(Y_i) evaluated so far.
+struct Combination {
+  uint32_t pixel = 0;
+  int count = 0;    // inputs
+  int domains = 0;  // count, plus any extra domains
+  uint8_t view[kMaxDomains];            // FrameView of domain j
+  uint32_t domainPixel[kMaxDomains];    // G-buffer pixel of domain j
+  LightSample samples[kMaxGrisInputs];  // Y_i (radiance unused: each domain looks it up in its own frame)
+  GrisInput inputs[kMaxGrisInputs];
+  float u[kMaxGrisInputs];              // streaming-selection uniforms
+  float target[kMaxDomains][kMaxGrisInputs];
+  Entry state[kMaxDomains][kMaxGrisInputs];
+  void Reset(uint32_t p, int inputCount, int domainCount) {
+    pixel = p;
+    count = inputCount;
+    domains = domainCount;
+    for (int j = 0; j < domainCount; ++j)
+      for (int i = 0; i < inputCount; ++i) state[j][i] = Entry::kUnknown;
+  }
+  void AddDomain(uint8_t v, uint32_t p) {
+    view[domains] = v;
+    domainPixel[domains] = p;
+    for (int i = 0; i < count; ++i) state[domains][i] = Entry::kUnknown;
+    ++domains;
+  }
 };
 
 namespace {
 
-// p̂_d(y): the domain's unshadowed target with the emitter radiance of the domain's frame (a light switched
-// off in that frame gives 0), times visibility traced in that frame when requested.
-float DomainTarget(const Domain& d, const LightSample& y, bool withVisibility, const EmbreeScene& scene,
-                   uint64_t& rays) {
-  if (y.lightId >= d.lights->size()) return 0.0f;
-  LightSample lit = y;
-  lit.radiance = (*d.lights)[y.lightId].radiance;
-  float t = TargetFunction(UnshadowedContribution(d.sp, lit));
-  if (t > 0.0f && withVisibility) {
-    ++rays;
-    if (ShadowRayOccluded(scene, d.sp, y.position, d.frame)) t = 0.0f;
-  }
-  return t;
-}
-
-// Lazily evaluated, memoised p̂_j(Y_i) for up to kMaxGrisInputs inputs, so that a family pays only for the
-// entries (and, ray traced, the rays) it uses.
-class TargetMatrix {
+// Evaluates queued entries p̂_j(Y_i) of a batch of combinations: the unshadowed targets in one call of the SIMD
+// kernel (core/target_kernel.h), then, with visibility, one shadow ray per positive entry, traced as a batch per
+// frame. Also traces the visibility re-test of spatial neighbours (seed 000 Algorithm 1). The values are those of
+// evaluating each entry on its own, so the batch size never changes the bits.
+class TargetEvaluator {
  public:
-  TargetMatrix(const Domain* domains, const LightSample* samples, int count, bool visibility,
-               const EmbreeScene& scene, uint64_t& rays)
-      : domains_(domains), samples_(samples), count_(count), visibility_(visibility), scene_(scene), rays_(rays) {
-    for (int k = 0; k < count * count; ++k) cache_[k] = -1.0f;
+  // Sets what the next batches evaluate against (the buffers are kept from batch to batch).
+  void Bind(const FrameView* views, const RisMaterials& materials, const EmbreeScene& scene, bool visibility) {
+    views_ = views;
+    materials_ = &materials;
+    scene_ = &scene;
+    visibility_ = visibility;
+    pending_.clear();
+    visibilityPending_.clear();
   }
-  float operator()(int j, int i) {
-    float& v = cache_[j * count_ + i];
-    if (v < 0.0f) v = DomainTarget(domains_[j], samples_[i], visibility_, scene_, rays_);
-    return v;
+
+  // Queues p̂_j(Y_i) of `c` unless it is known or queued.
+  void Request(Combination& c, int j, int i) {
+    if (c.state[j][i] != Entry::kUnknown) return;
+    c.state[j][i] = Entry::kQueued;
+    const FrameView& v = views_[c.view[j]];
+    if (c.samples[i].lightId >= v.lights->size()) {  // a light removed in that frame
+      c.target[j][i] = 0.0f;
+      c.state[j][i] = Entry::kKnown;
+      return;
+    }
+    pending_.push_back({&c, static_cast<uint8_t>(j), static_cast<uint8_t>(i)});
+  }
+  // Queues a shadow ray from input 0's surface to Y_i; Resolve sets input i's visibility from it.
+  void RequestVisibility(Combination& c, int i) { visibilityPending_.push_back({&c, 0, static_cast<uint8_t>(i)}); }
+
+  // Evaluates everything queued. `rays` counts the shadow rays traced.
+  void Resolve(uint64_t& rays) {
+    const size_t n = pending_.size();
+    if (n > 0) {
+      for (auto& a : soa_) a.resize(n);
+      mat_.resize(n);
+      values_.resize(n);
+      for (size_t k = 0; k < n; ++k) {
+        const Pending& e = pending_[k];
+        const FrameView& v = views_[e.c->view[e.j]];
+        const GBuffer& g = *v.gbuffer;
+        const size_t p = e.c->domainPixel[e.j];
+        const LightSample& y = e.c->samples[e.i];
+        const Vec3& radiance = (*v.lights)[y.lightId].radiance;
+        const float fields[24] = {v.eye.x,      v.eye.y,      v.eye.z,      g.posX[p],    g.posY[p],   g.posZ[p],
+                                  g.ngX[p],     g.ngY[p],     g.ngZ[p],     g.nsX[p],     g.nsY[p],    g.nsZ[p],
+                                  y.position.x, y.position.y, y.position.z, y.normal.x,   y.normal.y,  y.normal.z,
+                                  radiance.x,   radiance.y,   radiance.z,   0.0f,         0.0f,        0.0f};
+        for (int f = 0; f < kTargetPairFields; ++f) soa_[f][k] = fields[f];
+        mat_[k] = g.materialId[p];
+      }
+      const float* fields[kTargetPairFields];
+      for (int f = 0; f < kTargetPairFields; ++f) fields[f] = soa_[f].data();
+      const TargetPairs pairs = MakeTargetPairs(fields, mat_.data(), n);
+      TargetResults results;
+      results.target = values_.data();
+      EvaluateTargets(pairs, *materials_, results);
+    }
+    // Shadow rays: positive entries when targets include visibility, and the neighbours' visibility re-tests.
+    for (auto& r : rayRefs_) r.clear();
+    for (auto& r : rays_) r.clear();
+    for (size_t k = 0; k < n; ++k) {
+      if (!(visibility_ && values_[k] > 0.0f)) continue;
+      const Pending& e = pending_[k];
+      const FrameView& v = views_[e.c->view[e.j]];
+      const size_t p = e.c->domainPixel[e.j];
+      const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
+      rays_[f].push_back(MakeShadowRay(v.gbuffer->Position(p), v.gbuffer->GeometricNormal(p),
+                                       e.c->samples[e.i].position));
+      rayRefs_[f].push_back(static_cast<int64_t>(k));
+    }
+    for (size_t k = 0; k < visibilityPending_.size(); ++k) {
+      const Pending& e = visibilityPending_[k];
+      const FrameView& v = views_[e.c->view[0]];
+      const size_t p = e.c->domainPixel[0];
+      rays_[0].push_back(MakeShadowRay(v.gbuffer->Position(p), v.gbuffer->GeometricNormal(p),
+                                       e.c->samples[e.i].position));
+      rayRefs_[0].push_back(-1 - static_cast<int64_t>(k));
+    }
+    for (int f = 0; f < 2; ++f) {
+      if (rays_[f].empty()) continue;
+      occluded_.resize(rays_[f].size());
+      scene_->OccludedBatch(rays_[f].data(), occluded_.data(), rays_[f].size(),
+                           f == 0 ? SceneFrame::kCurrent : SceneFrame::kPrevious);
+      rays += rays_[f].size();
+      for (size_t r = 0; r < rays_[f].size(); ++r) {
+        const int64_t ref = rayRefs_[f][r];
+        if (ref >= 0) {
+          if (occluded_[r]) values_[static_cast<size_t>(ref)] = 0.0f;
+        } else {
+          const Pending& e = visibilityPending_[static_cast<size_t>(-1 - ref)];
+          e.c->inputs[e.i].visibility = occluded_[r] ? 0.0f : 1.0f;
+        }
+      }
+    }
+    for (size_t k = 0; k < n; ++k) {
+      const Pending& e = pending_[k];
+      e.c->target[e.j][e.i] = values_[k];
+      e.c->state[e.j][e.i] = Entry::kKnown;
+    }
+    pending_.clear();
+    visibilityPending_.clear();
+  }
+
+  // p̂_j(Y_i), evaluated now if no phase asked for it before (the phases below request every entry a family
+  // reads, so this fallback only keeps an overlooked entry correct).
+  float Get(Combination& c, int j, int i, uint64_t& rays) {
+    if (c.state[j][i] != Entry::kKnown) {
+      Request(c, j, i);
+      Resolve(rays);
+    }
+    return c.target[j][i];
   }
 
  private:
-  const Domain* domains_;
-  const LightSample* samples_;
-  int count_;
-  bool visibility_;
-  const EmbreeScene& scene_;
-  uint64_t& rays_;
-  float cache_[kMaxGrisInputs * kMaxGrisInputs];
+  struct Pending {
+    Combination* c;
+    uint8_t j, i;
+  };
+  const FrameView* views_ = nullptr;
+  const RisMaterials* materials_ = nullptr;
+  const EmbreeScene* scene_ = nullptr;
+  bool visibility_ = false;
+  std::vector<Pending> pending_, visibilityPending_;
+  std::vector<float> soa_[kTargetPairFields];
+  std::vector<int32_t> mat_;
+  std::vector<float> values_;
+  std::vector<ShadowRay> rays_[2];
+  std::vector<int64_t> rayRefs_[2];  // >= 0: pending entry; < 0: -1 - visibility request
+  std::vector<uint8_t> occluded_;
 };
+
+// Queues the canonical targets p̂_c(Y_i) that GrisCombine reads first: inputs that can contribute.
+void RequestCanonicalTargets(Combination& c, TargetEvaluator& ev) {
+  for (int i = 0; i < c.count; ++i) {
+    const GrisInput& in = c.inputs[i];
+    if (in.hasSample && in.W > 0.0f && IsFiniteWeight(in.W)) ev.Request(c, 0, i);
+  }
+}
+
+// Queues every other entry GrisCombine will read. Once the canonical targets are known, which entries a
+// family reads depends on them alone (pairwise: p̂_j(Y_0) and p̂_i(Y_i) where p̂_c > 0; balance: column i where
+// p̂_c(Y_i) > 0; Z: the selected column, and the selection uses c_i and p̂_c only), so a dry run of the
+// combination with the unknown entries at 0 names them exactly: no ray is traced that the scalar order would not
+// trace.
+void RequestFamilyTargets(Combination& c, MisFamily family, VisibilityCarry carry, TargetEvaluator& ev) {
+  auto record = [&](int j, int i) {
+    if (c.state[j][i] == Entry::kKnown) return c.target[j][i];
+    ev.Request(c, j, i);
+    return 0.0f;
+  };
+  GrisCombine(family, c.inputs, c.count, record, c.u, carry);
+}
+
+GrisResult CombineNow(Combination& c, MisFamily family, VisibilityCarry carry, TargetEvaluator& ev,
+                      uint64_t& rays) {
+  auto target = [&](int j, int i) { return ev.Get(c, j, i, rays); };
+  return GrisCombine(family, c.inputs, c.count, target, c.u, carry);
+}
+
+// The output reservoir of a combination (the selected sample with its canonical target).
+StoredReservoir OutputOf(const Combination& c, const GrisResult& gr, float confidence) {
+  StoredReservoir out;
+  out.confidence = confidence;
+  if (gr.selected >= 0) {
+    const LightSample& y = c.samples[gr.selected];
+    out.lightId = y.lightId;
+    out.position = y.position;
+    out.normal = y.normal;
+    out.targetPdf = c.target[0][gr.selected];
+    out.W = gr.W;
+    out.visibility = gr.visibility;
+  }
+  return out;
+}
 
 MisFamily EffectiveFamily(MisFamily family, BiasCorrection bias) {
   return bias == BiasCorrection::kNone ? MisFamily::kUniform : family;
@@ -137,22 +348,56 @@ bool SimilarSurface(const GBuffer& a, size_t i, const GBuffer& b, size_t j, floa
   return std::abs(da - db) <= depthThreshold * std::max(da, db);
 }
 
+bool FiniteReservoir(const StoredReservoir& r) {
+  return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
+}
 bool FiniteReservoir(const Reservoir& r) {
   return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
 }
 
+LightSample SampleOf(const StoredReservoir& r) {
+  LightSample y;
+  y.lightId = r.lightId;
+  y.position = r.position;
+  y.normal = r.normal;
+  y.radiance = Vec3(0.0f);
+  return y;
+}
+
+GrisInput InputOf(const StoredReservoir& r, float confidence) {
+  return GrisInput{r.HasSample(), r.W, confidence, r.visibility};
+}
+
+// Per-thread scratch of a batch, reused across batches.
+struct BatchScratch {
+  std::vector<Combination> combinations = std::vector<Combination>(kBatchPixels);
+  std::vector<int> order = std::vector<int>(kBatchPixels);  // the batch's combinations still in play
+  TargetEvaluator evaluator;
+};
+
 }  // namespace
 
-// Stochastic pairwise reuse for one pixel (seed 004 §3-5): pick a neighbour cell by weighted reservoir
-// sampling, draw N contributing pixels of it by P(i) ∝ c_i p̂_i(X_i) W_i and N_c pixels uniformly, and combine
-// with the stochastic pairwise weights.
-void Pipeline::StochasticPairwiseReuse(const FrameInputs& in, size_t i, int x, int y, const Domain& self,
-                                       Sampler& s, uint64_t& rays, uint64_t& guarded) {
+// What stochastic pairwise reuse carries from its draws to its weights, per pixel of a batch (seed 004 §3-5).
+struct SpatialWork {
+  float multiplicity[kMaxGrisInputs];  // K(i) of non-canonical input i
+  float probability[kMaxGrisInputs];   // P(i)
+  float drawnCount[kMaxGrisInputs];    // multiplicity of the d-th distinct canonical draw (domain count + d)
+  uint32_t drawnPixel[kMaxGrisInputs];
+  int distinct = 0;                    // distinct canonical draws
+  float bigM = 0.0f;                   // M: the cell's candidates
+  float scale = 1.0f;                  // N / M with confidence scaling, else 1 (§4.3)
+  float cBar = 0.0f;                   // scaled Σ c_i over the cell
+  Combination* c = nullptr;            // the pixel's combination
+};
+
+// Stochastic pairwise reuse, step 1 (seed 004 §3-5): pick a neighbour cell by weighted reservoir sampling, draw
+// N contributing pixels of it by P(i) ∝ c_i p̂_i(X_i) W_i and N_c pixels uniformly. Consumes every random number
+// of the pixel in a fixed layout; targets and rays come later, batched.
+bool Pipeline::StochasticPairwiseDraws(size_t i, int x, int y, const GBuffer& g,
+                                       const std::vector<StoredReservoir>& input, Sampler& s,
+                                       SpatialWork& work) const {
   const SpatialParams& sp = settings_.spatial;
-  const GBuffer& g = *in.gbuffer;
   const int w = g.width, h = g.height;
-  const Camera& camera = in.state->camera;
-  const std::vector<LightTriangle>& lights = in.scene->LightTriangles();
   const Vec3 n = g.GeometricNormal(i);
 
   // §5.1: 12 random pixels in a growing radius; similar cells compete with weight = their confidence sum.
@@ -171,7 +416,7 @@ void Pipeline::StochasticPairwiseReuse(const FrameInputs& in, size_t i, int x, i
     cellWeightSum += cell.confidenceSum;
     if (uPick * cellWeightSum < cell.confidenceSum) chosen = c;
   }
-  if (chosen < 0) return;
+  if (chosen < 0) return false;
   const Cell& cell = cells_[static_cast<size_t>(chosen)];
 
   // The cell's candidates, the current pixel excluded: all M of them, and the contributing ones with P(i).
@@ -184,7 +429,7 @@ void Pipeline::StochasticPairwiseReuse(const FrameInputs& in, size_t i, int x, i
     const uint32_t p = cellPixels_[cell.first + t];
     if (p == i) continue;
     candidates[m++] = p;
-    const Reservoir& r = spatialInput_[p];
+    const StoredReservoir& r = input[p];
     confidenceSum += r.confidence;
     const float contribution = r.HasSample() ? r.confidence * r.targetPdf * r.W : 0.0f;  // Eq. 17
     if (contribution > 0.0f && std::isfinite(contribution)) {
@@ -193,100 +438,53 @@ void Pipeline::StochasticPairwiseReuse(const FrameInputs& in, size_t i, int x, i
       cumulative[k++] = contributionSum;
     }
   }
-  if (m == 0) return;
-  const float bigM = static_cast<float>(m), bigN = static_cast<float>(sp.draws);
-  const float nc = static_cast<float>(sp.canonicalDraws);
-  const float scale = sp.confidenceScaling ? bigN / bigM : 1.0f;  // §4.3
-  const float cBar = confidenceSum * scale;
-  const Reservoir& selfRes = spatialInput_[i];
-  const float cc = selfRes.confidence;
-  const bool rayTraced = sp.bias == BiasCorrection::kRayTraced;
+  if (m == 0) return false;
+  work.bigM = static_cast<float>(m);
+  work.scale = sp.confidenceScaling ? static_cast<float>(sp.draws) / work.bigM : 1.0f;  // §4.3
+  work.cBar = confidenceSum * work.scale;
 
   // Non-canonical: N draws with replacement by P(i); distinct draws become inputs with multiplicity K(i).
-  Domain domains[kMaxGrisInputs];
-  LightSample samples[kMaxGrisInputs];
-  GrisInput inputs[kMaxGrisInputs];
-  float multiplicity[kMaxGrisInputs], probability[kMaxGrisInputs];
-  uint32_t pixelOf[kMaxGrisInputs];
-  domains[0] = self;
-  samples[0] = selfRes.sample;
-  inputs[0] = GrisInput{selfRes.HasSample(), selfRes.W, cc, selfRes.visibility};
-  int count = 1;
+  Combination& c = *work.c;
+  const StoredReservoir& self = input[i];
+  c.Reset(static_cast<uint32_t>(i), 1, 0);
+  c.AddDomain(0, static_cast<uint32_t>(i));
+  c.samples[0] = SampleOf(self);
+  c.inputs[0] = InputOf(self, self.confidence);
   for (int d = 0; d < sp.draws; ++d) {
     const float u = s.Next();
     if (k == 0) continue;
     const int idx = SampleCumulative(cumulative, k, u);
     const uint32_t p = contributing[idx];
     int slot = 1;
-    while (slot < count && pixelOf[slot] != p) ++slot;
-    if (slot == count) {
-      const Reservoir& r = spatialInput_[p];
-      pixelOf[slot] = p;
-      multiplicity[slot] = 0.0f;
-      probability[slot] = (cumulative[idx] - (idx > 0 ? cumulative[idx - 1] : 0.0f)) / contributionSum;
-      domains[slot] = Domain{ShadingPointAt(g, p, camera, *in.materials), &lights, SceneFrame::kCurrent};
-      samples[slot] = r.sample;
-      inputs[slot] = GrisInput{r.HasSample(), r.W, r.confidence * scale, r.visibility};
-      if (settings_.shade.visibility != VisibilityReuse::kNone && r.HasSample()) {
-        rays += 1;  // seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel
-        inputs[slot].visibility = ShadowRayOccluded(*in.scene, self.sp, r.sample.position) ? 0.0f : 1.0f;
-      }
-      ++count;
+    while (slot < c.count && c.domainPixel[slot] != p) ++slot;
+    if (slot == c.count) {
+      const StoredReservoir& r = input[p];
+      work.multiplicity[slot] = 0.0f;
+      work.probability[slot] = (cumulative[idx] - (idx > 0 ? cumulative[idx - 1] : 0.0f)) / contributionSum;
+      c.samples[slot] = SampleOf(r);
+      c.inputs[slot] = InputOf(r, r.confidence * work.scale);
+      ++c.count;
+      for (int j = 0; j < slot; ++j) c.state[j][slot] = Entry::kUnknown;
+      c.AddDomain(0, p);
     }
-    multiplicity[slot] += 1.0f;
+    work.multiplicity[slot] += 1.0f;
   }
-  TargetMatrix target(domains, samples, count, rayTraced, *in.scene, rays);
-  float mis[kMaxGrisInputs], pc[kMaxGrisInputs];
-  for (int t = 0; t < count; ++t) {
-    mis[t] = 0.0f;
-    pc[t] = inputs[t].hasSample ? target(0, t) : 0.0f;
+  // Canonical: N_c uniform draws (P_c = 1/M), always consumed so every pixel's stream has the same layout.
+  work.distinct = 0;
+  for (int d = 0; d < sp.canonicalDraws; ++d) {
+    const uint32_t p = candidates[std::min(m - 1, static_cast<int>(s.Next() * work.bigM))];
+    int slot = 0;
+    while (slot < work.distinct && work.drawnPixel[slot] != p) ++slot;
+    if (slot == work.distinct) work.drawnPixel[work.distinct] = p, work.drawnCount[work.distinct++] = 0.0f;
+    work.drawnCount[slot] += 1.0f;
   }
-  // Canonical: base share plus N_c uniform draws (P_c = 1/M) of the pairwise terms (Eq. 18-19).
-  if (inputs[0].hasSample && pc[0] > 0.0f) {
-    mis[0] = MisPairwiseCanonicalBase(cBar, cc);
-    uint32_t drawn[kMaxGrisInputs];
-    float drawnCount[kMaxGrisInputs];
-    int distinct = 0;
-    for (int d = 0; d < sp.canonicalDraws; ++d) {
-      const uint32_t p = candidates[std::min(m - 1, static_cast<int>(s.Next() * bigM))];
-      int slot = 0;
-      while (slot < distinct && drawn[slot] != p) ++slot;
-      if (slot == distinct) drawn[distinct] = p, drawnCount[distinct++] = 0.0f;
-      drawnCount[slot] += 1.0f;
-    }
-    for (int d = 0; d < distinct; ++d) {
-      const Domain dj{ShadingPointAt(g, drawn[d], camera, *in.materials), &lights, SceneFrame::kCurrent};
-      const float tj = DomainTarget(dj, samples[0], rayTraced, *in.scene, rays);
-      mis[0] += StochasticPairwiseCanonicalTerm(drawnCount[d], nc, 1.0f / bigM, spatialInput_[drawn[d]].confidence * scale,
-                                                cBar, cc, tj, pc[0]);
-    }
-  } else {
-    // Still consume the canonical draws so every pixel's random stream has the same layout.
-    for (int d = 0; d < sp.canonicalDraws; ++d) s.Next();
-  }
-  for (int t = 1; t < count; ++t)
-    if (inputs[t].hasSample && pc[t] > 0.0f)
-      mis[t] = StochasticPairwiseNonCanonical(multiplicity[t], bigN, probability[t], inputs[t].confidence, cBar, cc,
-                                              target(t, t), pc[t]);
-  float u[kMaxGrisInputs];
-  for (int t = 0; t < count; ++t) u[t] = s.Next();
-  const GrisResult gr = GrisResample(inputs, mis, pc, count, u, CarryFor(settings_.shade.visibility));
-  guarded += static_cast<uint64_t>(gr.guarded);
-  Reservoir out;
-  out.confidence = cc + cBar;  // the canonical plus the (scaled) cell it stands for
-  if (gr.selected >= 0) {
-    out.sample = samples[gr.selected];
-    out.targetPdf = pc[gr.selected];
-    out.W = gr.W;
-    out.weightSum = gr.weightSum;
-    out.visibility = gr.visibility;
-  }
-  reservoirs_[i] = out;
+  for (int t = 0; t < c.count; ++t) c.u[t] = s.Next();
+  return true;
 }
 
 // Screen-space cells (seed 004 §5): each tile's surface pixels grouped by (object id, quantised normal), built
 // sequentially in tile and scan order so the lists never depend on the thread count.
-void Pipeline::BuildCells(const GBuffer& g, const std::vector<Reservoir>& reservoirs) {
+void Pipeline::BuildCells(const GBuffer& g, const std::vector<StoredReservoir>& reservoirs) {
   const SpatialParams& sp = settings_.spatial;
   const int w = g.width, h = g.height, tile = std::max(1, sp.cellTile);
   const int tilesX = (w + tile - 1) / tile, tilesY = (h + tile - 1) / tile;
@@ -337,7 +535,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const GBuffer& g = *in.gbuffer;
   const int w = g.width, h = g.height;
   const size_t n = g.Size();
-  reservoirs_.assign(n, Reservoir{});
+  reservoirs_.assign(n, StoredReservoir{});
   FrameResult result;
   result.image = ImageRgb(w, h);
   result.temporalAccepted.assign(n, 0);
@@ -347,14 +545,16 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const SpatialParams& spp = settings_.spatial;
   const std::vector<LightTriangle>& lights = in.scene->LightTriangles();
   const bool carryVisibility = settings_.shade.visibility != VisibilityReuse::kNone;
+  const VisibilityCarry carry = CarryFor(settings_.shade.visibility);
+  const RisMaterials materials = MakeRisMaterials(*in.materials);
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
+  tbb::enumerable_thread_specific<BatchScratch> scratch;
 
   // Initial sampling: streaming RIS over M candidates from the light sampler (seed 003 §1).
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   auto t0 = std::chrono::steady_clock::now();
   // The RIS itself runs in the SIMD kernel (core/ris_kernel.h) a row at a time, on the target core/simd.h
-  // selects; every target gives the same bits.
-  const RisMaterials risMaterials = MakeRisMaterials(*in.materials);
+  // selects; every target gives the same bits. The row's visibility rays go to Embree as one batch.
   const RisParams risParams{in.seed, in.frame, static_cast<uint32_t>(RngPass::kInitial), ip.candidates};
   const bool haveLights = !in.lights->Empty();
   ForEachRow(h, [&](int y) {
@@ -396,11 +596,13 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     ro.pdfArea = outF[9].data();
     ro.weightSum = outF[10].data();
     ro.targetPdf = outF[11].data();
-    if (haveLights) RisInitialSampling(px, in.lights->Soa(), risMaterials, risParams, ro);
-    for (int x = 0; x < w; ++x) {
-      const size_t i = rowStart + static_cast<size_t>(x);
+    if (haveLights) RisInitialSampling(px, in.lights->Soa(), materials, risParams, ro);
+    std::vector<Reservoir> row(rw);
+    std::vector<ShadowRay> shadowRays;
+    std::vector<uint32_t> rayPixel;
+    for (size_t x = 0; x < rw; ++x) {
       if (!activeRow[x]) continue;
-      Reservoir r;
+      Reservoir& r = row[x];
       r.sample.lightId = static_cast<uint32_t>(outId[x]);
       r.sample.position = Vec3(outF[0][x], outF[1][x], outF[2][x]);
       r.sample.normal = Vec3(outF[3][x], outF[4][x], outF[5][x]);
@@ -412,19 +614,41 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       // An initial reservoir counts one frame of history (DESIGN §4), or its candidates (seed 003).
       if (!ip.countCandidates) r.confidence = 1.0f;
       if (ip.visibility && r.HasSample()) {
-        rays.local() += 1;
-        const ShadingPoint sp = ShadingPointAt(g, i, camera, *in.materials);
-        if (ShadowRayOccluded(*in.scene, sp, r.sample.position)) r.W = 0.0f, r.visibility = 0.0f;
+        const size_t i = rowStart + x;
+        shadowRays.push_back(MakeShadowRay(g.Position(i), g.GeometricNormal(i), r.sample.position));
+        rayPixel.push_back(static_cast<uint32_t>(x));
       }
+    }
+    if (!shadowRays.empty()) {
+      std::vector<uint8_t> occluded(shadowRays.size());
+      in.scene->OccludedBatch(shadowRays.data(), occluded.data(), shadowRays.size());
+      rays.local() += shadowRays.size();
+      for (size_t k = 0; k < shadowRays.size(); ++k)
+        if (occluded[k]) row[rayPixel[k]].W = 0.0f, row[rayPixel[k]].visibility = 0.0f;
+    }
+    for (size_t x = 0; x < rw; ++x) {
+      if (!activeRow[x]) continue;
+      Reservoir& r = row[x];
       if (!FiniteReservoir(r)) {
         guarded.local() += 1;
         r = Reservoir{};
         r.confidence = ip.countCandidates ? static_cast<float>(ip.candidates) : 1.0f;
       }
-      reservoirs_[i] = r;
+      reservoirs_[rowStart + x] = Store(r);
     }
   });
   result.passes.push_back({"initial", MsSince(t0), rays.combine(std::plus<uint64_t>())});
+
+  // Batches of up to kBatchPixels pixels of a row, in order.
+  auto forEachBatch = [&](auto&& f) {
+    const int batchesPerRow = (w + kBatchPixels - 1) / kBatchPixels;
+    tbb::parallel_for(tbb::blocked_range<int>(0, h * batchesPerRow), [&](const tbb::blocked_range<int>& r) {
+      for (int b = r.begin(); b < r.end(); ++b) {
+        const int y = b / batchesPerRow, x0 = (b % batchesPerRow) * kBatchPixels;
+        f(y, x0, std::min(w, x0 + kBatchPixels));
+      }
+    });
+  };
 
   // Temporal reuse (seed 003 §3-5; DESIGN §4): the previous reservoir at the reprojected pixel, validated,
   // confidence-capped, combined with the current one by GRIS.
@@ -440,9 +664,18 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     const MisFamily family = EffectiveFamily(tp.mis, tp.bias);
     if (haveHistory) {
       const GBuffer& pg = *in.previousGbuffer;
-      ForEachRow(h, [&](int y) {
+      const FrameView views[2] = {{&g, camera.position, &lights, SceneFrame::kCurrent},
+                                  {&pg, in.previousState->camera.position, in.previousLights,
+                                   SceneFrame::kPrevious}};
+      forEachBatch([&](int y, int x0, int x1) {
         uint64_t& localRays = trays.local();
-        for (int x = 0; x < w; ++x) {
+        BatchScratch& sc = scratch.local();
+        std::vector<Combination>& combos = sc.combinations;
+        std::vector<int>& order = sc.order;
+        TargetEvaluator& ev = sc.evaluator;
+        ev.Bind(views, materials, *in.scene, tp.bias == BiasCorrection::kRayTraced);
+        int count = 0;
+        for (int x = x0; x < x1; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
           if (!g.IsSurface(i) || !g.prevValid[i]) continue;
           int px = std::clamp(static_cast<int>(std::floor(g.prevX[i])), 0, w - 1);
@@ -454,40 +687,52 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             const size_t qi = static_cast<size_t>(qy) * w + qx;
             if (pg.objectId[qi] == pg.objectId[pi] && SimilarSurface(pg, pi, pg, qi, 0.9f, 0.1f)) pi = qi;
           }
-          const Reservoir& prev = previousReservoirs_[pi];
+          const StoredReservoir& prev = previousReservoirs_[pi];
           if (!FiniteReservoir(prev) || !pg.IsSurface(pi)) continue;
-          Reservoir& cur = reservoirs_[i];
-          Domain domains[2];
-          domains[0] = Domain{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
-          domains[1] = Domain{ShadingPointAt(pg, pi, in.previousState->camera, *in.materials), in.previousLights,
-                              SceneFrame::kPrevious};
-          const LightSample samples[2] = {cur.sample, prev.sample};
-          TargetMatrix target(domains, samples, 2, tp.bias == BiasCorrection::kRayTraced, *in.scene, localRays);
-          if (tp.sampleChecks) {
-            if (!prev.HasSample() || !(target(0, 1) > 0.0f)) continue;
+          if (tp.sampleChecks && !prev.HasSample()) continue;
+          const StoredReservoir& cur = reservoirs_[i];
+          order[count] = count;
+          Combination& c = combos[count++];
+          c.Reset(static_cast<uint32_t>(i), 2, 0);
+          c.AddDomain(0, static_cast<uint32_t>(i));
+          c.AddDomain(1, static_cast<uint32_t>(pi));
+          c.samples[0] = SampleOf(cur);
+          c.samples[1] = SampleOf(prev);
+          c.inputs[0] = InputOf(cur, cur.confidence);
+          c.inputs[1] = InputOf(prev, std::min(prev.confidence, tp.maxHistory));
+          const RngKey key{in.seed, in.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
+          c.u[0] = UniformFloat(key, 0);
+          c.u[1] = UniformFloat(key, 1);
+          if (tp.sampleChecks) ev.Request(c, 0, 1);
+        }
+        // seed 003's sample tests need p̂_c(Y_prev) before anything else is evaluated.
+        if (tp.sampleChecks) {
+          ev.Resolve(localRays);
+          int kept = 0;
+          for (int k = 0; k < count; ++k) {
+            const Combination& c = combos[order[k]];
+            const float t01 = c.target[0][1];
+            if (!(t01 > 0.0f)) continue;
             if (tp.targetRatioClamp) {
-              const float ratio = prev.targetPdf > 0.0f ? target(0, 1) / prev.targetPdf : 0.0f;
+              const float prevTarget = previousReservoirs_[c.domainPixel[1]].targetPdf;
+              const float ratio = prevTarget > 0.0f ? t01 / prevTarget : 0.0f;
               if (!(ratio >= 0.1f && ratio <= 10.0f)) continue;
             }
+            order[kept++] = order[k];
           }
-          if (pg.objectId[pi] != g.objectId[i]) crossObject.local() += 1;
-          GrisInput inputs[2];
-          inputs[0] = GrisInput{cur.HasSample(), cur.W, cur.confidence, cur.visibility};
-          inputs[1] = GrisInput{prev.HasSample(), prev.W, std::min(prev.confidence, tp.maxHistory), prev.visibility};
-          const RngKey key{in.seed, in.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
-          const float u[2] = {UniformFloat(key, 0), UniformFloat(key, 1)};
-          const GrisResult gr = GrisCombine(family, inputs, 2, target, u, CarryFor(settings_.shade.visibility));
+          count = kept;
+        }
+        for (int k = 0; k < count; ++k) RequestCanonicalTargets(combos[order[k]], ev);
+        ev.Resolve(localRays);
+        for (int k = 0; k < count; ++k) RequestFamilyTargets(combos[order[k]], family, carry, ev);
+        ev.Resolve(localRays);
+        for (int k = 0; k < count; ++k) {
+          Combination& c = combos[order[k]];
+          const size_t i = c.pixel;
+          if (pg.objectId[c.domainPixel[1]] != g.objectId[i]) crossObject.local() += 1;
+          const GrisResult gr = CombineNow(c, family, carry, ev, localRays);
           guarded.local() += static_cast<uint64_t>(gr.guarded);
-          Reservoir out;
-          out.confidence = gr.confidence;
-          if (gr.selected >= 0) {
-            out.sample = samples[gr.selected];
-            out.targetPdf = target(0, gr.selected);
-            out.W = gr.W;
-            out.weightSum = gr.weightSum;
-            out.visibility = gr.visibility;
-          }
-          cur = out;
+          reservoirs_[i] = OutputOf(c, gr, gr.confidence);
           result.temporalAccepted[i] = 1;
         }
       });
@@ -497,39 +742,52 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   }
 
   // Spatial reuse (DESIGN §4): k random neighbours in a disk, similarity-tested, combined by GRIS with the
-  // pixel's own reservoir as the canonical input; more neighbours where temporal reuse failed.
+  // pixel's own reservoir as the canonical input; more neighbours where temporal reuse failed. Each iteration
+  // reads this frame's buffer and writes last frame's (temporal reuse has read it by now), then they swap.
   if (spp.enabled) {
     tbb::combinable<uint64_t> srays([] { return uint64_t{0}; });
     t0 = std::chrono::steady_clock::now();
     const MisFamily family = EffectiveFamily(spp.mis, spp.bias);
     const bool stochastic = family == MisFamily::kStochasticPairwise;
+    const bool rayTraced = spp.bias == BiasCorrection::kRayTraced;
+    const FrameView views[1] = {{&g, camera.position, &lights, SceneFrame::kCurrent}};
+    std::vector<StoredReservoir>& output = previousReservoirs_;
     for (int iteration = 0; iteration < spp.iterations; ++iteration) {
-      spatialInput_ = reservoirs_;
-      if (stochastic) BuildCells(g, spatialInput_);
-      ForEachRow(h, [&](int y) {
+      const std::vector<StoredReservoir>& input = reservoirs_;
+      output.resize(n);
+      if (stochastic) BuildCells(g, input);
+      forEachBatch([&](int y, int x0, int x1) {
         uint64_t& localRays = srays.local();
-        for (int x = 0; x < w; ++x) {
+        BatchScratch& sc = scratch.local();
+        std::vector<Combination>& combos = sc.combinations;
+        TargetEvaluator& ev = sc.evaluator;
+        ev.Bind(views, materials, *in.scene, rayTraced);
+        SpatialWork work[kBatchPixels];
+        int count = 0;
+        for (int x = x0; x < x1; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
+          output[i] = input[i];  // kept unless a combination below replaces it
           if (!g.IsSurface(i)) continue;
+          Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
+                           static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+          Combination& c = combos[count];
           if (stochastic) {
-            Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
-                             static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
-            const Domain self{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
-            StochasticPairwiseReuse(in, i, x, y, self, s, localRays, guarded.local());
+            work[count].c = &c;
+            if (!StochasticPairwiseDraws(i, x, y, g, input, s, work[count])) continue;
+            // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
+            if (carryVisibility)
+              for (int t = 1; t < c.count; ++t)
+                if (c.inputs[t].hasSample) ev.RequestVisibility(c, t);
+            ++count;
             continue;
           }
           const bool boost = tp.enabled && !result.temporalAccepted[i];
           const int k = std::min(boost ? spp.disocclusionNeighbours : spp.neighbours, kMaxGrisInputs - 1);
-          Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
-                           static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
-          Domain domains[kMaxGrisInputs];
-          LightSample samples[kMaxGrisInputs];
-          GrisInput inputs[kMaxGrisInputs];
-          domains[0] = Domain{ShadingPointAt(g, i, camera, *in.materials), &lights, SceneFrame::kCurrent};
-          const Reservoir& self = spatialInput_[i];
-          samples[0] = self.sample;
-          inputs[0] = GrisInput{self.HasSample(), self.W, self.confidence, self.visibility};
-          int count = 1;
+          const StoredReservoir& self = input[i];
+          c.Reset(static_cast<uint32_t>(i), 1, 0);
+          c.AddDomain(0, static_cast<uint32_t>(i));
+          c.samples[0] = SampleOf(self);
+          c.inputs[0] = InputOf(self, self.confidence);
           for (int t = 0; t < k; ++t) {
             // Uniform point in a disk of the given radius (polar map), rounded to a pixel.
             const float r = spp.radius * std::sqrt(s.Next());
@@ -539,63 +797,160 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             if (nx < 0 || ny < 0 || nx >= w || ny >= h || (nx == x && ny == y)) continue;
             const size_t ni = static_cast<size_t>(ny) * w + nx;
             if (!g.IsSurface(ni) || !SimilarSurface(g, i, g, ni, spp.normalThreshold, spp.depthThreshold)) continue;
-            const Reservoir& nr = spatialInput_[ni];
+            const StoredReservoir& nr = input[ni];
             if (!FiniteReservoir(nr)) continue;
-            domains[count] = Domain{ShadingPointAt(g, ni, camera, *in.materials), &lights, SceneFrame::kCurrent};
-            samples[count] = nr.sample;
-            inputs[count] = GrisInput{nr.HasSample(), nr.W, nr.confidence, nr.visibility};
+            const int slot = c.count++;
+            for (int j = 0; j < slot; ++j) c.state[j][slot] = Entry::kUnknown;
+            c.AddDomain(0, static_cast<uint32_t>(ni));
+            c.samples[slot] = SampleOf(nr);
+            c.inputs[slot] = InputOf(nr, nr.confidence);
             // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
-            if (carryVisibility && nr.HasSample()) {
-              localRays += 1;
-              inputs[count].visibility =
-                  ShadowRayOccluded(*in.scene, domains[0].sp, nr.sample.position) ? 0.0f : 1.0f;
+            if (carryVisibility && nr.HasSample()) ev.RequestVisibility(c, slot);
+          }
+          if (c.count == 1) continue;
+          for (int t = 0; t < c.count; ++t) c.u[t] = s.Next();
+          ++count;
+        }
+        if (!stochastic) {
+          for (int k = 0; k < count; ++k) RequestCanonicalTargets(combos[k], ev);
+          ev.Resolve(localRays);
+          for (int k = 0; k < count; ++k) RequestFamilyTargets(combos[k], family, carry, ev);
+          ev.Resolve(localRays);
+          for (int k = 0; k < count; ++k) {
+            Combination& c = combos[k];
+            const GrisResult gr = CombineNow(c, family, carry, ev, localRays);
+            guarded.local() += static_cast<uint64_t>(gr.guarded);
+            output[c.pixel] = OutputOf(c, gr, gr.confidence);
+          }
+          return;
+        }
+        // Stochastic pairwise (seed 004 Eq. 15-19): p̂_c of every input first; then, where the canonical sample
+        // can contribute, its target in each canonically drawn pixel, and p̂_i(Y_i) where p̂_c(Y_i) > 0.
+        for (int k = 0; k < count; ++k) {
+          Combination& c = combos[k];
+          for (int t = 0; t < c.count; ++t)
+            if (c.inputs[t].hasSample) ev.Request(c, 0, t);
+        }
+        ev.Resolve(localRays);
+        for (int k = 0; k < count; ++k) {
+          Combination& c = combos[k];
+          const SpatialWork& wk = work[k];
+          if (c.inputs[0].hasSample && c.target[0][0] > 0.0f) {
+            for (int d = 0; d < wk.distinct; ++d) {
+              c.AddDomain(0, wk.drawnPixel[d]);
+              ev.Request(c, c.domains - 1, 0);
             }
-            ++count;
           }
-          if (count == 1) continue;
-          TargetMatrix target(domains, samples, count, spp.bias == BiasCorrection::kRayTraced, *in.scene,
-                              localRays);
-          float u[kMaxGrisInputs];
-          for (int t = 0; t < count; ++t) u[t] = s.Next();
-          const GrisResult gr = GrisCombine(family, inputs, count, target, u, CarryFor(settings_.shade.visibility));
+          for (int t = 1; t < c.count; ++t)
+            if (c.inputs[t].hasSample && c.target[0][t] > 0.0f) ev.Request(c, t, t);
+        }
+        ev.Resolve(localRays);
+        for (int k = 0; k < count; ++k) {
+          Combination& c = combos[k];
+          const SpatialWork& wk = work[k];
+          const float bigN = static_cast<float>(spp.draws), nc = static_cast<float>(spp.canonicalDraws);
+          const float cc = c.inputs[0].confidence;
+          float mis[kMaxGrisInputs], pc[kMaxGrisInputs];
+          for (int t = 0; t < c.count; ++t) {
+            mis[t] = 0.0f;
+            pc[t] = c.inputs[t].hasSample ? c.target[0][t] : 0.0f;
+          }
+          // Canonical: base share plus the N_c uniform draws (P_c = 1/M) of the pairwise terms (Eq. 18-19).
+          if (c.inputs[0].hasSample && pc[0] > 0.0f) {
+            mis[0] = MisPairwiseCanonicalBase(wk.cBar, cc);
+            for (int d = 0; d < wk.distinct; ++d) {
+              const float tj = c.target[c.count + d][0];
+              mis[0] += StochasticPairwiseCanonicalTerm(wk.drawnCount[d], nc, 1.0f / wk.bigM,
+                                                        input[wk.drawnPixel[d]].confidence * wk.scale, wk.cBar, cc,
+                                                        tj, pc[0]);
+            }
+          }
+          for (int t = 1; t < c.count; ++t)
+            if (c.inputs[t].hasSample && pc[t] > 0.0f)
+              mis[t] = StochasticPairwiseNonCanonical(wk.multiplicity[t], bigN, wk.probability[t],
+                                                      c.inputs[t].confidence, wk.cBar, cc, c.target[t][t], pc[t]);
+          const GrisResult gr = GrisResample(c.inputs, mis, pc, c.count, c.u, carry);
           guarded.local() += static_cast<uint64_t>(gr.guarded);
-          Reservoir out;
-          out.confidence = gr.confidence;
-          if (gr.selected >= 0) {
-            out.sample = samples[gr.selected];
-            out.targetPdf = target(0, gr.selected);
-            out.W = gr.W;
-            out.weightSum = gr.weightSum;
-            out.visibility = gr.visibility;
-          }
-          reservoirs_[i] = out;
+          // The canonical plus the (scaled) cell it stands for.
+          output[c.pixel] = OutputOf(c, gr, cc + wk.cBar);
         }
       });
+      std::swap(reservoirs_, output);
     }
     result.passes.push_back({"spatial", MsSince(t0), srays.combine(std::plus<uint64_t>())});
   }
 
   // Shading: f(Y) W with a final shadow ray, or f_unshadowed(Y) V W with the carried visibility (seed 000
-  // Algorithm 1), plus what the primary ray sees directly.
+  // Algorithm 1), plus what the primary ray sees directly. f comes from the target kernel, the row's shadow rays
+  // go to Embree as one batch.
   tbb::combinable<uint64_t> shadeRays([] { return uint64_t{0}; });
   t0 = std::chrono::steady_clock::now();
+  struct ShadeScratch {
+    std::vector<float> soa[kTargetPairFields], target, f[3];
+    std::vector<int32_t> mat;
+    std::vector<uint32_t> pixelOf, rayOf;
+    std::vector<ShadowRay> shadowRays;
+    std::vector<uint8_t> occluded;
+  };
+  tbb::enumerable_thread_specific<ShadeScratch> shadeScratch;
   ForEachRow(h, [&](int y) {
+    const size_t rowStart = static_cast<size_t>(y) * w;
+    ShadeScratch& sc = shadeScratch.local();
+    auto& [soa, target, f, mat, pixelOf, rayOf, shadowRays, occluded] = sc;
+    for (auto& v : soa) v.clear();
+    mat.clear();
+    pixelOf.clear();
+    rayOf.clear();
+    shadowRays.clear();
     for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
+      const size_t i = rowStart + static_cast<size_t>(x);
+      const StoredReservoir& r = reservoirs_[i];
+      if (!(g.IsSurface(i) && r.HasSample() && r.lightId < lights.size())) continue;
+      const Vec3& radiance = lights[r.lightId].radiance;
+      const float fields[kTargetPairFields] = {camera.position.x, camera.position.y, camera.position.z, g.posX[i], g.posY[i],
+                                g.posZ[i],         g.ngX[i],          g.ngY[i],          g.ngZ[i],  g.nsX[i],
+                                g.nsY[i],          g.nsZ[i],          r.position.x,      r.position.y, r.position.z,
+                                r.normal.x,        r.normal.y,        r.normal.z,        radiance.x, radiance.y,
+                                radiance.z};
+      for (int f = 0; f < kTargetPairFields; ++f) soa[f].push_back(fields[f]);
+      mat.push_back(g.materialId[i]);
+      pixelOf.push_back(static_cast<uint32_t>(x));
+    }
+    const size_t m = pixelOf.size();
+    target.resize(m);
+    for (auto& v : f) v.resize(m);
+    if (m > 0) {
+      const float* fields[kTargetPairFields];
+      for (int k = 0; k < kTargetPairFields; ++k) fields[k] = soa[k].data();
+      const TargetPairs pairs = MakeTargetPairs(fields, mat.data(), m);
+      TargetResults out;
+      out.target = target.data();
+      for (int c = 0; c < 3; ++c) out.contribution[c] = f[c].data();
+      EvaluateTargets(pairs, materials, out);
+    }
+    if (!carryVisibility) {
+      for (size_t k = 0; k < m; ++k) {
+        if (!(f[0][k] > 0.0f || f[1][k] > 0.0f || f[2][k] > 0.0f)) continue;
+        const size_t i = rowStart + pixelOf[k];
+        shadowRays.push_back(MakeShadowRay(g.Position(i), g.GeometricNormal(i), reservoirs_[i].position));
+        rayOf.push_back(static_cast<uint32_t>(k));
+      }
+      occluded.resize(shadowRays.size());
+      if (!shadowRays.empty()) in.scene->OccludedBatch(shadowRays.data(), occluded.data(), shadowRays.size());
+      shadeRays.local() += shadowRays.size();
+      for (size_t r = 0; r < shadowRays.size(); ++r)
+        if (occluded[r]) f[0][rayOf[r]] = f[1][rayOf[r]] = f[2][rayOf[r]] = 0.0f;
+    }
+    size_t k = 0;
+    for (int x = 0; x < w; ++x) {
+      const size_t i = rowStart + static_cast<size_t>(x);
       Vec3 c = DirectEmission(g, i, lights);
-      const Reservoir& r = reservoirs_[i];
-      if (g.IsSurface(i) && r.HasSample() && r.sample.lightId < lights.size()) {
-        const ShadingPoint sp = ShadingPointAt(g, i, camera, *in.materials);
-        LightSample lit = r.sample;
-        lit.radiance = lights[lit.lightId].radiance;
-        Vec3 f = UnshadowedContribution(sp, lit);
-        if (carryVisibility) {
-          f *= r.visibility;
-        } else if (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) {
-          shadeRays.local() += 1;
-          if (ShadowRayOccluded(*in.scene, sp, r.sample.position)) f = Vec3(0.0f);
-        }
-        c += f * r.W;
+      if (k < m && pixelOf[k] == static_cast<uint32_t>(x)) {
+        const StoredReservoir& r = reservoirs_[i];
+        Vec3 fx(f[0][k], f[1][k], f[2][k]);
+        if (carryVisibility) fx *= r.visibility;
+        c += fx * r.W;
+        ++k;
       }
       if (!IsFinite(c)) {
         guarded.local() += 1;

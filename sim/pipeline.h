@@ -118,7 +118,26 @@ struct FrameResult {
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
 };
 
-struct Domain;
+// A reservoir as the pipeline stores it between passes and frames (issue 6 memory budget): the sample's light
+// id, point and normal, and the reservoir's scalars. The emitted radiance is looked up from the light list of
+// whichever frame evaluates the sample, so it is not stored; p_src and the running weight sum matter only while
+// RIS streams candidates.
+struct StoredReservoir {
+  uint32_t lightId = 0;     // LightSample::lightId
+  Vec3 position{0.0f};      // LightSample::position
+  Vec3 normal{0.0f};        // LightSample::normal
+  float targetPdf = 0.0f;   // Reservoir::targetPdf
+  float W = 0.0f;           // Reservoir::W
+  float confidence = 0.0f;  // Reservoir::confidence
+  float visibility = 1.0f;  // Reservoir::visibility
+  bool HasSample() const { return W > 0.0f; }
+};
+static_assert(sizeof(StoredReservoir) == 44);
+StoredReservoir Store(const Reservoir& r);
+// The reservoir back, with zero radiance, p_src and weight sum (never read after RIS).
+Reservoir Load(const StoredReservoir& s);
+
+struct SpatialWork;
 inline constexpr int kMaxCellTile = 32;  // a cell holds at most kMaxCellTile² pixels
 inline constexpr int kMaxCellPixels = kMaxCellTile * kMaxCellTile;
 
@@ -129,15 +148,17 @@ class Pipeline {
   FrameResult RenderFrame(const FrameInputs& in);
   const PipelineSettings& Settings() const { return settings_; }
   // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).
-  const std::vector<Reservoir>& History() const { return previousReservoirs_; }
-  std::vector<Reservoir>& History() { return previousReservoirs_; }
-  void RestoreHistory(std::vector<Reservoir> reservoirs) { previousReservoirs_ = std::move(reservoirs); }
+  const std::vector<StoredReservoir>& History() const { return previousReservoirs_; }
+  std::vector<StoredReservoir>& History() { return previousReservoirs_; }
+  void RestoreHistory(std::vector<StoredReservoir> reservoirs) { previousReservoirs_ = std::move(reservoirs); }
+  // Reservoir buffers the pipeline holds (per pixel): this frame's and last frame's. A spatial iteration writes
+  // into last frame's buffer once temporal reuse has read it, so no third buffer exists.
+  static constexpr int kReservoirBuffers = 2;
 
  private:
   PipelineSettings settings_;
-  std::vector<Reservoir> reservoirs_;          // this frame's reservoirs
-  std::vector<Reservoir> previousReservoirs_;  // last frame's output (temporal input)
-  std::vector<Reservoir> spatialInput_;        // copy read by a spatial iteration
+  std::vector<StoredReservoir> reservoirs_;          // this frame's reservoirs
+  std::vector<StoredReservoir> previousReservoirs_;  // last frame's output (temporal input), then spatial scratch
   // Screen-space cells of the current spatial iteration (stochastic pairwise MIS).
   struct Cell {
     int32_t objectId = -1;   // shared object id of its pixels
@@ -150,9 +171,11 @@ class Pipeline {
   std::vector<Cell> cells_;
   std::vector<int32_t> pixelCell_;    // per pixel: its cell, or -1
   std::vector<uint32_t> cellPixels_;  // pixel indices grouped by cell, in scan order within a cell
-  void BuildCells(const GBuffer& g, const std::vector<Reservoir>& reservoirs);
-  void StochasticPairwiseReuse(const FrameInputs& in, size_t pixel, int x, int y, const Domain& self,
-                               Sampler& s, uint64_t& rays, uint64_t& guarded);
+  void BuildCells(const GBuffer& g, const std::vector<StoredReservoir>& reservoirs);
+  // Stochastic pairwise reuse, first step for one pixel: the neighbour cell, its draws and the canonical draws
+  // (all of the pixel's random numbers). False when the pixel keeps its reservoir.
+  bool StochasticPairwiseDraws(size_t pixel, int x, int y, const GBuffer& g,
+                               const std::vector<StoredReservoir>& input, Sampler& s, SpatialWork& work) const;
  public:
   // Read-only views for tests (cells of the last spatial iteration).
   const std::vector<int32_t>& PixelCells() const { return pixelCell_; }
@@ -168,6 +191,10 @@ ShadingPoint ShadingPointAt(const GBuffer& gbuffer, size_t i, const Camera& came
 
 // Radiance a primary ray sees directly at pixel i: an emitter's front face, else zero.
 Vec3 DirectEmission(const GBuffer& gbuffer, size_t i, const std::vector<LightTriangle>& lights);
+
+// The shadow ray from a receiver (position, geometric normal) to a light point: origin offset off the surface,
+// stopping a relative 1e-3 short of the light.
+ShadowRay MakeShadowRay(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition);
 
 // True when the segment from the receiver to a light point is blocked (shadow ray shortened so it stops short
 // of the light itself).

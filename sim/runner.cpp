@@ -144,7 +144,7 @@ void RemoveStaleTemporaries(const std::string& dir) {
   for (const auto& p : stale) std::filesystem::remove(p, ec);
 }
 
-constexpr uint64_t kCheckpointMagic = 0x31544B43'52545352ull;  // "RSTRCKT1"
+constexpr uint64_t kCheckpointMagic = 0x32544B43'52545352ull;  // "RSTRCKT2"
 
 }  // namespace
 

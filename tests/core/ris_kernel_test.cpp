@@ -16,6 +16,8 @@
 #include "core/shading.h"
 #include "core/simd.h"
 
+#include "core/random_geometry.h"
+
 namespace restir {
 namespace {
 
@@ -25,14 +27,7 @@ class RisKernelTest : public ::testing::Test {
   void TearDown() override { SetSimdTarget(SimdTarget::kAuto); }
 };
 
-Vec3 RandomUnit(std::mt19937& rng) {
-  std::normal_distribution<float> n(0.0f, 1.0f);
-  for (;;) {
-    const Vec3 v(n(rng), n(rng), n(rng));
-    const float l = glm::length(v);
-    if (l > 1e-3f) return v / l;
-  }
-}
+using test::RandomUnit;
 
 std::vector<LightTriangle> RandomLights(std::mt19937& rng, int count, float offFraction) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);

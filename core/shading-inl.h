@@ -1,0 +1,213 @@
+// Per-target Highway versions of the shading equations (core/shading.h ConnectToLight, UnshadowedContribution,
+// TargetFunction; core/bsdf.cpp EvalBsdf), shared by the SIMD kernels (core/ris_kernel.cpp,
+// core/target_kernel.cpp) so that each equation has one SIMD form, next to its one scalar form.
+//
+// Include after "hwy/foreach_target.h" and "hwy/highway.h", outside any namespace: like every Highway -inl
+// header it is compiled once per target and opens restir::HWY_NAMESPACE itself.
+//
+// Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, term for term in the same
+// order: glm::dot(a, b) = (a.x b.x + a.y b.y) + a.z b.z, glm::length = sqrt(dot), vec3 / s divides each
+// component. Branches of the scalar code become masks; every early return is mirrored with the scalar test
+// itself (e.g. !(c <= 0), which differs from c > 0 for NaN) and both BSDFs are evaluated then selected, so a
+// value computed on a path the scalar code would not take never reaches a result. No MulAdd (FMA), no
+// approximate reciprocals or square roots.
+
+#include "core/bsdf.h"
+#include "core/ris_kernel.h"  // RisMaterials
+#include "core/shading.h"
+
+// Highway's per-target include guard: the body is compiled once for each target foreach_target.h toggles.
+#if defined(RESTIR_CORE_SHADING_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef RESTIR_CORE_SHADING_INL_H_
+#undef RESTIR_CORE_SHADING_INL_H_
+#else
+#define RESTIR_CORE_SHADING_INL_H_
+#endif
+
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace restir {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// One packet of lanes; the kernels use these names too.
+using DF = hn::ScalableTag<float>;
+using DI = hn::RebindToSigned<DF>;
+using VF = hn::Vec<DF>;
+using VI = hn::Vec<DI>;
+using MF = hn::Mask<DF>;
+
+HWY_INLINE VF Dot(VF ax, VF ay, VF az, VF bx, VF by, VF bz) {
+  return hn::Add(hn::Add(hn::Mul(ax, bx), hn::Mul(ay, by)), hn::Mul(az, bz));
+}
+HWY_INLINE VF Dot(const VF (&a)[3], const VF (&b)[3]) { return Dot(a[0], a[1], a[2], b[0], b[1], b[2]); }
+
+// !(a <= b): the negation of the scalar code's early-return test (true for NaN, unlike a > b).
+HWY_INLINE MF NotLe(VF a, VF b) { return hn::Not(hn::Le(a, b)); }
+
+// glm::normalize(v) in GLM's non-SIMD path (glm/detail/func_geometric.inl compute_normalize): v * inversesqrt
+// (dot(v, v)), with inversesqrt(x) = 1 / sqrt(x) (func_exponential.inl). One division, then three products:
+// not the same bits as v / length(v).
+HWY_INLINE void NormalizeV(const VF (&v)[3], VF (&out)[3]) {
+  const VF inv = hn::Div(hn::Set(DF(), 1.0f), hn::Sqrt(Dot(v, v)));
+  for (int c = 0; c < 3; ++c) out[c] = hn::Mul(v[c], inv);
+}
+
+// GgxLambda (core/bsdf.h): 0 when c^2 <= 0, else 0.5 (sqrt(1 + alpha alpha tan2) - 1), tan2 = (1 - c^2) / c^2.
+HWY_INLINE VF GgxLambdaV(VF c, VF alpha2) {
+  const DF df;
+  const VF one = hn::Set(df, 1.0f);
+  const VF c2 = hn::Mul(c, c);
+  const VF tan2 = hn::Div(hn::Sub(one, c2), c2);
+  const VF v = hn::Mul(hn::Set(df, 0.5f), hn::Sub(hn::Sqrt(hn::Add(one, hn::Mul(alpha2, tan2))), one));
+  return hn::IfThenZeroElse(hn::Le(c2, hn::Zero(df)), v);
+}
+
+// A packet of Bsdf (core/bsdf.h), gathered from the SoA table.
+struct BsdfV {
+  MF isGgx;       // BsdfType::kGgx, else diffuse
+  VF albedo[3];   // Bsdf::albedo
+  VF alpha2;      // Bsdf::alpha squared: the only form of alpha the equations use
+};
+
+// Every lane's `materialId` must index `mt` (callers substitute a valid id in lanes they ignore).
+HWY_INLINE BsdfV GatherBsdfV(const RisMaterials& mt, VI materialId) {
+  const DF df;
+  const DI di;
+  BsdfV b;
+  b.isGgx = hn::RebindMask(df, hn::Eq(hn::GatherIndex(di, mt.type.data(), materialId),
+                                      hn::Set(di, static_cast<int32_t>(BsdfType::kGgx))));
+  for (int c = 0; c < 3; ++c) b.albedo[c] = hn::GatherIndex(df, mt.albedo[c].data(), materialId);
+  const VF alpha = hn::GatherIndex(df, mt.alpha.data(), materialId);
+  b.alpha2 = hn::Mul(alpha, alpha);
+  return b;
+}
+
+// A packet of ShadingPoint (core/shading.h) with the parts of EvalBsdf that depend on the receiver alone, so a
+// kernel that evaluates many light points per receiver computes them once.
+struct ShadingPointV {
+  VF x[3];        // position
+  VF ng[3];       // geometric normal
+  VF n[3];        // shading normal
+  VF wo[3];       // towards the viewer
+  BsdfV bsdf;
+  VF cosO;        // dot(n, wo)
+  MF cosOk;       // EvalBsdf's !(cosO <= 0)
+  VF diffuse[3];  // albedo / pi, the Lambertian value
+  VF lambdaO;     // GgxLambda(cosO, alpha)
+};
+
+HWY_INLINE ShadingPointV MakeShadingPointV(const VF (&x)[3], const VF (&ng)[3], const VF (&n)[3],
+                                           const VF (&wo)[3], const BsdfV& bsdf) {
+  const DF df;
+  ShadingPointV sp;
+  for (int c = 0; c < 3; ++c) {
+    sp.x[c] = x[c];
+    sp.ng[c] = ng[c];
+    sp.n[c] = n[c];
+    sp.wo[c] = wo[c];
+    sp.diffuse[c] = hn::Mul(bsdf.albedo[c], hn::Set(df, kInvPi));
+  }
+  sp.bsdf = bsdf;
+  sp.cosO = Dot(n, wo);
+  sp.cosOk = NotLe(sp.cosO, hn::Zero(df));
+  sp.lambdaO = GgxLambdaV(sp.cosO, bsdf.alpha2);
+  return sp;
+}
+
+// LightPath (core/shading.h) of each lane, plus whether UnshadowedContribution gets past its early zero.
+struct LightPathV {
+  VF wi[3];       // normalize(p_y - x) as d / distance
+  VF cosI;        // dot(n, wi): ConnectToLight's cosX, EvalBsdf's cosI
+  VF geometry;    // G(x, y); meaningful only where `connects`
+  MF connects;    // every ConnectToLight test passed and !(G <= 0)
+};
+
+// ConnectToLight (core/shading.h).
+HWY_INLINE LightPathV ConnectToLightV(const ShadingPointV& sp, const VF (&y)[3], const VF (&ny)[3]) {
+  const DF df;
+  const VF zero = hn::Zero(df);
+  LightPathV p;
+  VF d[3];
+  for (int c = 0; c < 3; ++c) d[c] = hn::Sub(y[c], sp.x[c]);
+  const VF d2 = Dot(d, d);
+  const VF dist = hn::Sqrt(d2);
+  for (int c = 0; c < 3; ++c) p.wi[c] = hn::Div(d[c], dist);
+  p.cosI = Dot(sp.n, p.wi);
+  const VF cosY = hn::Neg(Dot(ny, p.wi));
+  const VF cosG = Dot(sp.ng, p.wi);
+  p.geometry = hn::Div(hn::Mul(p.cosI, cosY), d2);
+  // Path geometry is nonzero only past every ConnectToLight test; UnshadowedContribution then needs G > 0.
+  p.connects = hn::And(hn::And(hn::And(hn::Gt(dist, hn::Set(df, kMinLightDistance)), NotLe(p.cosI, zero)),
+                               hn::And(NotLe(cosY, zero), NotLe(cosG, zero))),
+                       NotLe(p.geometry, zero));
+  return p;
+}
+
+// EvalBsdf (core/bsdf.cpp) into f. The GGX lobe is evaluated only when some lane in `needed` is GGX and
+// reaches it; elsewhere its value never reaches a result, so skipping it changes no bits.
+HWY_INLINE void EvalBsdfV(const ShadingPointV& sp, const LightPathV& path, MF needed, VF (&f)[3]) {
+  const DF df;
+  const VF zero = hn::Zero(df);
+  const VF one = hn::Set(df, 1.0f);
+  // Zero unless cos(theta_o) > 0 and cos(theta_i) > 0.
+  const MF bsdfOk = hn::And(sp.cosOk, NotLe(path.cosI, zero));
+  for (int c = 0; c < 3; ++c) f[c] = sp.diffuse[c];
+  if (!hn::AllFalse(df, hn::And(hn::And(needed, bsdfOk), sp.bsdf.isGgx))) {
+    const VF alpha2 = sp.bsdf.alpha2;
+    VF hSum[3], h[3];
+    for (int c = 0; c < 3; ++c) hSum[c] = hn::Add(sp.wo[c], path.wi[c]);
+    const VF hLen = hn::Sqrt(Dot(hSum, hSum));
+    for (int c = 0; c < 3; ++c) h[c] = hn::Div(hSum[c], hLen);
+    // GgxD(dot(n, h), alpha).
+    const VF cosH = Dot(sp.n, h);
+    const VF c2 = hn::Mul(cosH, cosH);
+    const VF denom = hn::Add(hn::Mul(c2, hn::Sub(alpha2, one)), one);
+    const VF dTerm = hn::IfThenZeroElse(
+        hn::Le(cosH, zero), hn::Div(alpha2, hn::Mul(hn::Mul(hn::Set(df, kPi), denom), denom)));
+    // Height-correlated Smith: 1 / (1 + Lambda(cosO) + Lambda(cosI)).
+    const VF g = hn::Div(one, hn::Add(hn::Add(one, sp.lambdaO), GgxLambdaV(path.cosI, alpha2)));
+    // SchlickFresnel(albedo, dot(wi, h)): m = 1 - min(1, max(0, c)) with std::min/std::max semantics.
+    const VF cosT = Dot(path.wi, h);
+    const VF clamped0 = hn::IfThenElse(hn::Lt(zero, cosT), cosT, zero);      // std::max(0, c)
+    const VF clamped = hn::IfThenElse(hn::Lt(clamped0, one), clamped0, one);  // std::min(1, .)
+    const VF m = hn::Sub(one, clamped);
+    const VF mm = hn::Mul(m, m);
+    const VF m5 = hn::Mul(hn::Mul(mm, mm), m);
+    const VF scale = hn::Div(hn::Mul(dTerm, g), hn::Mul(hn::Mul(hn::Set(df, 4.0f), sp.cosO), path.cosI));
+    // !(hLen > 0) returns zero.
+    const MF ggxOk = hn::Gt(hLen, zero);
+    for (int c = 0; c < 3; ++c) {
+      const VF a = sp.bsdf.albedo[c];
+      const VF s = hn::Mul(hn::Add(a, hn::Mul(hn::Sub(one, a), m5)), scale);
+      f[c] = hn::IfThenElse(sp.bsdf.isGgx, hn::IfThenElseZero(ggxOk, s), f[c]);
+    }
+  }
+  for (int c = 0; c < 3; ++c) f[c] = hn::IfThenElseZero(bsdfOk, f[c]);
+}
+
+// UnshadowedContribution (core/shading.h): L_e f_r G, RGB; exactly +0 where !path.connects, as the scalar early
+// return of Vec3(0). The BSDF is masked to zero before the product, as the scalar code multiplies its zero, so
+// an infinite L_e or G gives NaN in both.
+HWY_INLINE void UnshadowedContributionV(const ShadingPointV& sp, const LightPathV& path, const VF (&radiance)[3],
+                                        VF (&out)[3]) {
+  VF f[3];
+  EvalBsdfV(sp, path, path.connects, f);
+  for (int c = 0; c < 3; ++c)
+    out[c] = hn::IfThenElseZero(path.connects, hn::Mul(hn::Mul(radiance[c], f[c]), path.geometry));
+}
+
+// TargetFunction (core/shading.h): Rec. 709 luminance (core/math.h Luminance).
+HWY_INLINE VF LuminanceV(const VF (&c)[3]) {
+  const DF df;
+  return hn::Add(hn::Add(hn::Mul(hn::Set(df, 0.2126f), c[0]), hn::Mul(hn::Set(df, 0.7152f), c[1])),
+                 hn::Mul(hn::Set(df, 0.0722f), c[2]));
+}
+
+// NOLINTNEXTLINE(google-readability-namespace-comments)
+}  // namespace HWY_NAMESPACE
+}  // namespace restir
+HWY_AFTER_NAMESPACE();
+
+#endif  // RESTIR_CORE_SHADING_INL_H_ toggle
