@@ -1,16 +1,22 @@
-// Microbenchmarks of the resampling kernels (DESIGN §9): items are pixels (BM_TargetKernel: pairs).
+// Microbenchmarks of the resampling kernels (DESIGN §9), one BM_<kernel>/<target> per SIMD target this machine
+// supports plus the scalar twin: items are pixels (BM_TargetKernel: pairs; BM_GrisKernel: combinations;
+// BM_ShadowRayKernel: rays).
 #include <benchmark/benchmark.h>
 
+#include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "core/gris.h"
+#include "core/gris_kernel.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
 #include "core/ris_kernel.h"
 #include "core/rng.h"
 #include "core/simd.h"
 #include "core/shading.h"
+#include "core/shadow_ray_kernel.h"
 #include "core/target_kernel.h"
 
 namespace restir {
@@ -59,9 +65,9 @@ void TimeOnTarget(benchmark::State& state, SimdTarget target, int64_t items, F&&
 }
 
 // Registers `name`/<target> for every target this machine supports, in this one binary.
-bool RegisterPerTarget(const char* name, void (*fn)(benchmark::State&, SimdTarget)) {
+bool RegisterPerTarget(const std::string& name, const std::function<void(benchmark::State&, SimdTarget)>& fn) {
   for (SimdTarget t : SupportedSimdTargets())
-    benchmark::RegisterBenchmark((std::string(name) + "/" + SimdTargetName(t)).c_str(), fn, t);
+    benchmark::RegisterBenchmark((name + "/" + SimdTargetName(t)).c_str(), [fn, t](benchmark::State& s) { fn(s, t); });
   return true;
 }
 
@@ -188,6 +194,47 @@ void BM_TargetKernel(benchmark::State& state, SimdTarget target) {
 }
 [[maybe_unused]] const bool kTargetKernelRegistered = RegisterPerTarget("BM_TargetKernel", BM_TargetKernel);
 
+// The shadow-ray setup kernel (core/shadow_ray_kernel.h) on one SIMD target per benchmark, scalar twin
+// included: the BM_TargetKernel queries (floor receivers of the BM_RisKernel row, a random point on one of the 72
+// grid lights), as a pass batches its visibility queries. Items are rays.
+void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
+  const std::vector<LightTriangle> lights = GridLights(72);
+  const size_t n = 4096;
+  std::vector<float> in[9];  // position, geometric normal, light position
+  for (auto& v : in) v.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    const Vec3 p(float(k % 1920) / 1920.0f * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f);
+    const RngKey key{1, 0, static_cast<uint32_t>(k), 2};
+    const LightTriangle& t = lights[static_cast<size_t>(UniformFloat(key, 0) * 72.0f) % 72];
+    const Vec3 y = SampleTrianglePoint(t, UniformFloat(key, 1), UniformFloat(key, 2));
+    for (int c = 0; c < 3; ++c) {
+      in[c][k] = p[c];
+      in[3 + c][k] = c == 1 ? 1.0f : 0.0f;
+      in[6 + c][k] = y[c];
+    }
+  }
+  ShadowRayInputs queries;
+  for (int c = 0; c < 3; ++c) {
+    queries.position[c] = in[c].data();
+    queries.geometricNormal[c] = in[3 + c].data();
+    queries.lightPosition[c] = in[6 + c].data();
+  }
+  queries.count = n;
+  std::vector<float> outF[7];
+  for (auto& v : outF) v.resize(n);
+  ShadowRayOutputs out;
+  for (int c = 0; c < 3; ++c) {
+    out.org[c] = outF[c].data();
+    out.dir[c] = outF[3 + c].data();
+  }
+  out.tmax = outF[6].data();
+  TimeOnTarget(state, target, static_cast<int64_t>(n), [&] {
+    SetupShadowRays(queries, out);
+    benchmark::DoNotOptimize(outF[6].data());
+  });
+}
+[[maybe_unused]] const bool kShadowRayKernelRegistered = RegisterPerTarget("BM_ShadowRayKernel", BM_ShadowRayKernel);
+
 // A 6-input GRIS combination (canonical + temporal-like + 4 neighbours) with analytic targets, per family.
 void BM_GrisCombine(benchmark::State& state) {
   const MisFamily family = static_cast<MisFamily>(state.range(0));
@@ -208,6 +255,103 @@ BENCHMARK(BM_GrisCombine)
     ->Arg(static_cast<int>(MisFamily::kZ))
     ->Arg(static_cast<int>(MisFamily::kBalance))
     ->Arg(static_cast<int>(MisFamily::kPairwise));
+
+// The GRIS-combination kernel (core/gris_kernel.h): BM_GrisKernel/<family>/<target>. Items are combinations.
+//
+// The workload is spatial reuse with 5 neighbours: batches of 64 combinations (a row segment of pixels) with 6
+// inputs each. Values as a frame has them: confidences 1..20 (capped history), contribution weights spread over
+// two decades, 5% empty reservoirs, visibility mostly 0 or 1, and p̂_j(Y_i) zero for 15% of the pairs (the
+// sample is behind input j's surface or, ray traced, occluded from it). Several batches are cycled so the scalar
+// code's branches see varied data rather than one memorised pattern.
+constexpr size_t kCombinations = 64;  // per batch of the GRIS kernel benchmark
+constexpr int kInputs = 6;            // canonical + 5 spatial neighbours
+constexpr int kBatches = 16;          // cycled
+
+struct BenchBatch {
+  std::vector<int32_t> inputs;
+  std::vector<uint8_t> hasSample;
+  std::vector<float> W, confidence, visibility, u, target, mis, canonicalTarget;
+  GrisBatch View() const {
+    GrisBatch b;
+    b.count = kCombinations;
+    b.stride = kCombinations;
+    b.matrixSize = kInputs;
+    b.inputs = inputs.data();
+    b.hasSample = hasSample.data();
+    b.W = W.data();
+    b.confidence = confidence.data();
+    b.visibility = visibility.data();
+    b.u = u.data();
+    b.target = target.data();
+    b.mis = mis.data();
+    b.canonicalTarget = canonicalTarget.data();
+    return b;
+  }
+};
+
+BenchBatch MakeBatch(std::mt19937& rng) {
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  std::lognormal_distribution<float> spread(0.0f, 1.0f);
+  const size_t rows = kInputs * kCombinations;
+  BenchBatch b;
+  b.inputs.assign(kCombinations, kInputs);
+  b.hasSample.resize(rows);
+  for (auto* v : {&b.W, &b.confidence, &b.visibility, &b.u, &b.mis, &b.canonicalTarget}) v->resize(rows);
+  b.target.resize(rows * kInputs);
+  for (size_t k = 0; k < kCombinations; ++k) {
+    for (int i = 0; i < kInputs; ++i) {
+      const size_t e = i * kCombinations + k;
+      b.hasSample[e] = uni(rng) < 0.95f;
+      b.W[e] = spread(rng);
+      b.confidence[e] = static_cast<float>(1 + rng() % 20);
+      const float v = uni(rng);
+      b.visibility[e] = v < 0.6f ? 1.0f : (v < 0.85f ? 0.0f : uni(rng));
+      b.u[e] = uni(rng);
+      b.mis[e] = uni(rng) / static_cast<float>(kInputs);  // stochastic pairwise weights, roughly a partition
+    }
+    for (int j = 0; j < kInputs; ++j)
+      for (int i = 0; i < kInputs; ++i)
+        b.target[(j * kInputs + i) * kCombinations + k] = uni(rng) < 0.15f ? 0.0f : spread(rng);
+    for (int i = 0; i < kInputs; ++i)
+      b.canonicalTarget[i * kCombinations + k] = b.target[i * kCombinations + k];  // row 0: p̂_c(Y_i)
+  }
+  return b;
+}
+
+// family < 0: GrisResampleBatch (given weights, as stochastic pairwise uses it).
+void BM_GrisKernel(benchmark::State& state, int family, SimdTarget target) {
+  std::mt19937 rng(7);
+  std::vector<BenchBatch> batches;
+  for (int i = 0; i < kBatches; ++i) batches.push_back(MakeBatch(rng));
+  std::vector<GrisBatch> views;
+  for (const BenchBatch& b : batches) views.push_back(b.View());
+  std::vector<int32_t> selected(kCombinations), guarded(kCombinations);
+  std::vector<float> weightSum(kCombinations), W(kCombinations), confidence(kCombinations),
+      visibility(kCombinations);
+  const GrisBatchOutput out{selected.data(), weightSum.data(), W.data(),
+                            confidence.data(), visibility.data(), guarded.data()};
+  size_t next = 0;
+  TimeOnTarget(state, target, static_cast<int64_t>(kCombinations), [&] {
+    const GrisBatch& b = views[next];
+    next = (next + 1) % views.size();
+    if (family < 0) GrisResampleBatch(VisibilityCarry::kWeighted, b, out);
+    else GrisCombineBatch(static_cast<MisFamily>(family), VisibilityCarry::kWeighted, b, out);
+    benchmark::DoNotOptimize(selected.data());
+    benchmark::DoNotOptimize(W.data());
+  });
+}
+
+[[maybe_unused]] const bool kGrisKernelRegistered = [] {
+  const std::pair<const char*, int> families[] = {{"uniform", static_cast<int>(MisFamily::kUniform)},
+                                                  {"z", static_cast<int>(MisFamily::kZ)},
+                                                  {"balance", static_cast<int>(MisFamily::kBalance)},
+                                                  {"pairwise", static_cast<int>(MisFamily::kPairwise)},
+                                                  {"resample", -1}};
+  for (const auto& [name, family] : families)
+    RegisterPerTarget(std::string("BM_GrisKernel/") + name,
+                      [family = family](benchmark::State& s, SimdTarget t) { BM_GrisKernel(s, family, t); });
+  return true;
+}();
 
 }  // namespace
 }  // namespace restir

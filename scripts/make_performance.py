@@ -257,10 +257,14 @@ def main(argv):
         if base_ms:
             w("")
             if best["label"] == "rtcOccluded1":
-                w("Fastest: rtcOccluded1, one ray at a time (what the passes do now).")
+                w("Fastest: rtcOccluded1, one ray at a time.")
             else:
                 w(f"Fastest: {best['label']}, {base_ms / best['ms_best']:.2f}× rtcOccluded1 "
                   f"({100.0 * (1.0 - best['ms_best'] / base_ms):.0f}% less time on these rays).")
+            w("")
+            w("The passes trace through `EmbreeScene::OccludedBatch` with `kPassOcclusionApi` "
+              "(sim/embree_scene.h, rtcOccluded4): each batch of 64 pixels hands its shadow rays over in one call "
+              "per scene frame.")
         w("")
 
     if memory:
@@ -273,8 +277,9 @@ def main(argv):
         w("| state | bytes / pixel |")
         w("|---|---:|")
         w(f"| both G-buffers (15 four-byte fields + 2 flags each) | {fmt(m['bpp_gbuffers'])} |")
-        w(f"| reservoir buffers ({int(m['reservoir_buffers'])} × sizeof(Reservoir) = "
-          f"{int(m['reservoir_buffers'])} × {int(m['sizeof_reservoir'])}: current, previous, spatial input) | "
+        w(f"| reservoir buffers ({int(m['reservoir_buffers'])} × sizeof(StoredReservoir) = "
+          f"{int(m['reservoir_buffers'])} × {int(m['sizeof_reservoir'])}: this frame's and last frame's, which a "
+          f"spatial iteration writes into once temporal reuse has read it) | "
           f"{fmt(m['bpp_reservoirs'])} |")
         w(f"| screen-space cells (pixel→cell, cell pixel lists, cells) | {fmt(m['bpp_cells'])} |")
         w(f"| frame image + temporal-accepted flags | {fmt(m['bpp_frame_image_flags'])} |")
@@ -295,7 +300,8 @@ def main(argv):
         kb = [b for b in kernels.get("benchmarks", []) if b.get("run_type", "iteration") == "iteration"]
         w("## Kernels (bench/kernels_bench.cpp)")
         w("")
-        w("One thread; items are pixels.")
+        w("One thread; items are pixels (BM_RisKernel, BM_InitialRis), (receiver, light point) pairs "
+          "(BM_TargetKernel), GRIS combinations (BM_GrisKernel) or shadow rays (BM_ShadowRayKernel).")
         w("")
         w("| benchmark | ns / item | Mitems/s | vs scalar twin |")
         w("|---|---:|---:|---:|")
@@ -322,9 +328,10 @@ def main(argv):
       "the runner's metrics are outside the frame, as in the runner.")
     w("- **Ray floor**: a capture render records every query (origin, direction, tmax, scene frame, answer) "
       "through `EmbreeScene::SetRayHook` (a null-pointer test per query when unset); the capture's image hash "
-      "must equal the timed frame's. Each pass's rays are then traced alone with the same entry point as the "
-      "pass (`rtcOccluded1`, primary `rtcIntersect1`), one at a time, parallel over the rays in stream order "
-      "(per pass, grouped by the thread that traced them, in time order: the order a row's pixels asked).")
+      "must equal the timed frame's. Each pass's rays are then traced alone as the pass traces them: shadow rays "
+      "through `EmbreeScene::OccludedBatch` with the passes' entry point, 256 consecutive captured rays per call "
+      "split by scene frame; primary rays `rtcIntersect1` one at a time; parallel over the rays in stream order "
+      "(per pass, grouped by the thread that traced them, in time order: the order a batch's pixels asked).")
     w("- **Kernel floor**: the frame re-rendered with the hook answering every query from the captured answers "
       "(no Embree; each thread keeps a cursor into the stream and checks the next few entries, falling back to a "
       "hash table at the start of a row, so a lookup costs a few ns), minus the same lookups timed alone. It "
@@ -341,7 +348,7 @@ def main(argv):
       "(replayed frame minus every lookup once) at one thread, in the thread's CPU time: the same ratios, robust "
       "to a loaded machine.")
     w("- **Memory**: bytes per pixel from the vectors' capacities and sizeof (the pipeline's private reservoir "
-      "buffers by count × sizeof(Reservoir)); peak RSS from getrusage.")
+      "buffers by count × sizeof(StoredReservoir)); peak RSS from getrusage.")
     w("")
     notes = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "bench", "performance_notes.md")
     if os.path.exists(notes):

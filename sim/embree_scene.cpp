@@ -544,16 +544,4 @@ std::vector<LightTriangle> BuildLightTriangles(const Sequence& sequence, const F
   return BuildLightTrianglesFrom(sequence.lights, state.lightOn, groupOf);
 }
 
-// Contract for callers tracing a shadow ray from a surface point x (geometric normal ng) to a light point y:
-//   org  = OffsetRayOrigin(x, ng, dir), dir = normalize(y - org), tmax = (1 - 1e-3f) * length(y - org)
-// The relative shortening keeps the ray from hitting the emitter triangle that y lies on (or a surface y sits
-// on); a relative rather than absolute epsilon stays valid at any scene scale.
-Vec3 OffsetRayOrigin(const Vec3& p, const Vec3& geometricNormal, const Vec3& dir) {
-  // Float error in a hit position grows with its magnitude, so the offset does too.
-  const float scale = std::max(std::fabs(p.x), std::max(std::fabs(p.y), std::fabs(p.z)));
-  const float eps = 1e-4f * (1.0f + scale);
-  const float side = glm::dot(geometricNormal, dir) >= 0.0f ? 1.0f : -1.0f;
-  return p + (side * eps) * geometricNormal;
-}
-
 }  // namespace restir

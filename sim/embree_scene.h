@@ -9,6 +9,7 @@
 
 #include "core/light.h"
 #include "core/math.h"
+#include "core/shadow_ray.h"  // OffsetRayOrigin, for the callers that trace from a surface
 #include "sim/sequence.h"
 
 namespace restir {
@@ -122,9 +123,5 @@ class EmbreeScene {
 // Builds the light-triangle list of a frame: every triangle of every light, radiance zero when switched off.
 std::vector<LightTriangle> BuildLightTriangles(const Sequence& sequence, const FrameState& state,
                                                std::vector<uint32_t>* groupOf = nullptr);
-
-// Offsets a ray origin off a surface along its geometric normal, on the side `dir` leaves towards, so a
-// secondary ray does not re-hit the surface it starts on (scale-aware epsilon).
-Vec3 OffsetRayOrigin(const Vec3& p, const Vec3& geometricNormal, const Vec3& dir);
 
 }  // namespace restir

@@ -9,8 +9,10 @@
 #include <chrono>
 
 #include "core/gris.h"
+#include "core/gris_kernel.h"
 #include "core/ris_kernel.h"
 #include "core/rng.h"
+#include "core/shadow_ray_kernel.h"
 #include "core/spmis.h"
 #include "core/target_kernel.h"
 
@@ -64,14 +66,8 @@ Vec3 DirectEmission(const GBuffer& g, size_t i, const std::vector<LightTriangle>
 }
 
 ShadowRay MakeShadowRay(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition) {
-  const Vec3 toLight = lightPosition - position;
-  const float d = glm::length(toLight);
-  ShadowRay ray;
-  ray.dir = toLight / d;
-  ray.org = OffsetRayOrigin(position, geometricNormal, ray.dir);
-  // Stop a relative 1e-3 short of the light point so the emitter itself never counts as an occluder.
-  ray.tmax = glm::length(lightPosition - ray.org) * (1.0f - 1e-3f);
-  return ray;
+  const ShadowRaySegment s = ShadowRaySetup(position, geometricNormal, lightPosition);
+  return ShadowRay{s.org, s.dir, s.tmax};
 }
 
 bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
@@ -119,6 +115,50 @@ struct FrameView {
   Vec3 eye{0.0f};
   const std::vector<LightTriangle>* lights = nullptr;
   SceneFrame scene = SceneFrame::kCurrent;
+};
+
+// Shadow rays of a batch of pixels, all in one scene frame: the queries gathered structure-of-arrays, set up by
+// the SIMD kernel (core/shadow_ray_kernel.h; the same bits as MakeShadowRay) and traced in one OccludedBatch call.
+class ShadowRayBatch {
+ public:
+  void Clear() {
+    for (auto& v : in_) v.clear();
+  }
+  void Add(const GBuffer& g, size_t pixel, const Vec3& lightPosition) {
+    const float v[9] = {g.posX[pixel], g.posY[pixel], g.posZ[pixel],   g.ngX[pixel],    g.ngY[pixel],
+                        g.ngZ[pixel],  lightPosition.x, lightPosition.y, lightPosition.z};
+    for (int f = 0; f < 9; ++f) in_[f].push_back(v[f]);
+  }
+  size_t Size() const { return in_[0].size(); }
+  // Traces every ray added since Clear; occluded[k] answers the k-th.
+  const std::vector<uint8_t>& Trace(const EmbreeScene& scene, SceneFrame frame) {
+    const size_t n = Size();
+    for (auto& v : out_) v.resize(n);
+    ShadowRayInputs in;
+    ShadowRayOutputs out;
+    for (int c = 0; c < 3; ++c) {
+      in.position[c] = in_[c].data();
+      in.geometricNormal[c] = in_[3 + c].data();
+      in.lightPosition[c] = in_[6 + c].data();
+      out.org[c] = out_[c].data();
+      out.dir[c] = out_[3 + c].data();
+    }
+    in.count = n;
+    out.tmax = out_[6].data();
+    SetupShadowRays(in, out);
+    rays_.resize(n);
+    for (size_t k = 0; k < n; ++k)
+      rays_[k] = ShadowRay{Vec3(out_[0][k], out_[1][k], out_[2][k]), Vec3(out_[3][k], out_[4][k], out_[5][k]),
+                           out_[6][k]};
+    occluded_.resize(n);
+    if (n > 0) scene.OccludedBatch(rays_.data(), occluded_.data(), n, frame);
+    return occluded_;
+  }
+
+ private:
+  std::vector<float> in_[9], out_[7];
+  std::vector<ShadowRay> rays_;
+  std::vector<uint8_t> occluded_;
 };
 
 }  // namespace
@@ -193,6 +233,8 @@ class TargetEvaluator {
       for (auto& a : soa_) a.resize(n);
       mat_.resize(n);
       values_.resize(n);
+      float* field[kTargetPairFields];
+      for (int f = 0; f < kTargetPairFields; ++f) field[f] = soa_[f].data();
       for (size_t k = 0; k < n; ++k) {
         const Pending& e = pending_[k];
         const FrameView& v = views_[e.c->view[e.j]];
@@ -200,54 +242,49 @@ class TargetEvaluator {
         const size_t p = e.c->domainPixel[e.j];
         const LightSample& y = e.c->samples[e.i];
         const Vec3& radiance = (*v.lights)[y.lightId].radiance;
-        const float fields[24] = {v.eye.x,      v.eye.y,      v.eye.z,      g.posX[p],    g.posY[p],   g.posZ[p],
-                                  g.ngX[p],     g.ngY[p],     g.ngZ[p],     g.nsX[p],     g.nsY[p],    g.nsZ[p],
-                                  y.position.x, y.position.y, y.position.z, y.normal.x,   y.normal.y,  y.normal.z,
-                                  radiance.x,   radiance.y,   radiance.z,   0.0f,         0.0f,        0.0f};
-        for (int f = 0; f < kTargetPairFields; ++f) soa_[f][k] = fields[f];
+        for (int c = 0; c < 3; ++c) {
+          field[c][k] = v.eye[c];
+          field[12 + c][k] = y.position[c];
+          field[15 + c][k] = y.normal[c];
+          field[18 + c][k] = radiance[c];
+        }
+        field[3][k] = g.posX[p], field[4][k] = g.posY[p], field[5][k] = g.posZ[p];
+        field[6][k] = g.ngX[p], field[7][k] = g.ngY[p], field[8][k] = g.ngZ[p];
+        field[9][k] = g.nsX[p], field[10][k] = g.nsY[p], field[11][k] = g.nsZ[p];
         mat_[k] = g.materialId[p];
       }
-      const float* fields[kTargetPairFields];
-      for (int f = 0; f < kTargetPairFields; ++f) fields[f] = soa_[f].data();
-      const TargetPairs pairs = MakeTargetPairs(fields, mat_.data(), n);
+      const TargetPairs pairs = MakeTargetPairs(field, mat_.data(), n);
       TargetResults results;
       results.target = values_.data();
       EvaluateTargets(pairs, *materials_, results);
     }
     // Shadow rays: positive entries when targets include visibility, and the neighbours' visibility re-tests.
-    for (auto& r : rayRefs_) r.clear();
-    for (auto& r : rays_) r.clear();
+    for (int f = 0; f < 2; ++f) rays_[f].Clear(), rayRefs_[f].clear();
     for (size_t k = 0; k < n; ++k) {
       if (!(visibility_ && values_[k] > 0.0f)) continue;
       const Pending& e = pending_[k];
       const FrameView& v = views_[e.c->view[e.j]];
-      const size_t p = e.c->domainPixel[e.j];
       const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
-      rays_[f].push_back(MakeShadowRay(v.gbuffer->Position(p), v.gbuffer->GeometricNormal(p),
-                                       e.c->samples[e.i].position));
+      rays_[f].Add(*v.gbuffer, e.c->domainPixel[e.j], e.c->samples[e.i].position);
       rayRefs_[f].push_back(static_cast<int64_t>(k));
     }
     for (size_t k = 0; k < visibilityPending_.size(); ++k) {
       const Pending& e = visibilityPending_[k];
-      const FrameView& v = views_[e.c->view[0]];
-      const size_t p = e.c->domainPixel[0];
-      rays_[0].push_back(MakeShadowRay(v.gbuffer->Position(p), v.gbuffer->GeometricNormal(p),
-                                       e.c->samples[e.i].position));
+      rays_[0].Add(*views_[e.c->view[0]].gbuffer, e.c->domainPixel[0], e.c->samples[e.i].position);
       rayRefs_[0].push_back(-1 - static_cast<int64_t>(k));
     }
     for (int f = 0; f < 2; ++f) {
-      if (rays_[f].empty()) continue;
-      occluded_.resize(rays_[f].size());
-      scene_->OccludedBatch(rays_[f].data(), occluded_.data(), rays_[f].size(),
-                           f == 0 ? SceneFrame::kCurrent : SceneFrame::kPrevious);
-      rays += rays_[f].size();
-      for (size_t r = 0; r < rays_[f].size(); ++r) {
+      if (rays_[f].Size() == 0) continue;
+      const std::vector<uint8_t>& occluded =
+          rays_[f].Trace(*scene_, f == 0 ? SceneFrame::kCurrent : SceneFrame::kPrevious);
+      rays += rays_[f].Size();
+      for (size_t r = 0; r < occluded.size(); ++r) {
         const int64_t ref = rayRefs_[f][r];
         if (ref >= 0) {
-          if (occluded_[r]) values_[static_cast<size_t>(ref)] = 0.0f;
+          if (occluded[r]) values_[static_cast<size_t>(ref)] = 0.0f;
         } else {
           const Pending& e = visibilityPending_[static_cast<size_t>(-1 - ref)];
-          e.c->inputs[e.i].visibility = occluded_[r] ? 0.0f : 1.0f;
+          e.c->inputs[e.i].visibility = occluded[r] ? 0.0f : 1.0f;
         }
       }
     }
@@ -258,16 +295,6 @@ class TargetEvaluator {
     }
     pending_.clear();
     visibilityPending_.clear();
-  }
-
-  // p̂_j(Y_i), evaluated now if no phase asked for it before (the phases below request every entry a family
-  // reads, so this fallback only keeps an overlooked entry correct).
-  float Get(Combination& c, int j, int i, uint64_t& rays) {
-    if (c.state[j][i] != Entry::kKnown) {
-      Request(c, j, i);
-      Resolve(rays);
-    }
-    return c.target[j][i];
   }
 
  private:
@@ -283,9 +310,8 @@ class TargetEvaluator {
   std::vector<float> soa_[kTargetPairFields];
   std::vector<int32_t> mat_;
   std::vector<float> values_;
-  std::vector<ShadowRay> rays_[2];
+  ShadowRayBatch rays_[2];           // current frame, previous frame
   std::vector<int64_t> rayRefs_[2];  // >= 0: pending entry; < 0: -1 - visibility request
-  std::vector<uint8_t> occluded_;
 };
 
 // Queues the canonical targets p̂_c(Y_i) that GrisCombine reads first: inputs that can contribute.
@@ -310,11 +336,88 @@ void RequestFamilyTargets(Combination& c, MisFamily family, VisibilityCarry carr
   GrisCombine(family, c.inputs, c.count, record, c.u, carry);
 }
 
-GrisResult CombineNow(Combination& c, MisFamily family, VisibilityCarry carry, TargetEvaluator& ev,
-                      uint64_t& rays) {
-  auto target = [&](int j, int i) { return ev.Get(c, j, i, rays); };
-  return GrisCombine(family, c.inputs, c.count, target, c.u, carry);
-}
+// A batch's combinations laid out for the GRIS kernel (core/gris_kernel.h): one lane per combination.
+class CombineBatch {
+ public:
+  // Lays out combos[order[0..count)] (order null: combos[0..count)). With `matrix`, the known target entries
+  // (every entry the family reads, see RequestFamilyTargets; the rest are never read and stay 0).
+  void Fill(Combination* combos, const int* order, int count, bool matrix) {
+    count_ = static_cast<size_t>(count);
+    size_ = 1;
+    for (int k = 0; k < count; ++k) size_ = std::max(size_, combos[order ? order[k] : k].count);
+    const size_t stride = kBatchPixels, m = static_cast<size_t>(size_);
+    inputs_.assign(stride, 0);
+    for (auto* v : {&W_, &confidence_, &visibility_, &u_, &mis_, &canonicalTarget_}) v->assign(m * stride, 0.0f);
+    hasSample_.assign(m * stride, 0);
+    if (matrix) target_.assign(m * m * stride, 0.0f);
+    for (int k = 0; k < count; ++k) {
+      const Combination& c = combos[order ? order[k] : k];
+      inputs_[k] = c.count;
+      for (int i = 0; i < c.count; ++i) {
+        const size_t e = static_cast<size_t>(i) * stride + k;
+        hasSample_[e] = c.inputs[i].hasSample ? 1 : 0;
+        W_[e] = c.inputs[i].W;
+        confidence_[e] = c.inputs[i].confidence;
+        visibility_[e] = c.inputs[i].visibility;
+        u_[e] = c.u[i];
+      }
+      if (!matrix) continue;
+      for (int j = 0; j < c.count; ++j)
+        for (int i = 0; i < c.count; ++i)
+          if (c.state[j][i] == Entry::kKnown) target_[(static_cast<size_t>(j) * m + i) * stride + k] = c.target[j][i];
+    }
+  }
+  // Given MIS weights and canonical targets of lane k's inputs (GrisResampleBatch).
+  float& Mis(int k, int i) { return mis_[static_cast<size_t>(i) * kBatchPixels + k]; }
+  float& CanonicalTarget(int k, int i) { return canonicalTarget_[static_cast<size_t>(i) * kBatchPixels + k]; }
+
+  // GrisCombine of every lane (family weights from the matrix) or GrisResample (given weights).
+  void Combine(MisFamily family, VisibilityCarry carry) { Run(&family, carry); }
+  void Resample(VisibilityCarry carry) { Run(nullptr, carry); }
+  GrisResult Result(int k) const {
+    GrisResult r;
+    r.selected = selected_[k];
+    r.weightSum = weightSum_[k];
+    r.W = outW_[k];
+    r.confidence = outConfidence_[k];
+    r.visibility = outVisibility_[k];
+    r.guarded = guarded_[k];
+    return r;
+  }
+
+ private:
+  void Run(const MisFamily* family, VisibilityCarry carry) {
+    GrisBatch b;
+    b.count = count_;
+    b.stride = kBatchPixels;
+    b.matrixSize = size_;
+    b.inputs = inputs_.data();
+    b.hasSample = hasSample_.data();
+    b.W = W_.data();
+    b.confidence = confidence_.data();
+    b.visibility = visibility_.data();
+    b.u = u_.data();
+    b.target = target_.data();
+    b.mis = mis_.data();
+    b.canonicalTarget = canonicalTarget_.data();
+    GrisBatchOutput o;
+    o.selected = selected_;
+    o.weightSum = weightSum_;
+    o.W = outW_;
+    o.confidence = outConfidence_;
+    o.visibility = outVisibility_;
+    o.guarded = guarded_;
+    if (family) GrisCombineBatch(*family, carry, b, o);
+    else GrisResampleBatch(carry, b, o);
+  }
+  size_t count_ = 0;
+  int size_ = 1;
+  std::vector<int32_t> inputs_;
+  std::vector<uint8_t> hasSample_;
+  std::vector<float> W_, confidence_, visibility_, u_, target_, mis_, canonicalTarget_;
+  int32_t selected_[kBatchPixels], guarded_[kBatchPixels];
+  float weightSum_[kBatchPixels], outW_[kBatchPixels], outConfidence_[kBatchPixels], outVisibility_[kBatchPixels];
+};
 
 // The output reservoir of a combination (the selected sample with its canonical target).
 StoredReservoir OutputOf(const Combination& c, const GrisResult& gr, float confidence) {
@@ -373,6 +476,7 @@ struct BatchScratch {
   std::vector<Combination> combinations = std::vector<Combination>(kBatchPixels);
   std::vector<int> order = std::vector<int>(kBatchPixels);  // the batch's combinations still in play
   TargetEvaluator evaluator;
+  CombineBatch combine;
 };
 
 }  // namespace
@@ -549,6 +653,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const RisMaterials materials = MakeRisMaterials(*in.materials);
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
   tbb::enumerable_thread_specific<BatchScratch> scratch;
+  tbb::enumerable_thread_specific<ShadowRayBatch> initialRays;
 
   // Initial sampling: streaming RIS over M candidates from the light sampler (seed 003 §1).
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
@@ -598,7 +703,8 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     ro.targetPdf = outF[11].data();
     if (haveLights) RisInitialSampling(px, in.lights->Soa(), materials, risParams, ro);
     std::vector<Reservoir> row(rw);
-    std::vector<ShadowRay> shadowRays;
+    ShadowRayBatch& shadowRays = initialRays.local();
+    shadowRays.Clear();
     std::vector<uint32_t> rayPixel;
     for (size_t x = 0; x < rw; ++x) {
       if (!activeRow[x]) continue;
@@ -615,15 +721,14 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       if (!ip.countCandidates) r.confidence = 1.0f;
       if (ip.visibility && r.HasSample()) {
         const size_t i = rowStart + x;
-        shadowRays.push_back(MakeShadowRay(g.Position(i), g.GeometricNormal(i), r.sample.position));
+        shadowRays.Add(g, i, r.sample.position);
         rayPixel.push_back(static_cast<uint32_t>(x));
       }
     }
-    if (!shadowRays.empty()) {
-      std::vector<uint8_t> occluded(shadowRays.size());
-      in.scene->OccludedBatch(shadowRays.data(), occluded.data(), shadowRays.size());
-      rays.local() += shadowRays.size();
-      for (size_t k = 0; k < shadowRays.size(); ++k)
+    if (shadowRays.Size() > 0) {
+      const std::vector<uint8_t>& occluded = shadowRays.Trace(*in.scene, SceneFrame::kCurrent);
+      rays.local() += occluded.size();
+      for (size_t k = 0; k < occluded.size(); ++k)
         if (occluded[k]) row[rayPixel[k]].W = 0.0f, row[rayPixel[k]].visibility = 0.0f;
     }
     for (size_t x = 0; x < rw; ++x) {
@@ -726,11 +831,13 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
         ev.Resolve(localRays);
         for (int k = 0; k < count; ++k) RequestFamilyTargets(combos[order[k]], family, carry, ev);
         ev.Resolve(localRays);
+        sc.combine.Fill(combos.data(), order.data(), count, true);
+        sc.combine.Combine(family, carry);
         for (int k = 0; k < count; ++k) {
           Combination& c = combos[order[k]];
           const size_t i = c.pixel;
           if (pg.objectId[c.domainPixel[1]] != g.objectId[i]) crossObject.local() += 1;
-          const GrisResult gr = CombineNow(c, family, carry, ev, localRays);
+          const GrisResult gr = sc.combine.Result(k);
           guarded.local() += static_cast<uint64_t>(gr.guarded);
           reservoirs_[i] = OutputOf(c, gr, gr.confidence);
           result.temporalAccepted[i] = 1;
@@ -763,16 +870,52 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
         TargetEvaluator& ev = sc.evaluator;
         ev.Bind(views, materials, *in.scene, rayTraced);
         SpatialWork work[kBatchPixels];
+        // Neighbours are random pixels up to `radius` away, so their G-buffer and reservoir lines miss the
+        // cache: pick every pixel's neighbours first and prefetch their lines, so the misses overlap instead of
+        // stalling the similarity tests one at a time.
+        int32_t neighbour[kBatchPixels][kMaxGrisInputs];
+        int neighbourCount[kBatchPixels];
+        if (!stochastic) {
+          for (int x = x0; x < x1; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            int& k = neighbourCount[x - x0];
+            k = 0;
+            if (!g.IsSurface(i)) continue;
+            const bool boost = tp.enabled && !result.temporalAccepted[i];
+            k = std::min(boost ? spp.disocclusionNeighbours : spp.neighbours, kMaxGrisInputs - 1);
+            Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
+                             static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+            for (int t = 0; t < k; ++t) {
+              // Uniform point in a disk of the given radius (polar map), rounded to a pixel.
+              const float r = spp.radius * std::sqrt(s.Next());
+              const float phi = 2.0f * kPi * s.Next();
+              const int nx = x + static_cast<int>(std::lround(r * std::cos(phi)));
+              const int ny = y + static_cast<int>(std::lround(r * std::sin(phi)));
+              int32_t& ni = neighbour[x - x0][t];
+              ni = -1;
+              if (nx < 0 || ny < 0 || nx >= w || ny >= h || (nx == x && ny == y)) continue;
+              ni = ny * w + nx;
+              for (const auto* a : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ,
+                                    &g.depth})
+                __builtin_prefetch(a->data() + ni);
+              __builtin_prefetch(g.objectId.data() + ni);
+              __builtin_prefetch(g.materialId.data() + ni);
+              __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni));
+              __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni) + sizeof(StoredReservoir) - 1);
+            }
+          }
+        }
         int count = 0;
         for (int x = x0; x < x1; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
           output[i] = input[i];  // kept unless a combination below replaces it
           if (!g.IsSurface(i)) continue;
-          Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
-                           static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+          const RngKey key{in.seed, in.frame, static_cast<uint32_t>(i),
+                           static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)};
           Combination& c = combos[count];
           if (stochastic) {
             work[count].c = &c;
+            Sampler s(key);
             if (!StochasticPairwiseDraws(i, x, y, g, input, s, work[count])) continue;
             // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
             if (carryVisibility)
@@ -781,21 +924,15 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             ++count;
             continue;
           }
-          const bool boost = tp.enabled && !result.temporalAccepted[i];
-          const int k = std::min(boost ? spp.disocclusionNeighbours : spp.neighbours, kMaxGrisInputs - 1);
+          const int k = neighbourCount[x - x0];
           const StoredReservoir& self = input[i];
           c.Reset(static_cast<uint32_t>(i), 1, 0);
           c.AddDomain(0, static_cast<uint32_t>(i));
           c.samples[0] = SampleOf(self);
           c.inputs[0] = InputOf(self, self.confidence);
           for (int t = 0; t < k; ++t) {
-            // Uniform point in a disk of the given radius (polar map), rounded to a pixel.
-            const float r = spp.radius * std::sqrt(s.Next());
-            const float phi = 2.0f * kPi * s.Next();
-            const int nx = x + static_cast<int>(std::lround(r * std::cos(phi)));
-            const int ny = y + static_cast<int>(std::lround(r * std::sin(phi)));
-            if (nx < 0 || ny < 0 || nx >= w || ny >= h || (nx == x && ny == y)) continue;
-            const size_t ni = static_cast<size_t>(ny) * w + nx;
+            if (neighbour[x - x0][t] < 0) continue;
+            const size_t ni = static_cast<size_t>(neighbour[x - x0][t]);
             if (!g.IsSurface(ni) || !SimilarSurface(g, i, g, ni, spp.normalThreshold, spp.depthThreshold)) continue;
             const StoredReservoir& nr = input[ni];
             if (!FiniteReservoir(nr)) continue;
@@ -808,6 +945,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             if (carryVisibility && nr.HasSample()) ev.RequestVisibility(c, slot);
           }
           if (c.count == 1) continue;
+          Sampler s(key, 2u * static_cast<uint32_t>(k));  // after the neighbours' two dimensions each
           for (int t = 0; t < c.count; ++t) c.u[t] = s.Next();
           ++count;
         }
@@ -816,9 +954,11 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
           ev.Resolve(localRays);
           for (int k = 0; k < count; ++k) RequestFamilyTargets(combos[k], family, carry, ev);
           ev.Resolve(localRays);
+          sc.combine.Fill(combos.data(), nullptr, count, true);
+          sc.combine.Combine(family, carry);
           for (int k = 0; k < count; ++k) {
             Combination& c = combos[k];
-            const GrisResult gr = CombineNow(c, family, carry, ev, localRays);
+            const GrisResult gr = sc.combine.Result(k);
             guarded.local() += static_cast<uint64_t>(gr.guarded);
             output[c.pixel] = OutputOf(c, gr, gr.confidence);
           }
@@ -845,6 +985,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             if (c.inputs[t].hasSample && c.target[0][t] > 0.0f) ev.Request(c, t, t);
         }
         ev.Resolve(localRays);
+        sc.combine.Fill(combos.data(), nullptr, count, false);
         for (int k = 0; k < count; ++k) {
           Combination& c = combos[k];
           const SpatialWork& wk = work[k];
@@ -869,10 +1010,15 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             if (c.inputs[t].hasSample && pc[t] > 0.0f)
               mis[t] = StochasticPairwiseNonCanonical(wk.multiplicity[t], bigN, wk.probability[t],
                                                       c.inputs[t].confidence, wk.cBar, cc, c.target[t][t], pc[t]);
-          const GrisResult gr = GrisResample(c.inputs, mis, pc, c.count, c.u, carry);
+          for (int t = 0; t < c.count; ++t) sc.combine.Mis(k, t) = mis[t], sc.combine.CanonicalTarget(k, t) = pc[t];
+        }
+        sc.combine.Resample(carry);
+        for (int k = 0; k < count; ++k) {
+          const Combination& c = combos[k];
+          const GrisResult gr = sc.combine.Result(k);
           guarded.local() += static_cast<uint64_t>(gr.guarded);
           // The canonical plus the (scaled) cell it stands for.
-          output[c.pixel] = OutputOf(c, gr, cc + wk.cBar);
+          output[c.pixel] = OutputOf(c, gr, c.inputs[0].confidence + work[k].cBar);
         }
       });
       std::swap(reservoirs_, output);
@@ -889,19 +1035,18 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     std::vector<float> soa[kTargetPairFields], target, f[3];
     std::vector<int32_t> mat;
     std::vector<uint32_t> pixelOf, rayOf;
-    std::vector<ShadowRay> shadowRays;
-    std::vector<uint8_t> occluded;
+    ShadowRayBatch shadowRays;
   };
   tbb::enumerable_thread_specific<ShadeScratch> shadeScratch;
   ForEachRow(h, [&](int y) {
     const size_t rowStart = static_cast<size_t>(y) * w;
     ShadeScratch& sc = shadeScratch.local();
-    auto& [soa, target, f, mat, pixelOf, rayOf, shadowRays, occluded] = sc;
+    auto& [soa, target, f, mat, pixelOf, rayOf, shadowRays] = sc;
     for (auto& v : soa) v.clear();
     mat.clear();
     pixelOf.clear();
     rayOf.clear();
-    shadowRays.clear();
+    shadowRays.Clear();
     for (int x = 0; x < w; ++x) {
       const size_t i = rowStart + static_cast<size_t>(x);
       const StoredReservoir& r = reservoirs_[i];
@@ -932,13 +1077,12 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       for (size_t k = 0; k < m; ++k) {
         if (!(f[0][k] > 0.0f || f[1][k] > 0.0f || f[2][k] > 0.0f)) continue;
         const size_t i = rowStart + pixelOf[k];
-        shadowRays.push_back(MakeShadowRay(g.Position(i), g.GeometricNormal(i), reservoirs_[i].position));
+        shadowRays.Add(g, i, reservoirs_[i].position);
         rayOf.push_back(static_cast<uint32_t>(k));
       }
-      occluded.resize(shadowRays.size());
-      if (!shadowRays.empty()) in.scene->OccludedBatch(shadowRays.data(), occluded.data(), shadowRays.size());
-      shadeRays.local() += shadowRays.size();
-      for (size_t r = 0; r < shadowRays.size(); ++r)
+      const std::vector<uint8_t>& occluded = shadowRays.Trace(*in.scene, SceneFrame::kCurrent);
+      shadeRays.local() += occluded.size();
+      for (size_t r = 0; r < occluded.size(); ++r)
         if (occluded[r]) f[0][rayOf[r]] = f[1][rayOf[r]] = f[2][rayOf[r]] = 0.0f;
     }
     size_t k = 0;
