@@ -47,6 +47,20 @@ RisMaterials BenchMaterials() {
   return MakeRisMaterials(bsdfs);
 }
 
+// Query k of the per-pair benchmarks: a floor receiver along the BM_RisKernel row and a random point on one of
+// the grid lights.
+struct FloorQuery {
+  Vec3 receiver;
+  const LightTriangle* light;
+  Vec3 lightPoint;
+};
+FloorQuery MakeFloorQuery(const std::vector<LightTriangle>& lights, size_t k) {
+  const RngKey key{1, 0, static_cast<uint32_t>(k), 2};
+  const LightTriangle& t = lights[static_cast<size_t>(UniformFloat(key, 0) * float(lights.size())) % lights.size()];
+  return {Vec3(float(k % 1920) / 1920.0f * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f), &t,
+          SampleTrianglePoint(t, UniformFloat(key, 1), UniformFloat(key, 2))};
+}
+
 // Times `body` once per iteration with the kernels forced onto `target` (a kernel benchmark per target, scalar
 // twin included); `items` per call.
 template <typename F>
@@ -165,10 +179,10 @@ void BM_TargetKernel(benchmark::State& state, SimdTarget target) {
   std::vector<int32_t> material(n);
   const Vec3 camera(0.0f, 1.5f, 6.0f);
   for (size_t k = 0; k < n; ++k) {
-    const Vec3 p(float(k % 1920) / 1920.0f * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f);
-    const RngKey key{1, 0, static_cast<uint32_t>(k), 2};
-    const LightTriangle& t = lights[static_cast<size_t>(UniformFloat(key, 0) * 72.0f) % 72];
-    const Vec3 y = SampleTrianglePoint(t, UniformFloat(key, 1), UniformFloat(key, 2));
+    const FloorQuery q = MakeFloorQuery(lights, k);
+    const Vec3& p = q.receiver;
+    const Vec3& y = q.lightPoint;
+    const LightTriangle& t = *q.light;
     for (int c = 0; c < 3; ++c) {
       in[c][k] = camera[c];
       in[3 + c][k] = p[c];
@@ -203,10 +217,9 @@ void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
   std::vector<float> in[9];  // position, geometric normal, light position
   for (auto& v : in) v.resize(n);
   for (size_t k = 0; k < n; ++k) {
-    const Vec3 p(float(k % 1920) / 1920.0f * 12.0f - 6.0f, 0.0f, 1.0f - float(k % 7) * 0.3f);
-    const RngKey key{1, 0, static_cast<uint32_t>(k), 2};
-    const LightTriangle& t = lights[static_cast<size_t>(UniformFloat(key, 0) * 72.0f) % 72];
-    const Vec3 y = SampleTrianglePoint(t, UniformFloat(key, 1), UniformFloat(key, 2));
+    const FloorQuery q = MakeFloorQuery(lights, k);
+    const Vec3& p = q.receiver;
+    const Vec3& y = q.lightPoint;
     for (int c = 0; c < 3; ++c) {
       in[c][k] = p[c];
       in[3 + c][k] = c == 1 ? 1.0f : 0.0f;
@@ -267,33 +280,13 @@ constexpr size_t kCombinations = 64;  // per batch of the GRIS kernel benchmark
 constexpr int kInputs = 6;            // canonical + 5 spatial neighbours
 constexpr int kBatches = 16;          // cycled
 
-struct BenchBatch {
-  std::vector<int32_t> inputs;
-  std::vector<uint8_t> hasSample;
-  std::vector<float> W, confidence, visibility, u, target, mis, canonicalTarget;
-  GrisBatch View() const {
-    GrisBatch b;
-    b.count = kCombinations;
-    b.stride = kCombinations;
-    b.matrixSize = kInputs;
-    b.inputs = inputs.data();
-    b.hasSample = hasSample.data();
-    b.W = W.data();
-    b.confidence = confidence.data();
-    b.visibility = visibility.data();
-    b.u = u.data();
-    b.target = target.data();
-    b.mis = mis.data();
-    b.canonicalTarget = canonicalTarget.data();
-    return b;
-  }
-};
-
-BenchBatch MakeBatch(std::mt19937& rng) {
+GrisBatchArrays MakeBatch(std::mt19937& rng) {
   std::uniform_real_distribution<float> uni(0.0f, 1.0f);
   std::lognormal_distribution<float> spread(0.0f, 1.0f);
   const size_t rows = kInputs * kCombinations;
-  BenchBatch b;
+  GrisBatchArrays b;
+  b.count = b.stride = kCombinations;
+  b.matrixSize = kInputs;
   b.inputs.assign(kCombinations, kInputs);
   b.hasSample.resize(rows);
   for (auto* v : {&b.W, &b.confidence, &b.visibility, &b.u, &b.mis, &b.canonicalTarget}) v->resize(rows);
@@ -321,10 +314,10 @@ BenchBatch MakeBatch(std::mt19937& rng) {
 // family < 0: GrisResampleBatch (given weights, as stochastic pairwise uses it).
 void BM_GrisKernel(benchmark::State& state, int family, SimdTarget target) {
   std::mt19937 rng(7);
-  std::vector<BenchBatch> batches;
+  std::vector<GrisBatchArrays> batches;
   for (int i = 0; i < kBatches; ++i) batches.push_back(MakeBatch(rng));
   std::vector<GrisBatch> views;
-  for (const BenchBatch& b : batches) views.push_back(b.View());
+  for (const GrisBatchArrays& b : batches) views.push_back(b.View());
   std::vector<int32_t> selected(kCombinations), guarded(kCombinations);
   std::vector<float> weightSum(kCombinations), W(kCombinations), confidence(kCombinations),
       visibility(kCombinations);

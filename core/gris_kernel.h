@@ -20,6 +20,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "core/gris.h"
 #include "core/mis.h"
@@ -41,6 +42,40 @@ struct GrisBatch {
   const float* target = nullptr;  // GrisCombineBatch only: p̂_j(Y_i) (target(j, i)) at [(j * M + i) * stride + k]
   const float* mis = nullptr;              // GrisResampleBatch only: m_i(Y_i) at [i * stride + k]
   const float* canonicalTarget = nullptr;  // GrisResampleBatch only: p̂_c(Y_i) at [i * stride + k]
+};
+
+// A GrisBatch's arrays, owned: callers fill the vectors (rows of `stride`, matrixSize rows per input array and
+// matrixSize² for the matrix) and pass View().
+struct GrisBatchArrays {
+  size_t count = 0;                  // GrisBatch::count
+  size_t stride = 0;                 // GrisBatch::stride
+  int matrixSize = kMaxGrisInputs;   // GrisBatch::matrixSize
+  std::vector<int32_t> inputs;       // GrisBatch::inputs
+  std::vector<uint8_t> hasSample;    // GrisBatch::hasSample
+  std::vector<float> W, confidence, visibility, u;  // GrisBatch's per-input arrays
+  std::vector<float> target;                        // GrisBatch::target
+  std::vector<float> mis, canonicalTarget;          // GrisBatch::mis, GrisBatch::canonicalTarget
+  GrisBatch View() const {
+    GrisBatch b;
+    b.count = count;
+    b.stride = stride;
+    b.matrixSize = matrixSize;
+    b.inputs = inputs.data();
+    b.hasSample = hasSample.data();
+    b.W = W.data();
+    b.confidence = confidence.data();
+    b.visibility = visibility.data();
+    b.u = u.data();
+    b.target = target.data();
+    b.mis = mis.data();
+    b.canonicalTarget = canonicalTarget.data();
+    return b;
+  }
+  // Element of input i of combination k, and of target(j, i) of combination k.
+  size_t At(int i, size_t k) const { return static_cast<size_t>(i) * stride + k; }
+  size_t TargetAt(int j, int i, size_t k) const {
+    return (static_cast<size_t>(j) * static_cast<size_t>(matrixSize) + static_cast<size_t>(i)) * stride + k;
+  }
 };
 
 // Per combination: the fields of its GrisResult. A NaN is written as std::numeric_limits<float>::quiet_NaN():

@@ -16,6 +16,18 @@ enum class MisFamily : uint8_t {
   kStochasticPairwise,  // stochastic pairwise over screen-space cells (seed 004 Eq. 15-19)
 };
 
+// The family's name as presets and --set spell it ("uniform", "z", "balance", "pairwise", "stochastic-pairwise").
+inline const char* MisFamilyName(MisFamily f) {
+  switch (f) {
+    case MisFamily::kUniform: return "uniform";
+    case MisFamily::kZ: return "z";
+    case MisFamily::kBalance: return "balance";
+    case MisFamily::kPairwise: return "pairwise";
+    case MisFamily::kStochasticPairwise: return "stochastic-pairwise";
+  }
+  return "?";
+}
+
 // Resampling weights must be finite; a NaN or Inf weight is dropped and counted by the caller (DESIGN §10).
 inline bool IsFiniteWeight(float w) { return std::isfinite(w); }
 

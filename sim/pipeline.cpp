@@ -342,81 +342,58 @@ class CombineBatch {
   // Lays out combos[order[0..count)] (order null: combos[0..count)). With `matrix`, the known target entries
   // (every entry the family reads, see RequestFamilyTargets; the rest are never read and stay 0).
   void Fill(Combination* combos, const int* order, int count, bool matrix) {
-    count_ = static_cast<size_t>(count);
-    size_ = 1;
-    for (int k = 0; k < count; ++k) size_ = std::max(size_, combos[order ? order[k] : k].count);
-    const size_t stride = kBatchPixels, m = static_cast<size_t>(size_);
-    inputs_.assign(stride, 0);
-    for (auto* v : {&W_, &confidence_, &visibility_, &u_, &mis_, &canonicalTarget_}) v->assign(m * stride, 0.0f);
-    hasSample_.assign(m * stride, 0);
-    if (matrix) target_.assign(m * m * stride, 0.0f);
+    GrisBatchArrays& a = arrays_;
+    a.count = static_cast<size_t>(count);
+    a.stride = kBatchPixels;
+    a.matrixSize = 1;
+    for (int k = 0; k < count; ++k) a.matrixSize = std::max(a.matrixSize, combos[order ? order[k] : k].count);
+    const size_t rows = static_cast<size_t>(a.matrixSize) * a.stride;
+    a.inputs.assign(a.stride, 0);
+    for (auto* v : {&a.W, &a.confidence, &a.visibility, &a.u, &a.mis, &a.canonicalTarget}) v->assign(rows, 0.0f);
+    a.hasSample.assign(rows, 0);
+    if (matrix) a.target.assign(rows * static_cast<size_t>(a.matrixSize), 0.0f);
     for (int k = 0; k < count; ++k) {
       const Combination& c = combos[order ? order[k] : k];
-      inputs_[k] = c.count;
+      a.inputs[k] = c.count;
       for (int i = 0; i < c.count; ++i) {
-        const size_t e = static_cast<size_t>(i) * stride + k;
-        hasSample_[e] = c.inputs[i].hasSample ? 1 : 0;
-        W_[e] = c.inputs[i].W;
-        confidence_[e] = c.inputs[i].confidence;
-        visibility_[e] = c.inputs[i].visibility;
-        u_[e] = c.u[i];
+        const size_t e = a.At(i, static_cast<size_t>(k));
+        a.hasSample[e] = c.inputs[i].hasSample ? 1 : 0;
+        a.W[e] = c.inputs[i].W;
+        a.confidence[e] = c.inputs[i].confidence;
+        a.visibility[e] = c.inputs[i].visibility;
+        a.u[e] = c.u[i];
       }
       if (!matrix) continue;
       for (int j = 0; j < c.count; ++j)
         for (int i = 0; i < c.count; ++i)
-          if (c.state[j][i] == Entry::kKnown) target_[(static_cast<size_t>(j) * m + i) * stride + k] = c.target[j][i];
+          if (c.state[j][i] == Entry::kKnown) a.target[a.TargetAt(j, i, static_cast<size_t>(k))] = c.target[j][i];
     }
   }
   // Given MIS weights and canonical targets of lane k's inputs (GrisResampleBatch).
-  float& Mis(int k, int i) { return mis_[static_cast<size_t>(i) * kBatchPixels + k]; }
-  float& CanonicalTarget(int k, int i) { return canonicalTarget_[static_cast<size_t>(i) * kBatchPixels + k]; }
+  float& Mis(int k, int i) { return arrays_.mis[arrays_.At(i, static_cast<size_t>(k))]; }
+  float& CanonicalTarget(int k, int i) { return arrays_.canonicalTarget[arrays_.At(i, static_cast<size_t>(k))]; }
 
   // GrisCombine of every lane (family weights from the matrix) or GrisResample (given weights).
-  void Combine(MisFamily family, VisibilityCarry carry) { Run(&family, carry); }
-  void Resample(VisibilityCarry carry) { Run(nullptr, carry); }
+  void Combine(MisFamily family, VisibilityCarry carry) { GrisCombineBatch(family, carry, arrays_.View(), Output()); }
+  void Resample(VisibilityCarry carry) { GrisResampleBatch(carry, arrays_.View(), Output()); }
   GrisResult Result(int k) const {
     GrisResult r;
     r.selected = selected_[k];
     r.weightSum = weightSum_[k];
-    r.W = outW_[k];
-    r.confidence = outConfidence_[k];
-    r.visibility = outVisibility_[k];
+    r.W = W_[k];
+    r.confidence = confidence_[k];
+    r.visibility = visibility_[k];
     r.guarded = guarded_[k];
     return r;
   }
 
  private:
-  void Run(const MisFamily* family, VisibilityCarry carry) {
-    GrisBatch b;
-    b.count = count_;
-    b.stride = kBatchPixels;
-    b.matrixSize = size_;
-    b.inputs = inputs_.data();
-    b.hasSample = hasSample_.data();
-    b.W = W_.data();
-    b.confidence = confidence_.data();
-    b.visibility = visibility_.data();
-    b.u = u_.data();
-    b.target = target_.data();
-    b.mis = mis_.data();
-    b.canonicalTarget = canonicalTarget_.data();
-    GrisBatchOutput o;
-    o.selected = selected_;
-    o.weightSum = weightSum_;
-    o.W = outW_;
-    o.confidence = outConfidence_;
-    o.visibility = outVisibility_;
-    o.guarded = guarded_;
-    if (family) GrisCombineBatch(*family, carry, b, o);
-    else GrisResampleBatch(carry, b, o);
+  GrisBatchOutput Output() {
+    return GrisBatchOutput{selected_, weightSum_, W_, confidence_, visibility_, guarded_};
   }
-  size_t count_ = 0;
-  int size_ = 1;
-  std::vector<int32_t> inputs_;
-  std::vector<uint8_t> hasSample_;
-  std::vector<float> W_, confidence_, visibility_, u_, target_, mis_, canonicalTarget_;
+  GrisBatchArrays arrays_;
   int32_t selected_[kBatchPixels], guarded_[kBatchPixels];
-  float weightSum_[kBatchPixels], outW_[kBatchPixels], outConfidence_[kBatchPixels], outVisibility_[kBatchPixels];
+  float weightSum_[kBatchPixels], W_[kBatchPixels], confidence_[kBatchPixels], visibility_[kBatchPixels];
 };
 
 // The output reservoir of a combination (the selected sample with its canonical target).

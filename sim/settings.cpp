@@ -17,11 +17,13 @@ struct EnumNames {
   std::vector<std::pair<E, const char*>> names;
 };
 
-const EnumNames<MisFamily> kMisNames{{{MisFamily::kUniform, "uniform"},
-                                      {MisFamily::kZ, "z"},
-                                      {MisFamily::kBalance, "balance"},
-                                      {MisFamily::kPairwise, "pairwise"},
-                                      {MisFamily::kStochasticPairwise, "stochastic-pairwise"}}};
+const EnumNames<MisFamily> kMisNames{[] {
+  std::vector<std::pair<MisFamily, const char*>> v;
+  for (MisFamily f : {MisFamily::kUniform, MisFamily::kZ, MisFamily::kBalance, MisFamily::kPairwise,
+                      MisFamily::kStochasticPairwise})
+    v.emplace_back(f, MisFamilyName(f));  // core/mis.h spells them
+  return v;
+}()};
 const EnumNames<BiasCorrection> kBiasNames{
     {{BiasCorrection::kNone, "none"}, {BiasCorrection::kBasic, "basic"}, {BiasCorrection::kRayTraced, "raytraced"}}};
 const EnumNames<VisibilityReuse> kVisNames{{{VisibilityReuse::kNone, "final-ray"},

@@ -20,42 +20,24 @@
 #include "core/gris.h"
 #include "core/simd.h"
 
+#include "core/kernel_test_support.h"
+
 namespace restir {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kInf = std::numeric_limits<float>::infinity();
+using test::Bits;
+using test::Canonical;
+using test::kInf;
+using test::kNaN;
 
 constexpr MisFamily kFamilies[] = {MisFamily::kUniform, MisFamily::kZ, MisFamily::kBalance, MisFamily::kPairwise,
                                    MisFamily::kStochasticPairwise};
 constexpr VisibilityCarry kCarries[] = {VisibilityCarry::kSelected, VisibilityCarry::kWeighted};
 
-const char* Name(MisFamily f) {
-  switch (f) {
-    case MisFamily::kUniform: return "uniform";
-    case MisFamily::kZ: return "z";
-    case MisFamily::kBalance: return "balance";
-    case MisFamily::kPairwise: return "pairwise";
-    case MisFamily::kStochasticPairwise: return "stochastic-pairwise";
-  }
-  return "?";
-}
 const char* Name(VisibilityCarry c) { return c == VisibilityCarry::kWeighted ? "weighted" : "selected"; }
 
-// Restores the process-wide target after each test.
-class GrisKernel : public ::testing::Test {
- protected:
-  void TearDown() override { SetSimdTarget(SimdTarget::kAuto); }
-};
+class GrisKernel : public test::SimdTargetTest {};
 
-uint32_t Bits(float x) {
-  uint32_t b;
-  std::memcpy(&b, &x, 4);
-  return b;
-}
-
-// The batch output's NaN (core/gris_kernel.h GrisBatchOutput).
-float Canonical(float x) { return std::isnan(x) ? kNaN : x; }
 
 // How a combination's values are drawn.
 enum class Regime { kClean, kHard, kAllZeroW, kOverflow, kZeroRows };
@@ -63,34 +45,8 @@ enum class Regime { kClean, kHard, kAllZeroW, kOverflow, kZeroRows };
 // What the entries of the target matrix that GrisCombine does not read are set to.
 enum class Unread { kAsDrawn, kZero, kNaN, kWild };
 
-struct Batch {
-  size_t count = 0, stride = 0;
-  int M = kMaxGrisInputs;
-  std::vector<int32_t> inputs;
-  std::vector<uint8_t> hasSample;
-  std::vector<float> W, confidence, visibility, u, target, mis, canonicalTarget;
+struct Batch : GrisBatchArrays {
   std::vector<uint8_t> read;  // per target entry: GrisCombine read it (for the family last marked)
-
-  GrisBatch View() const {
-    GrisBatch b;
-    b.count = count;
-    b.stride = stride;
-    b.matrixSize = M;
-    b.inputs = inputs.data();
-    b.hasSample = hasSample.data();
-    b.W = W.data();
-    b.confidence = confidence.data();
-    b.visibility = visibility.data();
-    b.u = u.data();
-    b.target = target.data();
-    b.mis = mis.data();
-    b.canonicalTarget = canonicalTarget.data();
-    return b;
-  }
-  size_t At(int i, size_t k) const { return static_cast<size_t>(i) * stride + k; }
-  size_t TargetAt(int j, int i, size_t k) const {
-    return (static_cast<size_t>(j) * static_cast<size_t>(M) + static_cast<size_t>(i)) * stride + k;
-  }
 };
 
 class Gen {
@@ -140,7 +96,7 @@ Batch RandomBatch(Gen& g, size_t count, size_t extraStride, int M, float hardFra
   Batch b;
   b.count = count;
   b.stride = count + extraStride;
-  b.M = M;
+  b.matrixSize = M;
   const size_t rows = std::max<size_t>(1, static_cast<size_t>(M) * b.stride);
   b.inputs.assign(std::max<size_t>(1, b.stride), 0);
   b.hasSample.assign(rows, 0);
@@ -349,11 +305,11 @@ TEST_F(GrisKernel, EveryFamilyMatchesGrisCombineBitForBitOnEveryTarget) {
         const size_t count = kSizes[g.Rng()() % std::size(kSizes)] + (trial == 0 ? 500 : 0);
         const int M = trial % 3 == 0 ? kMaxGrisInputs : 1 + static_cast<int>(g.Rng()() % kMaxGrisInputs);
         Batch b = RandomBatch(g, count, trial % 2 ? g.Rng()() % 6 : 0, M);
-        const std::string what = std::string(Name(family)) + "/" + Name(carry) + " trial " + std::to_string(trial);
+        const std::string what = std::string(MisFamilyName(family)) + "/" + Name(carry) + " trial " + std::to_string(trial);
         CheckCombine(family, carry, b, what, &cov);
         if (HasFatalFailure()) return;
       }
-      ExpectCovered(cov, std::string(Name(family)) + "/" + Name(carry));
+      ExpectCovered(cov, std::string(MisFamilyName(family)) + "/" + Name(carry));
     }
 }
 
@@ -371,13 +327,13 @@ TEST_F(GrisKernel, UnreadTargetEntriesNeverReachTheResult) {
           filled += FillUnread(family, carry, b, unread, g);
           entries += b.target.size();
           CheckCombine(family, carry, b,
-                       std::string(Name(family)) + "/" + Name(carry) + " unread " +
+                       std::string(MisFamilyName(family)) + "/" + Name(carry) + " unread " +
                            std::to_string(static_cast<int>(unread)) + " trial " + std::to_string(trial),
                        nullptr);
           if (HasFatalFailure()) return;
         }
         // Most of the matrix is unread (a single column for z, none but row 0 for uniform): the fill mattered.
-        EXPECT_GT(filled, entries / 4) << Name(family);
+        EXPECT_GT(filled, entries / 4) << MisFamilyName(family);
       }
 }
 
@@ -406,7 +362,7 @@ TEST_F(GrisKernel, TailsAndEmptyBatchesWriteExactlyTheirCombinations) {
       for (MisFamily family : {MisFamily::kZ, MisFamily::kPairwise}) {
         Batch b = RandomBatch(g, count, 0, 6);
         CheckCombine(family, VisibilityCarry::kWeighted, b,
-                     std::string(Name(family)) + " count " + std::to_string(count), nullptr);
+                     std::string(MisFamilyName(family)) + " count " + std::to_string(count), nullptr);
         CheckResample(VisibilityCarry::kSelected, b, "resample count " + std::to_string(count), nullptr);
         if (HasFatalFailure()) return;
       }
@@ -428,9 +384,9 @@ TEST_F(GrisKernel, OverflowingWeightsAreDroppedAndCountedAsGrisCombineDoes) {
       }
     }
     Coverage cov;
-    CheckCombine(family, VisibilityCarry::kWeighted, b, Name(family), &cov);
+    CheckCombine(family, VisibilityCarry::kWeighted, b, MisFamilyName(family), &cov);
     // Uniform weights c_i / Σ c ≤ 1 keep some products finite; every family guards some of them.
-    EXPECT_GT(cov.guarded, b.count / 4) << Name(family);
+    EXPECT_GT(cov.guarded, b.count / 4) << MisFamilyName(family);
   }
 }
 
@@ -440,7 +396,7 @@ TEST_F(GrisKernel, AllZeroWeightsSelectNothing) {
   for (float& w : b.W) w = 0.0f;
   for (MisFamily family : kFamilies)
     for (VisibilityCarry carry : kCarries) {
-      CheckCombine(family, carry, b, Name(family), nullptr);
+      CheckCombine(family, carry, b, MisFamilyName(family), nullptr);
       for (SimdTarget t : SupportedSimdTargets()) {
         ASSERT_TRUE(SetSimdTarget(t));
         Outputs o(b.count);
@@ -454,14 +410,6 @@ TEST_F(GrisKernel, AllZeroWeightsSelectNothing) {
         }
       }
     }
-}
-
-TEST_F(GrisKernel, DispatchFollowsTheSelectedTarget) {
-  const char* expected[] = {"", "scalar", "SSE4", "AVX2", "AVX3"};
-  for (SimdTarget t : SupportedSimdTargets()) {
-    ASSERT_TRUE(SetSimdTarget(t));
-    EXPECT_STREQ(GrisKernelDispatchedTargetName(), expected[static_cast<int>(t)]) << SimdTargetName(t);
-  }
 }
 
 }  // namespace

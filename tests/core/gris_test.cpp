@@ -16,16 +16,6 @@ namespace {
 constexpr MisFamily kAllFamilies[] = {MisFamily::kUniform, MisFamily::kZ, MisFamily::kBalance,
                                       MisFamily::kPairwise};
 
-const char* Name(MisFamily f) {
-  switch (f) {
-    case MisFamily::kUniform: return "uniform";
-    case MisFamily::kZ: return "z";
-    case MisFamily::kBalance: return "balance";
-    case MisFamily::kPairwise: return "pairwise";
-    case MisFamily::kStochasticPairwise: return "stochastic-pairwise";
-  }
-  return "?";
-}
 
 // ---------------------------------------------------------------------------------------------------------
 // A 1-D toy problem with a closed-form integral. Domain y in [0, 1), source pdf uniform (p_src = 1). The
@@ -110,7 +100,7 @@ TEST(Gris, CombineIsUnbiasedForZBalanceAndPairwise) {
     for (bool restricted : {true, false}) {
       const test::RunningStats st = RunToy(family, restricted, seed++, kToyTrials);
       EXPECT_NEAR(st.mean, truth, zCrit * st.StdError())
-          << Name(family) << (restricted ? " restricted" : " full support") << " se=" << st.StdError();
+          << MisFamilyName(family) << (restricted ? " restricted" : " full support") << " se=" << st.StdError();
     }
   }
 }
@@ -197,9 +187,9 @@ TEST(Gris, WeightedVisibilityIsWeightAverage) {
       float u[3];
       for (int j = 0; j < 3; ++j) u[j] = j == k ? 0.0f : 0.999f;  // selects input k
       const GrisResult r = GrisCombine(family, in.data(), 3, FixedTarget, u, VisibilityCarry::kWeighted);
-      ASSERT_EQ(r.selected, k) << Name(family);
-      EXPECT_NEAR(r.weightSum, wSum, 1e-6 * wSum) << Name(family);
-      EXPECT_NEAR(r.visibility, v, 1e-6) << Name(family) << " selected " << k;
+      ASSERT_EQ(r.selected, k) << MisFamilyName(family);
+      EXPECT_NEAR(r.weightSum, wSum, 1e-6 * wSum) << MisFamilyName(family);
+      EXPECT_NEAR(r.visibility, v, 1e-6) << MisFamilyName(family) << " selected " << k;
       double z = 1.0;
       if (family == MisFamily::kZ) {
         z = 0.0;
@@ -207,7 +197,7 @@ TEST(Gris, WeightedVisibilityIsWeightAverage) {
           if (kT[j][k] > 0.0f) z += kC[j];
       }
       const double wOut = wSum / z / kT[0][k];
-      EXPECT_NEAR(r.W, wOut, 1e-6 * wOut) << Name(family) << " selected " << k;
+      EXPECT_NEAR(r.W, wOut, 1e-6 * wOut) << MisFamilyName(family) << " selected " << k;
       EXPECT_FLOAT_EQ(r.confidence, kC[0] + kC[1] + kC[2]);
     }
   }
@@ -227,8 +217,8 @@ TEST(Gris, SelectedVisibilityIsThatOfTheSelectedInput) {
       float u[3];
       for (int j = 0; j < 3; ++j) u[j] = j == k ? 0.0f : 0.999f;
       const GrisResult r = GrisCombine(family, in.data(), 3, FixedTarget, u, VisibilityCarry::kSelected);
-      ASSERT_EQ(r.selected, k) << Name(family);
-      EXPECT_EQ(r.visibility, kV[k]) << Name(family);
+      ASSERT_EQ(r.selected, k) << MisFamilyName(family);
+      EXPECT_EQ(r.visibility, kV[k]) << MisFamilyName(family);
     }
   }
 }
@@ -253,7 +243,7 @@ TEST(Gris, SelectionFollowsResamplingWeightsChiSquare) {
     }
     ++seed;
     const auto res = test::ChiSquare(obs, exp);
-    EXPECT_LT(res.statistic, test::ChiSquareCritical(res.dof, 1e-6)) << Name(family);
+    EXPECT_LT(res.statistic, test::ChiSquareCritical(res.dof, 1e-6)) << MisFamilyName(family);
   }
 }
 
@@ -265,9 +255,9 @@ TEST(Gris, OutputConfidenceIsSumOfInputConfidences) {
   const float u[4] = {0.3f, 0.3f, 0.3f, 0.3f};
   for (MisFamily family : kAllFamilies) {
     const GrisResult r = GrisCombine(family, in, 4, target, u, VisibilityCarry::kWeighted);
-    EXPECT_FLOAT_EQ(r.confidence, 3.0f + 20.0f + 0.25f + 7.0f) << Name(family);
-    EXPECT_NE(r.selected, 1) << Name(family);
-    EXPECT_NE(r.selected, 3) << Name(family);
+    EXPECT_FLOAT_EQ(r.confidence, 3.0f + 20.0f + 0.25f + 7.0f) << MisFamilyName(family);
+    EXPECT_NE(r.selected, 1) << MisFamilyName(family);
+    EXPECT_NE(r.selected, 3) << MisFamilyName(family);
     EXPECT_EQ(r.guarded, 0);
   }
 }
@@ -282,11 +272,11 @@ TEST(Gris, AllEmptyInputsGiveNoSample) {
   for (MisFamily family : kAllFamilies) {
     for (VisibilityCarry carry : {VisibilityCarry::kSelected, VisibilityCarry::kWeighted}) {
       const GrisResult r = GrisCombine(family, in, 3, target, u, carry);
-      EXPECT_EQ(r.selected, -1) << Name(family);
-      EXPECT_EQ(r.W, 0.0f) << Name(family);
-      EXPECT_EQ(r.weightSum, 0.0f) << Name(family);
-      EXPECT_EQ(r.guarded, 0) << Name(family);
-      EXPECT_FLOAT_EQ(r.confidence, 8.0f) << Name(family);
+      EXPECT_EQ(r.selected, -1) << MisFamilyName(family);
+      EXPECT_EQ(r.W, 0.0f) << MisFamilyName(family);
+      EXPECT_EQ(r.weightSum, 0.0f) << MisFamilyName(family);
+      EXPECT_EQ(r.guarded, 0) << MisFamilyName(family);
+      EXPECT_FLOAT_EQ(r.confidence, 8.0f) << MisFamilyName(family);
     }
   }
   EXPECT_EQ(calls, 0);  // no target (no ray) is evaluated for empty inputs
@@ -306,13 +296,13 @@ void ExpectGuardedAndSkipped(float badW) {
   for (MisFamily family : kAllFamilies) {
     const GrisResult r = GrisCombine(family, in.data(), 3, FixedTarget, u, VisibilityCarry::kWeighted);
     const GrisResult e = GrisCombine(family, ref.data(), 3, FixedTarget, u, VisibilityCarry::kWeighted);
-    EXPECT_EQ(r.guarded, 1) << Name(family) << " W=" << badW;
-    EXPECT_NE(r.selected, 1) << Name(family) << " W=" << badW;
-    EXPECT_EQ(r.selected, e.selected) << Name(family) << " W=" << badW;
-    EXPECT_EQ(r.weightSum, e.weightSum) << Name(family) << " W=" << badW;
-    EXPECT_EQ(r.W, e.W) << Name(family) << " W=" << badW;
-    EXPECT_EQ(r.visibility, e.visibility) << Name(family) << " W=" << badW;
-    EXPECT_TRUE(std::isfinite(r.W) && std::isfinite(r.weightSum)) << Name(family);
+    EXPECT_EQ(r.guarded, 1) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_NE(r.selected, 1) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_EQ(r.selected, e.selected) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_EQ(r.weightSum, e.weightSum) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_EQ(r.W, e.W) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_EQ(r.visibility, e.visibility) << MisFamilyName(family) << " W=" << badW;
+    EXPECT_TRUE(std::isfinite(r.W) && std::isfinite(r.weightSum)) << MisFamilyName(family);
   }
 }
 
@@ -330,9 +320,9 @@ TEST(Gris, InfiniteTargetIsGuardedAndSkipped) {
   const float u[3] = {0.5f, 0.5f, 0.0f};
   for (MisFamily family : kAllFamilies) {
     const GrisResult r = GrisCombine(family, in.data(), 3, target, u, VisibilityCarry::kWeighted);
-    EXPECT_EQ(r.guarded, 1) << Name(family);
-    EXPECT_NE(r.selected, 2) << Name(family);
-    EXPECT_TRUE(std::isfinite(r.W) && std::isfinite(r.weightSum)) << Name(family);
+    EXPECT_EQ(r.guarded, 1) << MisFamilyName(family);
+    EXPECT_NE(r.selected, 2) << MisFamilyName(family);
+    EXPECT_TRUE(std::isfinite(r.W) && std::isfinite(r.weightSum)) << MisFamilyName(family);
   }
 }
 

@@ -23,24 +23,19 @@
 #include "core/shadow_ray.h"
 #include "core/simd.h"
 
-#include "core/random_geometry.h"
+#include "core/kernel_test_support.h"
 
 namespace restir {
 namespace {
 
-// Restores the process-wide target after each test.
-class ShadowRayKernel : public ::testing::Test {
- protected:
-  void TearDown() override { SetSimdTarget(SimdTarget::kAuto); }
-};
+class ShadowRayKernel : public test::SimdTargetTest {};
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kInf = std::numeric_limits<float>::infinity();
+using test::Bits;
+using test::Canonical;
+using test::GuardedArray;
+using test::kInf;
+using test::kNaN;
 
-uint32_t Bits(float v) { return std::bit_cast<uint32_t>(v); }
-
-// ShadowRayOutputs' rule for NaN: one canonical bit pattern, whatever payload the arithmetic happened to carry.
-float Canonical(float v) { return std::isnan(v) ? kNaN : v; }
 
 using test::RandomUnit;
 
@@ -187,14 +182,6 @@ ShadowRaySegment OldMakeShadowRay(const Vec3& position, const Vec3& geometricNor
   return ray;
 }
 
-TEST_F(ShadowRayKernel, DispatchFollowsTheSimdChoice) {
-  const char* expected[] = {"", "scalar", "SSE4", "AVX2", "AVX3"};
-  for (SimdTarget t : SupportedSimdTargets()) {
-    ASSERT_TRUE(SetSimdTarget(t));
-    EXPECT_STREQ(ShadowRayKernelDispatchedTargetName(), expected[static_cast<int>(t)]) << SimdTargetName(t);
-  }
-}
-
 // Bit for bit once NaN results are canonical: without that rule even two compilations of the same expression can
 // give NaNs of opposite sign.
 TEST_F(ShadowRayKernel, ScalarFunctionEqualsTheOldMakeShadowRayFormula) {
@@ -268,29 +255,6 @@ TEST_F(ShadowRayKernel, EveryTargetMatchesScalarTwinBitForBit) {
     ExpectSameBits(twin, got, n, q, SimdTargetName(t));
   }
 }
-
-// `count` elements ending exactly where a PROT_NONE page begins: reading one past the end faults.
-template <typename T>
-class GuardedArray {
- public:
-  explicit GuardedArray(size_t count) {
-    const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
-    bytes_ = (count * sizeof(T) + page - 1) / page * page + page;
-    base_ = static_cast<char*>(mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0));
-    EXPECT_NE(base_, MAP_FAILED);
-    EXPECT_EQ(mprotect(base_ + bytes_ - page, page, PROT_NONE), 0);
-    data_ = reinterpret_cast<T*>(base_ + bytes_ - page) - count;
-  }
-  ~GuardedArray() { munmap(base_, bytes_); }
-  GuardedArray(const GuardedArray&) = delete;
-  GuardedArray& operator=(const GuardedArray&) = delete;
-  T* data() { return data_; }
-
- private:
-  size_t bytes_ = 0;
-  char* base_ = nullptr;
-  T* data_ = nullptr;
-};
 
 // Batch sizes 0, 1, lanes - 1, lanes, lanes + 1 of every width (4, 8, 16 floats) and packets plus a tail: each
 // target reads only the queries it is given (the inputs end at a guard page) and writes only their rays (a

@@ -23,21 +23,18 @@
 #include "core/shading.h"
 #include "core/simd.h"
 
-#include "core/random_geometry.h"
+#include "core/kernel_test_support.h"
 
 namespace restir {
 namespace {
 
-// Restores the process-wide target after each test.
-class TargetKernel : public ::testing::Test {
- protected:
-  void TearDown() override { SetSimdTarget(SimdTarget::kAuto); }
-};
+class TargetKernel : public test::SimdTargetTest {};
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kInf = std::numeric_limits<float>::infinity();
-
-uint32_t Bits(float v) { return std::bit_cast<uint32_t>(v); }
+using test::Bits;
+using test::Canonical;
+using test::GuardedArray;
+using test::kInf;
+using test::kNaN;
 
 using test::RandomUnit;
 
@@ -192,14 +189,6 @@ void ExpectSameBits(const Results& want, const Results& got, size_t count, bool 
   }
 }
 
-TEST_F(TargetKernel, DispatchFollowsTheSimdChoice) {
-  const char* expected[] = {"", "scalar", "SSE4", "AVX2", "AVX3"};
-  for (SimdTarget t : SupportedSimdTargets()) {
-    ASSERT_TRUE(SetSimdTarget(t));
-    EXPECT_STREQ(TargetKernelDispatchedTargetName(), expected[static_cast<int>(t)]) << SimdTargetName(t);
-  }
-}
-
 // The kernel's wo is GLM's normalize expression, not v / length(v): the two differ in the last bit for some v,
 // so the kernel must use the one the twin gets from glm::normalize.
 TEST_F(TargetKernel, GlmNormalizeIsProductWithReciprocalSqrt) {
@@ -219,8 +208,6 @@ TEST_F(TargetKernel, GlmNormalizeIsProductWithReciprocalSqrt) {
   EXPECT_GT(differsFromDivision, 100);
 }
 
-// TargetResults' rule for NaN: one canonical bit pattern, whatever payload the arithmetic happened to carry.
-float Canonical(float v) { return std::isnan(v) ? kNaN : v; }
 
 // Bit for bit once NaN results are canonical (core/target_kernel.h): without that rule even this test's own
 // compilation of the same expression can give a NaN of the other sign.
@@ -293,30 +280,6 @@ TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
     }
   }
 }
-
-// `count` elements ending exactly where a PROT_NONE page begins: reading one past the end faults.
-template <typename T>
-class GuardedArray {
- public:
-  explicit GuardedArray(size_t count) : count_(count) {
-    const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
-    bytes_ = (count * sizeof(T) + page - 1) / page * page + page;
-    base_ = static_cast<char*>(mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0));
-    EXPECT_NE(base_, MAP_FAILED);
-    EXPECT_EQ(mprotect(base_ + bytes_ - page, page, PROT_NONE), 0);
-    data_ = reinterpret_cast<T*>(base_ + bytes_ - page) - count;
-  }
-  ~GuardedArray() { munmap(base_, bytes_); }
-  GuardedArray(const GuardedArray&) = delete;
-  GuardedArray& operator=(const GuardedArray&) = delete;
-  T* data() { return data_; }
-
- private:
-  size_t count_;
-  size_t bytes_ = 0;
-  char* base_ = nullptr;
-  T* data_ = nullptr;
-};
 
 // Batch sizes 0, 1, lanes - 1, lanes, lanes + 1 of every width (4, 8, 16 floats) and two packets plus a tail:
 // each target reads only the pairs it is given (the inputs end at a guard page) and writes only their results
