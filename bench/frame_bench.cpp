@@ -398,6 +398,7 @@ struct StageTimes {
   double primary = 0, reproject = 0;
   std::map<std::string, double> pass;    // ms per pass
   std::map<std::string, uint64_t> rays;  // rays per pass
+  std::map<std::string, PassStats> work;  // the pass's kernel work (RIS pixels, target pairs, combinations)
   uint64_t hash = 0;
   double cpu = 0;  // calling thread's CPU ms for primary + reproject + passes (meaningful at 1 thread)
   double Total(double sceneUpdate) const {
@@ -418,6 +419,7 @@ StageTimes RenderOnce(Driver& d, Pipeline& p, const std::vector<StoredReservoir>
   for (const PassStats& ps : fr.passes) {
     s.pass[ps.name] = ps.ms;
     s.rays[ps.name] = ps.rays;
+    s.work[ps.name] = ps;
   }
   s.hash = HashImage(fr.image);
   return s;
@@ -647,6 +649,10 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     c["rayfloor_ms_" + n] = rayFloor.count(n) ? rayFloor.at(n) : 0.0;
     c["kernelfloor_ms_" + n] = kernelFloor.count(n) ? kernelFloor.at(n) : 0.0;
     c["lookup_ms_" + n] = lookup.count(n) ? lookup.at(n) : 0.0;
+    const PassStats w = best.work.count(n) ? best.work.at(n) : PassStats{};
+    c["ris_pixels_" + n] = double(w.risPixels);
+    c["targets_" + n] = double(w.targets);
+    c["combinations_" + n] = double(w.combinations);
   }
   c["rayfloor_ms_primary"] = rayFloor["primary"];
   c["kernelfloor_ms_primary"] = kernelFloor["primary"];

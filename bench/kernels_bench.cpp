@@ -1,6 +1,6 @@
 // Microbenchmarks of the resampling kernels (DESIGN §9), one BM_<kernel>/<target> per SIMD target this machine
-// supports plus the scalar twin: items are pixels (BM_TargetKernel: pairs; BM_GrisKernel: combinations;
-// BM_ShadowRayKernel: rays).
+// supports plus the scalar twin: items are pixels (BM_TargetKernel: pairs; BM_GrisKernel and
+// BM_StochasticPairwiseKernel: combinations; BM_ShadowRayKernel: rays).
 #include <benchmark/benchmark.h>
 
 #include <functional>
@@ -17,6 +17,7 @@
 #include "core/simd.h"
 #include "core/shading.h"
 #include "core/shadow_ray_kernel.h"
+#include "core/spmis_kernel.h"
 #include "core/target_kernel.h"
 
 namespace restir {
@@ -345,6 +346,84 @@ void BM_GrisKernel(benchmark::State& state, int family, SimdTarget target) {
                       [family = family](benchmark::State& s, SimdTarget t) { BM_GrisKernel(s, family, t); });
   return true;
 }();
+
+
+// The stochastic pairwise weights kernel (core/spmis_kernel.h): BM_StochasticPairwiseKernel/<target>. Items are
+// combinations.
+//
+// The workload is the spatial pass with seed 004's defaults (N = 4 draws, N_c = 5, seed 004 Eq. 15-19): batches
+// of 64 combinations with 3..5 inputs (the canonical plus the distinct non-canonical draws) and 3..5 distinct
+// canonical draws, cells of 20..60 candidates, confidences scaled by N/M, 5% empty reservoirs and p̂ zero for
+// 15% of the pairs. Batches are cycled, as for BM_GrisKernel.
+struct SpmisBenchBatch {
+  GrisBatchArrays gris;
+  StochasticPairwiseArrays sp;
+};
+
+SpmisBenchBatch MakeSpmisBatch(std::mt19937& rng) {
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  std::lognormal_distribution<float> spread(0.0f, 1.0f);
+  constexpr int kRows = 5, kDraws = 5;
+  const float bigN = 4.0f, nc = 5.0f;
+  SpmisBenchBatch b;
+  GrisBatchArrays& g = b.gris;
+  g.count = g.stride = kCombinations;
+  g.matrixSize = kRows;
+  const size_t rows = kRows * kCombinations;
+  g.inputs.resize(kCombinations);
+  g.hasSample.resize(rows);
+  g.confidence.resize(rows);
+  g.mis.resize(rows);
+  g.canonicalTarget.resize(rows);
+  b.sp.Resize(g, kDraws);
+  StochasticPairwiseArrays& s = b.sp;
+  const auto target = [&] { return uni(rng) < 0.15f ? 0.0f : spread(rng); };
+  for (size_t k = 0; k < kCombinations; ++k) {
+    g.inputs[k] = 3 + static_cast<int32_t>(rng() % 3);
+    s.distinct[k] = 3 + static_cast<int32_t>(rng() % 3);
+    const float m = static_cast<float>(20 + rng() % 41), scale = bigN / m;
+    s.cBar[k] = m * 10.0f * scale;  // Σ c over the cell, c ≈ 10, scaled (seed 004 §4.3)
+    s.drawCount[k] = bigN;
+    s.canonicalDrawCount[k] = nc;
+    s.candidateCount[k] = m;
+    for (int t = 0; t < kRows; ++t) {
+      const size_t e = s.At(t, k);
+      g.hasSample[e] = uni(rng) < 0.95f;
+      g.confidence[e] = static_cast<float>(1 + rng() % 20) * (t == 0 ? 1.0f : scale);
+      s.multiplicity[e] = static_cast<float>(1 + rng() % 2);
+      s.probability[e] = 0.02f + 0.2f * uni(rng);
+      s.canonicalTarget[e] = target();
+      s.ownTarget[e] = target();
+    }
+    for (int d = 0; d < kDraws; ++d) {
+      const size_t e = s.DrawAt(d, k);
+      s.drawnMultiplicity[e] = static_cast<float>(1 + rng() % 2);
+      s.drawnConfidence[e] = static_cast<float>(1 + rng() % 20) * scale;
+      s.drawnTarget[e] = target();
+    }
+  }
+  return b;
+}
+
+void BM_StochasticPairwiseKernel(benchmark::State& state, SimdTarget target) {
+  std::mt19937 rng(9);
+  std::vector<SpmisBenchBatch> batches;
+  for (int i = 0; i < kBatches; ++i) batches.push_back(MakeSpmisBatch(rng));
+  std::vector<StochasticPairwiseBatch> views;
+  std::vector<StochasticPairwiseOutput> outs;
+  for (SpmisBenchBatch& b : batches) {
+    views.push_back(b.sp.View(b.gris));
+    outs.push_back(StochasticPairwiseOutputInto(b.gris));
+  }
+  size_t next = 0;
+  TimeOnTarget(state, target, static_cast<int64_t>(kCombinations), [&] {
+    StochasticPairwiseWeights(views[next], outs[next]);
+    benchmark::DoNotOptimize(outs[next].mis);
+    next = (next + 1) % views.size();
+  });
+}
+[[maybe_unused]] const bool kStochasticPairwiseKernelRegistered =
+    RegisterPerTarget("BM_StochasticPairwiseKernel", BM_StochasticPairwiseKernel);
 
 }  // namespace
 }  // namespace restir

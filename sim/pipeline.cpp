@@ -14,6 +14,7 @@
 #include "core/rng.h"
 #include "core/shadow_ray_kernel.h"
 #include "core/spmis.h"
+#include "core/spmis_kernel.h"
 #include "core/target_kernel.h"
 
 namespace restir {
@@ -121,15 +122,16 @@ struct FrameView {
 // the SIMD kernel (core/shadow_ray_kernel.h; the same bits as MakeShadowRay) and traced in one OccludedBatch call.
 class ShadowRayBatch {
  public:
-  void Clear() {
-    for (auto& v : in_) v.clear();
-  }
+  void Clear() { size_ = 0; }
   void Add(const GBuffer& g, size_t pixel, const Vec3& lightPosition) {
-    const float v[9] = {g.posX[pixel], g.posY[pixel], g.posZ[pixel],   g.ngX[pixel],    g.ngY[pixel],
-                        g.ngZ[pixel],  lightPosition.x, lightPosition.y, lightPosition.z};
-    for (int f = 0; f < 9; ++f) in_[f].push_back(v[f]);
+    if (size_ == in_[0].size())  // grow all arrays together; they keep their capacity from batch to batch
+      for (auto& v : in_) v.resize(std::max<size_t>(256, 2 * size_));
+    const size_t k = size_++;
+    in_[0][k] = g.posX[pixel], in_[1][k] = g.posY[pixel], in_[2][k] = g.posZ[pixel];
+    in_[3][k] = g.ngX[pixel], in_[4][k] = g.ngY[pixel], in_[5][k] = g.ngZ[pixel];
+    in_[6][k] = lightPosition.x, in_[7][k] = lightPosition.y, in_[8][k] = lightPosition.z;
   }
-  size_t Size() const { return in_[0].size(); }
+  size_t Size() const { return size_; }
   // Traces every ray added since Clear; occluded[k] answers the k-th.
   const std::vector<uint8_t>& Trace(const EmbreeScene& scene, SceneFrame frame) {
     const size_t n = Size();
@@ -156,7 +158,8 @@ class ShadowRayBatch {
   }
 
  private:
-  std::vector<float> in_[9], out_[7];
+  size_t size_ = 0;
+  std::vector<float> in_[9], out_[7];  // queries: position, geometric normal, light position; rays: org, dir, tmax
   std::vector<ShadowRay> rays_;
   std::vector<uint8_t> occluded_;
 };
@@ -223,12 +226,14 @@ class TargetEvaluator {
     }
     pending_.push_back({&c, static_cast<uint8_t>(j), static_cast<uint8_t>(i)});
   }
+  uint64_t Evaluated() const { return evaluated_; }
   // Queues a shadow ray from input 0's surface to Y_i; Resolve sets input i's visibility from it.
   void RequestVisibility(Combination& c, int i) { visibilityPending_.push_back({&c, 0, static_cast<uint8_t>(i)}); }
 
   // Evaluates everything queued. `rays` counts the shadow rays traced.
   void Resolve(uint64_t& rays) {
     const size_t n = pending_.size();
+    evaluated_ += n;
     if (n > 0) {
       for (auto& a : soa_) a.resize(n);
       mat_.resize(n);
@@ -306,6 +311,7 @@ class TargetEvaluator {
   const RisMaterials* materials_ = nullptr;
   const EmbreeScene* scene_ = nullptr;
   bool visibility_ = false;
+  uint64_t evaluated_ = 0;  // pairs handed to the target kernel so far
   std::vector<Pending> pending_, visibilityPending_;
   std::vector<float> soa_[kTargetPairFields];
   std::vector<int32_t> mat_;
@@ -369,13 +375,19 @@ class CombineBatch {
           if (c.state[j][i] == Entry::kKnown) a.target[a.TargetAt(j, i, static_cast<size_t>(k))] = c.target[j][i];
     }
   }
-  // Given MIS weights and canonical targets of lane k's inputs (GrisResampleBatch).
-  float& Mis(int k, int i) { return arrays_.mis[arrays_.At(i, static_cast<size_t>(k))]; }
-  float& CanonicalTarget(int k, int i) { return arrays_.canonicalTarget[arrays_.At(i, static_cast<size_t>(k))]; }
+  // The laid-out arrays, for kernels that fill the MIS weights and canonical targets GrisResampleBatch reads.
+  GrisBatchArrays& Arrays() { return arrays_; }
 
   // GrisCombine of every lane (family weights from the matrix) or GrisResample (given weights).
-  void Combine(MisFamily family, VisibilityCarry carry) { GrisCombineBatch(family, carry, arrays_.View(), Output()); }
-  void Resample(VisibilityCarry carry) { GrisResampleBatch(carry, arrays_.View(), Output()); }
+  void Combine(MisFamily family, VisibilityCarry carry) {
+    combined_ += arrays_.count;
+    GrisCombineBatch(family, carry, arrays_.View(), Output());
+  }
+  void Resample(VisibilityCarry carry) {
+    combined_ += arrays_.count;
+    GrisResampleBatch(carry, arrays_.View(), Output());
+  }
+  uint64_t Combined() const { return combined_; }
   GrisResult Result(int k) const {
     GrisResult r;
     r.selected = selected_[k];
@@ -392,6 +404,7 @@ class CombineBatch {
     return GrisBatchOutput{selected_, weightSum_, W_, confidence_, visibility_, guarded_};
   }
   GrisBatchArrays arrays_;
+  uint64_t combined_ = 0;  // combinations handed to the GRIS kernel so far
   int32_t selected_[kBatchPixels], guarded_[kBatchPixels];
   float weightSum_[kBatchPixels], W_[kBatchPixels], confidence_[kBatchPixels], visibility_[kBatchPixels];
 };
@@ -454,6 +467,7 @@ struct BatchScratch {
   std::vector<int> order = std::vector<int>(kBatchPixels);  // the batch's combinations still in play
   TargetEvaluator evaluator;
   CombineBatch combine;
+  StochasticPairwiseArrays spmis;
 };
 
 }  // namespace
@@ -631,6 +645,16 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
   tbb::enumerable_thread_specific<BatchScratch> scratch;
   tbb::enumerable_thread_specific<ShadowRayBatch> initialRays;
+  // The pass's share of the target and GRIS kernel work (the scratch's counters run across passes).
+  uint64_t targetsSoFar = 0, combinedSoFar = 0;
+  auto kernelWork = [&](PassStats& ps) {
+    uint64_t targets = 0, combined = 0;
+    for (const BatchScratch& sc : scratch) targets += sc.evaluator.Evaluated(), combined += sc.combine.Combined();
+    ps.targets = targets - targetsSoFar;
+    ps.combinations = combined - combinedSoFar;
+    targetsSoFar = targets, combinedSoFar = combined;
+  };
+  tbb::combinable<uint64_t> risPixels([] { return uint64_t{0}; });
 
   // Initial sampling: streaming RIS over M candidates from the light sampler (seed 003 §1).
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
@@ -650,6 +674,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       const size_t i = rowStart + x;
       if (!g.IsSurface(i) || !haveLights) continue;
       activeRow[x] = 1;
+      risPixels.local() += 1;
       const Vec3 wo = glm::normalize(camera.position - g.Position(i));  // as ShadingPointAt
       for (int c = 0; c < 3; ++c) woRow[c][x] = wo[c];
     }
@@ -720,6 +745,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     }
   });
   result.passes.push_back({"initial", MsSince(t0), rays.combine(std::plus<uint64_t>())});
+  result.passes.back().risPixels = risPixels.combine(std::plus<uint64_t>());
 
   // Batches of up to kBatchPixels pixels of a row, in order.
   auto forEachBatch = [&](auto&& f) {
@@ -823,6 +849,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     }
     result.crossObjectReuse = crossObject.combine(std::plus<uint64_t>());
     result.passes.push_back({"temporal", MsSince(t0), trays.combine(std::plus<uint64_t>())});
+    kernelWork(result.passes.back());
   }
 
   // Spatial reuse (DESIGN §4): k random neighbours in a disk, similarity-tested, combined by GRIS with the
@@ -962,33 +989,39 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             if (c.inputs[t].hasSample && c.target[0][t] > 0.0f) ev.Request(c, t, t);
         }
         ev.Resolve(localRays);
+        // The weights of seed 004 Eq. 15-19 for the whole batch in the SIMD kernel (core/spmis_kernel.h), written
+        // where the resampling kernel reads them.
         sc.combine.Fill(combos.data(), nullptr, count, false);
+        GrisBatchArrays& a = sc.combine.Arrays();
+        StochasticPairwiseArrays& sw = sc.spmis;
+        sw.Resize(a, spp.canonicalDraws);
+        auto known = [](const Combination& c, int j, int i) {
+          return c.state[j][i] == Entry::kKnown ? c.target[j][i] : 0.0f;  // others are never read
+        };
         for (int k = 0; k < count; ++k) {
-          Combination& c = combos[k];
+          const Combination& c = combos[k];
           const SpatialWork& wk = work[k];
-          const float bigN = static_cast<float>(spp.draws), nc = static_cast<float>(spp.canonicalDraws);
-          const float cc = c.inputs[0].confidence;
-          float mis[kMaxGrisInputs], pc[kMaxGrisInputs];
+          sw.distinct[k] = wk.distinct;
+          sw.cBar[k] = wk.cBar;
+          sw.drawCount[k] = static_cast<float>(spp.draws);
+          sw.canonicalDrawCount[k] = static_cast<float>(spp.canonicalDraws);
+          sw.candidateCount[k] = wk.bigM;
           for (int t = 0; t < c.count; ++t) {
-            mis[t] = 0.0f;
-            pc[t] = c.inputs[t].hasSample ? c.target[0][t] : 0.0f;
+            const size_t e = sw.At(t, static_cast<size_t>(k));
+            sw.canonicalTarget[e] = known(c, 0, t);
+            if (t == 0) continue;
+            sw.multiplicity[e] = wk.multiplicity[t];
+            sw.probability[e] = wk.probability[t];
+            sw.ownTarget[e] = known(c, t, t);
           }
-          // Canonical: base share plus the N_c uniform draws (P_c = 1/M) of the pairwise terms (Eq. 18-19).
-          if (c.inputs[0].hasSample && pc[0] > 0.0f) {
-            mis[0] = MisPairwiseCanonicalBase(wk.cBar, cc);
-            for (int d = 0; d < wk.distinct; ++d) {
-              const float tj = c.target[c.count + d][0];
-              mis[0] += StochasticPairwiseCanonicalTerm(wk.drawnCount[d], nc, 1.0f / wk.bigM,
-                                                        input[wk.drawnPixel[d]].confidence * wk.scale, wk.cBar, cc,
-                                                        tj, pc[0]);
-            }
+          for (int d = 0; d < wk.distinct; ++d) {
+            const size_t e = sw.DrawAt(d, static_cast<size_t>(k));
+            sw.drawnMultiplicity[e] = wk.drawnCount[d];
+            sw.drawnConfidence[e] = input[wk.drawnPixel[d]].confidence * wk.scale;
+            sw.drawnTarget[e] = c.domains > c.count + d ? known(c, c.count + d, 0) : 0.0f;
           }
-          for (int t = 1; t < c.count; ++t)
-            if (c.inputs[t].hasSample && pc[t] > 0.0f)
-              mis[t] = StochasticPairwiseNonCanonical(wk.multiplicity[t], bigN, wk.probability[t],
-                                                      c.inputs[t].confidence, wk.cBar, cc, c.target[t][t], pc[t]);
-          for (int t = 0; t < c.count; ++t) sc.combine.Mis(k, t) = mis[t], sc.combine.CanonicalTarget(k, t) = pc[t];
         }
+        StochasticPairwiseWeights(sw.View(a), StochasticPairwiseOutputInto(a));
         sc.combine.Resample(carry);
         for (int k = 0; k < count; ++k) {
           const Combination& c = combos[k];
@@ -1001,11 +1034,13 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       std::swap(reservoirs_, output);
     }
     result.passes.push_back({"spatial", MsSince(t0), srays.combine(std::plus<uint64_t>())});
+    kernelWork(result.passes.back());
   }
 
   // Shading: f(Y) W with a final shadow ray, or f_unshadowed(Y) V W with the carried visibility (seed 000
   // Algorithm 1), plus what the primary ray sees directly. f comes from the target kernel, the row's shadow rays
   // go to Embree as one batch.
+  tbb::combinable<uint64_t> shadeTargets([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> shadeRays([] { return uint64_t{0}; });
   t0 = std::chrono::steady_clock::now();
   struct ShadeScratch {
@@ -1039,6 +1074,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       pixelOf.push_back(static_cast<uint32_t>(x));
     }
     const size_t m = pixelOf.size();
+    shadeTargets.local() += m;
     target.resize(m);
     for (auto& v : f) v.resize(m);
     if (m > 0) {
@@ -1081,6 +1117,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     }
   });
   result.passes.push_back({"shade", MsSince(t0), shadeRays.combine(std::plus<uint64_t>())});
+  result.passes.back().targets = shadeTargets.combine(std::plus<uint64_t>());
   result.guardedEvents = guarded.combine(std::plus<uint64_t>());
 
   // Counters, in pixel order (deterministic).

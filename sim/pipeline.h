@@ -106,6 +106,10 @@ struct PassStats {
   std::string name;     // initial, temporal, spatial, shade
   double ms = 0.0;      // wall time of the pass
   uint64_t rays = 0;    // rays traced by the pass
+  // Work the pass handed to its SIMD kernels (bench/frame_bench.cpp prices it at the kernels_bench rates):
+  uint64_t risPixels = 0;     // pixels through the RIS kernel (core/ris_kernel.h)
+  uint64_t targets = 0;       // (receiver, light point) pairs through the target kernel (core/target_kernel.h)
+  uint64_t combinations = 0;  // combinations through the GRIS kernel (core/gris_kernel.h)
 };
 
 struct FrameResult {

@@ -6,6 +6,7 @@
 #include "core/ris_kernel.h"
 #include "core/shadow_ray_kernel.h"
 #include "core/simd.h"
+#include "core/spmis_kernel.h"
 #include "core/target_kernel.h"
 
 #include "core/kernel_test_support.h"
@@ -20,7 +21,8 @@ TEST_F(SimdDispatch, EveryKernelRunsOnTheForcedTarget) {
       {"ris", RisKernelDispatchedTargetName},
       {"target", TargetKernelDispatchedTargetName},
       {"gris", GrisKernelDispatchedTargetName},
-      {"shadow-ray", ShadowRayKernelDispatchedTargetName}};
+      {"shadow-ray", ShadowRayKernelDispatchedTargetName},
+      {"stochastic-pairwise", StochasticPairwiseKernelDispatchedTargetName}};
   for (SimdTarget t : SupportedSimdTargets()) {
     ASSERT_TRUE(SetSimdTarget(t));
     for (const auto& [kernel, name] : kernels)

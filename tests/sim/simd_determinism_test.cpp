@@ -183,7 +183,9 @@ TEST_F(SimdDeterminism, BatchedPassesTraceExactlyTheRaysOfThePixelByPixelCode) {
 
 TEST_F(SimdDeterminism, UnsupportedOrUnknownTargetsAreRefused) {
   for (SimdTarget t : {SimdTarget::kSse4, SimdTarget::kAvx2, SimdTarget::kAvx512})
-    if (!SimdTargetSupported(t)) EXPECT_FALSE(SetSimdTarget(t)) << SimdTargetName(t);
+    if (!SimdTargetSupported(t)) {
+      EXPECT_FALSE(SetSimdTarget(t)) << SimdTargetName(t);
+    }
   EXPECT_TRUE(SetSimdTarget(SimdTarget::kScalar));
   EXPECT_STREQ(ActiveSimdTargetName(), "scalar");
 }
