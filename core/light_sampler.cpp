@@ -48,11 +48,11 @@ LightSampler::LightSampler(const std::vector<LightTriangle>& lights, LightSelect
                                           &soa_.e1[1],     &soa_.e1[2],     &soa_.e2[0],     &soa_.e2[1],
                                           &soa_.e2[2],     &soa_.normal[0], &soa_.normal[1], &soa_.normal[2],
                                           &soa_.radiance[0], &soa_.radiance[1], &soa_.radiance[2], &soa_.pdfArea};
-  for (auto& p : soa_.pairs) p.resize(n);
+  soa_.aliasPairs.resize(n);
+  soa_.records.resize(n);
   for (size_t i = 0; i < n; ++i) {
-    soa_.pairs[0][i] = bits(soa_.aliasQ[i]) | (static_cast<uint64_t>(static_cast<uint32_t>(soa_.aliasIndex[i])) << 32);
-    for (int k = 0; k < 8; ++k)
-      soa_.pairs[1 + k][i] = bits((*fields[2 * k])[i]) | (bits((*fields[2 * k + 1])[i]) << 32);
+    soa_.aliasPairs[i] = bits(soa_.aliasQ[i]) | (static_cast<uint64_t>(static_cast<uint32_t>(soa_.aliasIndex[i])) << 32);
+    for (int f = 0; f < 16; ++f) soa_.records[i].v[f] = (*fields[f])[i];
   }
 }
 

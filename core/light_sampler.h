@@ -24,11 +24,15 @@ struct LightSamplerSoa {
   std::vector<float> normal[3];     // LightTriangle::normal
   std::vector<float> radiance[3];   // LightTriangle::radiance, r g b
   std::vector<float> pdfArea;       // LightSampler::PdfArea(id)
-  // The same values two to a 64-bit word (first in the low half), so a kernel fetches two fields per gathered
-  // element: [0] (aliasQ, aliasIndex); [1..8] (p0.x, p0.y) (p0.z, e1.x) (e1.y, e1.z) (e2.x, e2.y) (e2.z, n.x)
-  // (n.y, n.z) (L.r, L.g) (L.b, pdfArea).
-  static constexpr int kPairs = 9;
-  std::vector<uint64_t> pairs[kPairs];
+  // The alias-table bin two to a 64-bit word, aliasQ in the low half, so a kernel fetches both per gathered
+  // element.
+  std::vector<uint64_t> aliasPairs;
+  // A light's other fields in one 64-byte line, so a kernel fetches all of them with one aligned load per lane:
+  // p0, e1, e2, normal (x y z each), radiance (r g b), pdfArea.
+  struct alignas(64) Record {
+    float v[16];
+  };
+  std::vector<Record> records;
   uint32_t Size() const { return static_cast<uint32_t>(pdfArea.size()); }
 };
 

@@ -3,7 +3,8 @@
 //
 // Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, in the same order, with
 // per-lane IEEE operations only (core/shading-inl.h holds the shading equations and states the rules); here too
-// float -> int is truncation (ConvertTo) and table lookups are gathers.
+// float -> int is truncation (ConvertTo) and table lookups (gathers, or record loads transposed in registers)
+// move table bits unchanged.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/ris_kernel.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
@@ -33,16 +34,29 @@ struct KeyWords {
   uint32_t pass;
 };
 
+// The per-lane words of Pcg4d's first round that do not depend on the dimension: x after its LCG step, and
+// z1 times it. Integer arithmetic is exact modulo 2^32, so y = y1 + z1 (x0 + s) = (y1 + z1 s) + z1 x0 with s
+// lane-uniform: one scalar product and one vector add replace a vector multiply per uniform.
+struct PixelWords {
+  VU x0;   // pixel * 1664525 + 1013904223
+  VU zx0;  // z1 * x0
+};
+HWY_INLINE PixelWords MakePixelWords(VU pixel, const KeyWords& k) {
+  const DU du;
+  const VU x0 = hn::Add(hn::Mul(pixel, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
+  return {x0, hn::Mul(hn::Set(du, k.z1), x0)};
+}
+
 // Uniform float in [0, 1) for each lane's pixel at one dimension: RandomBits + BitsToUnitFloat (core/rng.h).
-HWY_INLINE VF UniformV(DF df, VU pixel, const KeyWords& k, uint32_t dimension) {
+HWY_INLINE VF UniformV(DF df, const PixelWords& p, const KeyWords& k, uint32_t dimension) {
   const DU du;
   const DI di;
   const uint32_t w0 = (k.pass << 20) ^ (dimension & 0xFFFFFu);
   const uint32_t w1 = w0 * 1664525u + 1013904223u;
+  const uint32_t s = k.y1 * w1;
   // Pcg4d: x is per lane, y z w are uniform until they mix with x.
-  VU x = hn::Add(hn::Mul(pixel, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
-  x = hn::Add(x, hn::Set(du, k.y1 * w1));                          // x += y * w
-  VU y = hn::Add(hn::Set(du, k.y1), hn::Mul(hn::Set(du, k.z1), x));  // y += z * x
+  VU x = hn::Add(p.x0, hn::Set(du, s));                              // x += y * w
+  VU y = hn::Add(p.zx0, hn::Set(du, k.y1 + k.z1 * s));               // y += z * x
   VU z = hn::Add(hn::Set(du, k.z1), hn::Mul(x, y));                  // z += x * y
   VU w = hn::Add(hn::Set(du, w1), hn::Mul(y, z));                    // w += y * z
   x = hn::Xor(x, hn::ShiftRight<16>(x));
@@ -58,39 +72,28 @@ HWY_INLINE VF UniformV(DF df, VU pixel, const KeyWords& k, uint32_t dimension) {
   return hn::Mul(hn::ConvertTo(df, hn::BitCast(di, hn::ShiftRight<8>(bits))), hn::Set(df, 0x1.0p-24f));
 }
 
-// Table lookups of the light fields, per lane at index `id`. On the SIMD targets, two 32-bit fields share a
-// 64-bit element (LightSamplerSoa::pairs): one gather of N/2 64-bit elements per half packet, then the even and
-// odd 32-bit lanes are the two fields. Half the gathered elements of one field per gather; the values are the
-// same bits either way.
+// Table lookups, per lane at index `id`. The alias-table bin is one gather per half packet: two 32-bit fields
+// share a 64-bit element (LightSamplerSoa::aliasPairs), then the even and odd 32-bit lanes are the two fields.
 #if HWY_TARGET != HWY_SCALAR
 using DU64 = hn::Repartition<uint64_t, DF>;
 using DI64 = hn::RebindToSigned<DU64>;
-struct LightIndex {
-  hn::Vec<DI64> lo, hi;  // indices of the packet's lower and upper halves, widened to 64 bits
-};
-HWY_INLINE LightIndex MakeLightIndex(VI id) {
-  const DI64 di64;
-  const hn::Half<DI> dh;
-  return {hn::PromoteTo(di64, hn::LowerHalf(dh, id)), hn::PromoteTo(di64, hn::UpperHalf(dh, id))};
-}
-HWY_INLINE void GatherPair(const std::vector<uint64_t>& table, const LightIndex& ix, VF& first, VF& second) {
+HWY_INLINE void GatherPair(const std::vector<uint64_t>& table, VI id, VF& first, VF& second) {
   const DF df;
   const DU64 du64;
-  const VF lo = hn::BitCast(df, hn::GatherIndex(du64, table.data(), ix.lo));
-  const VF hi = hn::BitCast(df, hn::GatherIndex(du64, table.data(), ix.hi));
+  const DI64 di64;
+  const hn::Half<DI> dh;
+  const VF lo = hn::BitCast(df, hn::GatherIndex(du64, table.data(), hn::PromoteTo(di64, hn::LowerHalf(dh, id))));
+  const VF hi = hn::BitCast(df, hn::GatherIndex(du64, table.data(), hn::PromoteTo(di64, hn::UpperHalf(dh, id))));
   first = hn::ConcatEven(df, hi, lo);
   second = hn::ConcatOdd(df, hi, lo);
 }
-#else
-using LightIndex = VI;
-HWY_INLINE LightIndex MakeLightIndex(VI id) { return id; }
 #endif
 
 // The alias-table bin at `bin`: keep probability and alias.
 HWY_INLINE void GatherBin(const LightSamplerSoa& L, VI bin, VF& q, VI& alias) {
 #if HWY_TARGET != HWY_SCALAR
   VF aliasF;
-  GatherPair(L.pairs[0], MakeLightIndex(bin), q, aliasF);
+  GatherPair(L.aliasPairs, bin, q, aliasF);
   alias = hn::BitCast(DI(), aliasF);
 #else
   q = hn::GatherIndex(DF(), L.aliasQ.data(), bin);
@@ -98,31 +101,96 @@ HWY_INLINE void GatherBin(const LightSamplerSoa& L, VI bin, VF& q, VI& alias) {
 #endif
 }
 
-// Every light field of light `ix`: p0, e1, e2, normal, radiance (3 each), pdfArea.
+// Every light field of light `id`: p0, e1, e2, normal, radiance (3 each), pdfArea.
 struct LightFields {
   VF p0[3], e1[3], e2[3], n[3], radiance[3], pdf;
 };
-HWY_INLINE LightFields GatherLight(const LightSamplerSoa& L, const LightIndex& ix) {
+
+#if HWY_TARGET != HWY_SCALAR
+// The 16 fields of each lane's light record (LightSamplerSoa::records) as 16 vectors, field k in o[k]: one
+// aligned load per lane and 64 bytes, then an in-register transpose. Gathers cost about one load per element
+// on the CPUs this runs on; a record load fetches 4 to 16 fields at once, and the shuffles are cheaper than the
+// element loads they replace. The values are the same bits as a gather of each field.
+HWY_INLINE void LoadLightRecords(const LightSamplerSoa& L, VI id, VF (&o)[16]) {
+  const DF df;
+  const DU64 du64;
+  constexpr size_t N = hn::MaxLanes(DF());
+  static_assert(N == 4 || N == 8 || N == 16, "a packet is one to four 128-bit blocks");
+  constexpr size_t kParts = 16 / N;  // vectors per record
+  HWY_ALIGN int32_t ids[N];
+  hn::Store(id, DI(), ids);
+  const float* base = L.records.data()->v;
+  // Per part of the record: 32-bit then 64-bit interleaves transpose each 4 x 4 block of rows 4g..4g+3 and
+  // fields 4j..4j+3, leaving block j of t[4g + k] = field 4j + k of rows 4g..4g+3.
+  VF t[kParts][N];
+  for (size_t part = 0; part < kParts; ++part) {
+    VF r[N];
+    for (size_t i = 0; i < N; ++i) r[i] = hn::Load(df, base + 16 * static_cast<size_t>(ids[i]) + N * part);
+    for (size_t g = 0; g < N / 4; ++g) {
+      const VF* q = r + 4 * g;
+      const auto a0 = hn::BitCast(du64, hn::InterleaveLower(df, q[0], q[1]));
+      const auto a1 = hn::BitCast(du64, hn::InterleaveUpper(df, q[0], q[1]));
+      const auto a2 = hn::BitCast(du64, hn::InterleaveLower(df, q[2], q[3]));
+      const auto a3 = hn::BitCast(du64, hn::InterleaveUpper(df, q[2], q[3]));
+      t[part][4 * g + 0] = hn::BitCast(df, hn::InterleaveLower(du64, a0, a2));
+      t[part][4 * g + 1] = hn::BitCast(df, hn::InterleaveUpper(du64, a0, a2));
+      t[part][4 * g + 2] = hn::BitCast(df, hn::InterleaveLower(du64, a1, a3));
+      t[part][4 * g + 3] = hn::BitCast(df, hn::InterleaveUpper(du64, a1, a3));
+    }
+  }
+  // Field N part + 4j + k takes block j of t[part][4g + k] into its block g.
+  for (size_t part = 0; part < kParts; ++part) {
+    VF* out = o + N * part;
+    const VF* b = t[part];
+    for (size_t k = 0; k < 4; ++k) {
+      if constexpr (N == 4) {
+        out[k] = b[k];
+      } else if constexpr (N == 8) {
+        out[k] = hn::ConcatLowerLower(df, b[4 + k], b[k]);
+        out[4 + k] = hn::ConcatUpperUpper(df, b[4 + k], b[k]);
+      } else {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+        // Highway 1.0 has no 128-bit block shuffle of two vectors: vshuff32x4 directly.
+        const __m512 c0 = _mm512_shuffle_f32x4(b[k].raw, b[4 + k].raw, 0x44);
+        const __m512 c1 = _mm512_shuffle_f32x4(b[k].raw, b[4 + k].raw, 0xEE);
+        const __m512 c2 = _mm512_shuffle_f32x4(b[8 + k].raw, b[12 + k].raw, 0x44);
+        const __m512 c3 = _mm512_shuffle_f32x4(b[8 + k].raw, b[12 + k].raw, 0xEE);
+        out[k] = VF{_mm512_shuffle_f32x4(c0, c2, 0x88)};
+        out[4 + k] = VF{_mm512_shuffle_f32x4(c0, c2, 0xDD)};
+        out[8 + k] = VF{_mm512_shuffle_f32x4(c1, c3, 0x88)};
+        out[12 + k] = VF{_mm512_shuffle_f32x4(c1, c3, 0xDD)};
+#else
+        static_assert(N != 16, "16-lane block transpose written for AVX-512 only");
+#endif
+      }
+    }
+  }
+}
+#endif
+
+HWY_INLINE LightFields GatherLight(const LightSamplerSoa& L, VI id) {
   LightFields f;
 #if HWY_TARGET != HWY_SCALAR
-  GatherPair(L.pairs[1], ix, f.p0[0], f.p0[1]);
-  GatherPair(L.pairs[2], ix, f.p0[2], f.e1[0]);
-  GatherPair(L.pairs[3], ix, f.e1[1], f.e1[2]);
-  GatherPair(L.pairs[4], ix, f.e2[0], f.e2[1]);
-  GatherPair(L.pairs[5], ix, f.e2[2], f.n[0]);
-  GatherPair(L.pairs[6], ix, f.n[1], f.n[2]);
-  GatherPair(L.pairs[7], ix, f.radiance[0], f.radiance[1]);
-  GatherPair(L.pairs[8], ix, f.radiance[2], f.pdf);
+  VF o[16];
+  LoadLightRecords(L, id, o);
+  for (int c = 0; c < 3; ++c) {
+    f.p0[c] = o[c];
+    f.e1[c] = o[3 + c];
+    f.e2[c] = o[6 + c];
+    f.n[c] = o[9 + c];
+    f.radiance[c] = o[12 + c];
+  }
+  f.pdf = o[15];
 #else
   const DF df;
   for (int c = 0; c < 3; ++c) {
-    f.p0[c] = hn::GatherIndex(df, L.p0[c].data(), ix);
-    f.e1[c] = hn::GatherIndex(df, L.e1[c].data(), ix);
-    f.e2[c] = hn::GatherIndex(df, L.e2[c].data(), ix);
-    f.n[c] = hn::GatherIndex(df, L.normal[c].data(), ix);
-    f.radiance[c] = hn::GatherIndex(df, L.radiance[c].data(), ix);
+    f.p0[c] = hn::GatherIndex(df, L.p0[c].data(), id);
+    f.e1[c] = hn::GatherIndex(df, L.e1[c].data(), id);
+    f.e2[c] = hn::GatherIndex(df, L.e2[c].data(), id);
+    f.n[c] = hn::GatherIndex(df, L.normal[c].data(), id);
+    f.radiance[c] = hn::GatherIndex(df, L.radiance[c].data(), id);
   }
-  f.pdf = hn::GatherIndex(df, L.pdfArea.data(), ix);
+  f.pdf = hn::GatherIndex(df, L.pdfArea.data(), id);
 #endif
   return f;
 }
@@ -180,26 +248,42 @@ HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const Ri
     // The receiver-only parts of EvalBsdf, once for all M candidates.
     const ShadingPointV sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(mt, mid));
 
-    const VU pixel = hn::Add(hn::Set(du, in.pixelBase), hn::Iota(du, 0));
+    const PixelWords pixel = MakePixelWords(hn::Add(hn::Set(du, in.pixelBase), hn::Iota(du, 0)), key);
     const uint32_t n = L.Size();
     const VF nF = hn::Set(df, static_cast<float>(n));
     const VI nMinus1 = hn::Set(di, static_cast<int32_t>(n - 1));
 
-    for (int j = 0; j < params.candidates; ++j) {
+    // Candidate j's light choice (its uniforms, the alias-table gather, the light id) is made one iteration
+    // ahead, so its latency overlaps candidate j - 1's shading; each candidate's values are unchanged. Choosing
+    // the light fields ahead too would keep 16 more vectors live across the shading, which costs more than it
+    // hides.
+    struct Choice {
+      VI id;
+      VF uPoint0, uPoint1, uSel;
+    };
+    auto choose = [&](int j) {
       const uint32_t dim = 5u * static_cast<uint32_t>(j);
       const VF uSelect = UniformV(df, pixel, key, dim);
       const VF uCoin = UniformV(df, pixel, key, dim + 1);
-      const VF uPoint0 = UniformV(df, pixel, key, dim + 2);
-      const VF uPoint1 = UniformV(df, pixel, key, dim + 3);
-      const VF uSel = UniformV(df, pixel, key, dim + 4);
-
+      Choice c;
+      c.uPoint0 = UniformV(df, pixel, key, dim + 2);
+      c.uPoint1 = UniformV(df, pixel, key, dim + 3);
+      c.uSel = UniformV(df, pixel, key, dim + 4);
       // AliasTable::Sample: i = min(uint(uSelect n), n - 1); keep i when uCoin < q_i, else its alias.
       const VI bin = hn::Min(hn::ConvertTo(di, hn::Mul(uSelect, nF)), nMinus1);
       VF q;
       VI alias;
       GatherBin(L, bin, q, alias);
-      const VI id = hn::IfThenElse(hn::RebindMask(di, hn::Lt(uCoin, q)), bin, alias);
-      const LightFields lf = GatherLight(L, MakeLightIndex(id));
+      c.id = hn::IfThenElse(hn::RebindMask(di, hn::Lt(uCoin, q)), bin, alias);
+      return c;
+    };
+    Choice next = choose(0);
+    for (int j = 0; j < params.candidates; ++j) {
+      const Choice cur = next;
+      if (j + 1 < params.candidates) next = choose(j + 1);
+      const VI id = cur.id;
+      const VF uPoint0 = cur.uPoint0, uPoint1 = cur.uPoint1, uSel = cur.uSel;
+      const LightFields lf = GatherLight(L, id);
 
       // SampleTrianglePoint: p0 + b0 e1 + b1 e2 with su0 = sqrt(u0), b0 = 1 - su0, b1 = u1 su0.
       const VF su0 = hn::Sqrt(uPoint0);
