@@ -468,6 +468,11 @@ struct BatchScratch {
   TargetEvaluator evaluator;
   CombineBatch combine;
   StochasticPairwiseArrays spmis;
+  // Stochastic pairwise cell search, per pixel of the batch: the cell (or -1) under each search position and its
+  // uniform, and the chosen cell.
+  std::vector<int32_t> searchCell = std::vector<int32_t>(kBatchPixels * kMaxCellSearchIterations);
+  std::vector<float> searchPick = std::vector<float>(kBatchPixels * kMaxCellSearchIterations);
+  std::vector<int32_t> chosenCell = std::vector<int32_t>(kBatchPixels);
 };
 
 }  // namespace
@@ -488,29 +493,27 @@ struct SpatialWork {
 // Stochastic pairwise reuse, step 1 (seed 004 §3-5): pick a neighbour cell by weighted reservoir sampling, draw
 // N contributing pixels of it by P(i) ∝ c_i p̂_i(X_i) W_i and N_c pixels uniformly. Consumes every random number
 // of the pixel in a fixed layout; targets and rays come later, batched.
-bool Pipeline::StochasticPairwiseDraws(size_t i, int x, int y, const GBuffer& g,
-                                       const std::vector<StoredReservoir>& input, Sampler& s,
-                                       SpatialWork& work) const {
+int32_t Pipeline::ChooseCell(size_t i, const GBuffer& g, const int32_t* searchCell, const float* searchPick) const {
   const SpatialParams& sp = settings_.spatial;
-  const int w = g.width, h = g.height;
   const Vec3 n = g.GeometricNormal(i);
-
-  // §5.1: 12 random pixels in a growing radius; similar cells compete with weight = their confidence sum.
+  // §5.1: similar cells under the search positions compete with weight = their confidence sum.
   int32_t chosen = -1;
-  float cellWeightSum = 0.0f, radius = sp.cellSearchRadius;
-  for (int it = 0; it < sp.cellSearchIterations; ++it, radius *= sp.cellSearchGrowth) {
-    const float r = radius * std::sqrt(s.Next()), phi = 2.0f * kPi * s.Next(), uPick = s.Next();
-    const int qx = x + static_cast<int>(std::lround(r * std::cos(phi)));
-    const int qy = y + static_cast<int>(std::lround(r * std::sin(phi)));
-    if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-    const int32_t c = pixelCell_[static_cast<size_t>(qy) * w + qx];
+  float cellWeightSum = 0.0f;
+  for (int it = 0; it < sp.cellSearchIterations; ++it) {
+    const int32_t c = searchCell[it];
     if (c < 0) continue;
     const Cell& cell = cells_[static_cast<size_t>(c)];
     if (cell.objectId != g.objectId[i] || glm::dot(cell.normal, n) < sp.normalThreshold) continue;
     if (!(cell.confidenceSum > 0.0f)) continue;
     cellWeightSum += cell.confidenceSum;
-    if (uPick * cellWeightSum < cell.confidenceSum) chosen = c;
+    if (searchPick[it] * cellWeightSum < cell.confidenceSum) chosen = c;
   }
+  return chosen;
+}
+
+bool Pipeline::StochasticPairwiseDraws(size_t i, int32_t chosen, const std::vector<StoredReservoir>& input,
+                                       Sampler& s, SpatialWork& work) const {
+  const SpatialParams& sp = settings_.spatial;
   if (chosen < 0) return false;
   const Cell& cell = cells_[static_cast<size_t>(chosen)];
 
@@ -909,6 +912,50 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
             }
           }
         }
+        if (stochastic) {
+          // The cell search reads random pixels up to hundreds of pixels away, then their cells, then the chosen
+          // cell's reservoirs: three dependent cache misses per search. Each stage runs over the whole batch and
+          // prefetches what the next one reads, so the misses overlap.
+          const int iterations = spp.cellSearchIterations;
+          for (int x = x0; x < x1; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            int32_t* q = sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations;
+            float* pick = sc.searchPick.data() + static_cast<size_t>(x - x0) * iterations;
+            if (!g.IsSurface(i)) continue;
+            Sampler s(RngKey{in.seed, in.frame, static_cast<uint32_t>(i),
+                             static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)});
+            float radius = spp.cellSearchRadius;
+            for (int it = 0; it < iterations; ++it, radius *= spp.cellSearchGrowth) {
+              const float r = radius * std::sqrt(s.Next()), phi = 2.0f * kPi * s.Next();
+              pick[it] = s.Next();
+              const int qx = x + static_cast<int>(std::lround(r * std::cos(phi)));
+              const int qy = y + static_cast<int>(std::lround(r * std::sin(phi)));
+              q[it] = qx < 0 || qy < 0 || qx >= w || qy >= h ? -1 : qy * w + qx;
+              if (q[it] >= 0) __builtin_prefetch(pixelCell_.data() + q[it]);
+            }
+          }
+          for (int x = x0; x < x1; ++x) {
+            if (!g.IsSurface(static_cast<size_t>(y) * w + x)) continue;
+            int32_t* q = sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations;
+            for (int it = 0; it < iterations; ++it) {
+              if (q[it] >= 0) q[it] = pixelCell_[static_cast<size_t>(q[it])];
+              if (q[it] >= 0) __builtin_prefetch(cells_.data() + q[it]);
+            }
+          }
+          for (int x = x0; x < x1; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            int32_t& chosen = sc.chosenCell[x - x0];
+            chosen = -1;
+            if (!g.IsSurface(i)) continue;
+            chosen = ChooseCell(i, g, sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations,
+                                sc.searchPick.data() + static_cast<size_t>(x - x0) * iterations);
+            if (chosen < 0) continue;
+            const Cell& cell = cells_[static_cast<size_t>(chosen)];
+            for (uint32_t t = 0; t < cell.count; ++t)
+              __builtin_prefetch(reinterpret_cast<const char*>(input.data() + cellPixels_[cell.first + t]) +
+                                 offsetof(StoredReservoir, targetPdf));
+          }
+        }
         int count = 0;
         for (int x = x0; x < x1; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
@@ -919,8 +966,9 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
           Combination& c = combos[count];
           if (stochastic) {
             work[count].c = &c;
-            Sampler s(key);
-            if (!StochasticPairwiseDraws(i, x, y, g, input, s, work[count])) continue;
+            // The search used the first three dimensions of each iteration.
+            Sampler s(key, 3u * static_cast<uint32_t>(spp.cellSearchIterations));
+            if (!StochasticPairwiseDraws(i, sc.chosenCell[x - x0], input, s, work[count])) continue;
             // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
             if (carryVisibility)
               for (int t = 1; t < c.count; ++t)

@@ -144,6 +144,7 @@ Reservoir Load(const StoredReservoir& s);
 struct SpatialWork;
 inline constexpr int kMaxCellTile = 32;  // a cell holds at most kMaxCellTile² pixels
 inline constexpr int kMaxCellPixels = kMaxCellTile * kMaxCellTile;
+inline constexpr int kMaxCellSearchIterations = 64;  // bound on SpatialParams::cellSearchIterations
 
 // Per-preset estimator state across frames (reservoir buffers are ping-ponged by later passes).
 class Pipeline {
@@ -176,10 +177,13 @@ class Pipeline {
   std::vector<int32_t> pixelCell_;    // per pixel: its cell, or -1
   std::vector<uint32_t> cellPixels_;  // pixel indices grouped by cell, in scan order within a cell
   void BuildCells(const GBuffer& g, const std::vector<StoredReservoir>& reservoirs);
-  // Stochastic pairwise reuse, first step for one pixel: the neighbour cell, its draws and the canonical draws
-  // (all of the pixel's random numbers). False when the pixel keeps its reservoir.
-  bool StochasticPairwiseDraws(size_t pixel, int x, int y, const GBuffer& g,
-                               const std::vector<StoredReservoir>& input, Sampler& s, SpatialWork& work) const;
+  // Stochastic pairwise reuse (seed 004 §5.1): the neighbour cell chosen among the cells under the search
+  // positions (cell index or -1 per search iteration, with its uniform), or -1.
+  int32_t ChooseCell(size_t pixel, const GBuffer& g, const int32_t* searchCell, const float* searchPick) const;
+  // Then the chosen cell's draws and the canonical draws (the rest of the pixel's random numbers). False when
+  // the pixel keeps its reservoir.
+  bool StochasticPairwiseDraws(size_t pixel, int32_t chosen, const std::vector<StoredReservoir>& input, Sampler& s,
+                               SpatialWork& work) const;
  public:
   // Read-only views for tests (cells of the last spatial iteration).
   const std::vector<int32_t>& PixelCells() const { return pixelCell_; }

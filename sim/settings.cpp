@@ -171,7 +171,7 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
         throw InputError("--set: error at " + key + ": draws and canonicalDraws must be in [1, " +
                          std::to_string(kMaxGrisInputs - 1) + "]");
       if (sp.cellTile < 1 || sp.cellTile > kMaxCellTile || sp.normalBins < 1 || sp.normalBins > 64 ||
-          sp.cellSearchIterations < 1 || sp.cellSearchIterations > 64)
+          sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations)
         throw InputError("--set: error at " + key + ": cellTile must be in [1, " + std::to_string(kMaxCellTile) +
                          "], normalBins and cellSearchIterations in [1, 64]");
       return;
