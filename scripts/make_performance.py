@@ -177,6 +177,14 @@ def main(argv):
               + (f"; 1 thread CPU: {cpu:.2f} — {verdict(cpu, TARGET_UNBIASED, True)}" if cpu else "")
               + f" (frame / shadow-ray floor alone, 2 threads: "
               f"{unb[0]['ms_frame'] / unb[0]['rayfloor_ms_shadow']:.2f})")
+        if kernels:
+            kb = {k["name"]: k.get("items_per_second") for k in kernels.get("benchmarks", [])}
+            scalar = kb.get("BM_RisKernel/scalar")
+            for tag, target in (("avx512", 8.0), ("avx2", 4.0)):
+                rate = kb.get(f"BM_RisKernel/{tag}")
+                if scalar and rate:
+                    w(f"- RIS kernel ≥ {target:g} × its scalar twin with {tag.upper()}: {rate / scalar:.2f}× "
+                      f"(BM_RisKernel, same run) — {verdict(rate / scalar, target, False)}")
         w(f"- 2 threads ≥ {TARGET_SCALING} × one thread for a whole frame:")
         for b in frames:
             share = (f"; the 1-thread frame ran {100.0 * b['cpu1_ms_frame'] / b['ms_frame_1thread']:.0f}% of its "
