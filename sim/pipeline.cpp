@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 
 #include "core/gris.h"
 #include "core/gris_kernel.h"
@@ -34,6 +35,14 @@ void ForEachRow(int height, F&& f) {
 }
 
 }  // namespace
+
+Pipeline::Pipeline(const PipelineSettings& settings) : settings_(settings) {
+  const SpatialParams& sp = settings.spatial;
+  if (sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations || sp.cellTile < 1 ||
+      sp.cellTile > kMaxCellTile || sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
+      sp.canonicalDraws > kMaxGrisInputs - 1)
+    throw std::invalid_argument("Pipeline: spatial settings outside their validated bounds");
+}
 
 std::vector<Bsdf> MaterialBsdfs(const Sequence& sequence) {
   std::vector<Bsdf> out;
@@ -87,19 +96,6 @@ StoredReservoir Store(const Reservoir& r) {
   s.confidence = r.confidence;
   s.visibility = r.visibility;
   return s;
-}
-
-Reservoir Load(const StoredReservoir& s) {
-  Reservoir r;
-  r.sample.lightId = s.lightId;
-  r.sample.position = s.position;
-  r.sample.normal = s.normal;
-  r.sample.radiance = Vec3(0.0f);
-  r.targetPdf = s.targetPdf;
-  r.W = s.W;
-  r.confidence = s.confidence;
-  r.visibility = s.visibility;
-  return r;
 }
 
 namespace {
@@ -164,8 +160,6 @@ class ShadowRayBatch {
   std::vector<uint8_t> occluded_;
 };
 
-}  // namespace
-
 enum class Entry : uint8_t { kUnknown, kQueued, kKnown };
 
 // One pixel's GRIS combination while its batch is assembled: the inputs (input 0 canonical), the domains and
@@ -195,8 +189,6 @@ struct Combination {
     ++domains;
   }
 };
-
-namespace {
 
 // Evaluates queued entries p̂_j(Y_i) of a batch of combinations: the unshadowed targets in one call of the SIMD
 // kernel (core/target_kernel.h), then, with visibility, one shadow ray per positive entry, traced as a batch per

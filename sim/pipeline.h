@@ -138,8 +138,6 @@ struct StoredReservoir {
 };
 static_assert(sizeof(StoredReservoir) == 44);
 StoredReservoir Store(const Reservoir& r);
-// The reservoir back, with zero radiance, p_src and weight sum (never read after RIS).
-Reservoir Load(const StoredReservoir& s);
 
 struct SpatialWork;
 inline constexpr int kMaxCellTile = 32;  // a cell holds at most kMaxCellTile² pixels
@@ -149,7 +147,9 @@ inline constexpr int kMaxCellSearchIterations = 64;  // bound on SpatialParams::
 // Per-preset estimator state across frames (reservoir buffers are ping-ponged by later passes).
 class Pipeline {
  public:
-  explicit Pipeline(const PipelineSettings& settings) : settings_(settings) {}
+  // Throws std::invalid_argument for settings outside the bounds sim/settings.cpp validates (per-batch scratch
+  // is sized by them).
+  explicit Pipeline(const PipelineSettings& settings);
   FrameResult RenderFrame(const FrameInputs& in);
   const PipelineSettings& Settings() const { return settings_; }
   // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).

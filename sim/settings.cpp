@@ -173,7 +173,8 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
       if (sp.cellTile < 1 || sp.cellTile > kMaxCellTile || sp.normalBins < 1 || sp.normalBins > 64 ||
           sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations)
         throw InputError("--set: error at " + key + ": cellTile must be in [1, " + std::to_string(kMaxCellTile) +
-                         "], normalBins and cellSearchIterations in [1, 64]");
+                         "], normalBins in [1, 64] and cellSearchIterations in [1, " +
+                         std::to_string(kMaxCellSearchIterations) + "]");
       return;
     }
     const size_t d = EditDistance(f.name, key);
