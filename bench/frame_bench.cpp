@@ -45,6 +45,7 @@
 
 #include "core/light_sampler.h"
 #include "sim/embree_scene.h"
+#include "sim/frame_driver.h"
 #include "sim/gbuffer.h"
 #include "sim/image.h"
 #include "sim/pipeline.h"
@@ -102,75 +103,6 @@ double PeakRssMb() {
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_maxrss) / 1024.0;  // Linux: KiB
 }
-
-// Drives frames as sim/runner.cpp does, with each stage timed separately and re-runnable (TracePrimary and
-// Reproject only depend on the frame's state, so repeating them reproduces the same G-buffer).
-class Driver {
- public:
-  Driver(const Sequence& seq, int width, int height)
-      : seq_(seq), width_(width), height_(height), scene_(seq), bsdfs_(MaterialBsdfs(seq)) {}
-
-  void BeginFrame(int frame) {
-    frame_ = frame;
-    state_ = Evaluate(seq_, frame, width_, height_);
-    const auto t0 = Clock::now();
-    scene_.Update(state_);
-    msSceneUpdate_ = MsSince(t0);
-    Primary();
-    Reprojection();
-    lights_ = std::make_unique<LightSampler>(scene_.LightTriangles(), LightSelection::kPower);
-  }
-  double Primary() {
-    const auto t0 = Clock::now();
-    TracePrimary(scene_, state_.camera, current_);
-    return MsSince(t0);
-  }
-  double Reprojection() {
-    const auto t0 = Clock::now();
-    Reproject(state_, previousState_, previous_, scene_.LightObjectId(), ReprojectionParams{}, current_);
-    return MsSince(t0);
-  }
-  FrameInputs Inputs() const {
-    FrameInputs in;
-    in.sequence = &seq_;
-    in.state = &state_;
-    in.scene = &scene_;
-    in.gbuffer = &current_;
-    in.lights = lights_.get();
-    in.materials = &bsdfs_;
-    in.seed = seq_.seed;
-    in.frame = static_cast<uint32_t>(frame_);
-    if (hasPrevious_) {
-      in.previousState = &previousState_;
-      in.previousGbuffer = &previous_;
-      in.previousLights = &previousLights_;
-    }
-    return in;
-  }
-  void EndFrame() {
-    std::swap(current_, previous_);
-    previousState_ = state_;
-    previousLights_ = scene_.LightTriangles();
-    hasPrevious_ = true;
-  }
-  EmbreeScene& Scene() { return scene_; }
-  const GBuffer& Current() const { return current_; }
-  const GBuffer& Previous() const { return previous_; }
-  double MsSceneUpdate() const { return msSceneUpdate_; }
-
- private:
-  const Sequence& seq_;
-  int width_, height_;
-  EmbreeScene scene_;
-  std::vector<Bsdf> bsdfs_;
-  GBuffer current_, previous_;
-  FrameState state_, previousState_;
-  std::vector<LightTriangle> previousLights_;
-  std::unique_ptr<LightSampler> lights_;
-  bool hasPrevious_ = false;
-  int frame_ = 0;
-  double msSceneUpdate_ = 0.0;
-};
 
 // ---- Capture and replay of a frame's rays ------------------------------------------------------------------
 
@@ -408,13 +340,13 @@ struct StageTimes {
   }
 };
 
-StageTimes RenderOnce(Driver& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
+StageTimes RenderOnce(FrameDriver& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
   p.RestoreHistory(history);
   StageTimes s;
   const double cpu0 = ThreadCpuMs();
   s.primary = d.Primary();
   s.reproject = d.Reprojection();
-  const FrameResult fr = p.RenderFrame(d.Inputs());
+  const FrameResult fr = d.Render(p, WindowBars().seed);
   s.cpu = ThreadCpuMs() - cpu0;
   for (const PassStats& ps : fr.passes) {
     s.pass[ps.name] = ps.ms;
@@ -428,7 +360,7 @@ StageTimes RenderOnce(Driver& d, Pipeline& p, const std::vector<StoredReservoir>
 struct PresetResult {
   std::map<std::string, double> counters;
   // Kept for BM_ShadowRayApi: the driver (its scene holds both frames the rays were traced in) and the rays.
-  std::unique_ptr<Driver> driver;
+  std::unique_ptr<FrameDriver> driver;
   std::vector<CapturedRay> shadow;
 };
 
@@ -437,11 +369,11 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   auto& c = out.counters;
   c["loadavg_start"] = LoadAverage();
   const int w = Width(), h = Height();
-  out.driver = std::make_unique<Driver>(WindowBars(), w, h);
-  Driver& d = *out.driver;
+  out.driver = std::make_unique<FrameDriver>(WindowBars(), w, h);
+  FrameDriver& d = *out.driver;
   Pipeline pipeline(preset.settings);
   d.BeginFrame(kHistoryFrame);
-  pipeline.RenderFrame(d.Inputs());
+  d.Render(pipeline, WindowBars().seed);
   d.EndFrame();
   d.BeginFrame(kMeasuredFrame);
   const std::vector<StoredReservoir> history = pipeline.History();
@@ -633,7 +565,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   c["width"] = w;
   c["height"] = h;
   size_t surfaces = 0;
-  for (size_t i = 0; i < d.Current().Size(); ++i) surfaces += d.Current().IsSurface(i) ? 1 : 0;
+  for (size_t i = 0; i < d.Gbuffer().Size(); ++i) surfaces += d.Gbuffer().IsSurface(i) ? 1 : 0;
   c["surface_pixels"] = double(surfaces);
   c["threads"] = tbb::this_task_arena::max_concurrency();
   c["ms_frame"] = bestMs;
@@ -788,16 +720,16 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
   for (auto _ : state) {
     const int w = Width(), h = Height();
     const double n = double(w) * h;
-    Driver d(WindowBars(), w, h);
+    FrameDriver d(WindowBars(), w, h);
     Pipeline p(preset->settings);
     d.BeginFrame(kHistoryFrame);
-    p.RenderFrame(d.Inputs());
+    d.Render(p, WindowBars().seed);
     d.EndFrame();
     d.BeginFrame(kMeasuredFrame);
     const auto t0 = Clock::now();
-    const FrameResult fr = p.RenderFrame(d.Inputs());
+    const FrameResult fr = d.Render(p, WindowBars().seed);
     state.SetIterationTime(MsSince(t0) / 1000.0);
-    const double gbuffers = GBufferBytes(d.Current()) + GBufferBytes(d.Previous());
+    const double gbuffers = GBufferBytes(d.Gbuffer()) + GBufferBytes(d.PreviousGbuffer());
     // Pipeline: its reservoir buffers (private members, so counted from sizeof and the pixel count); cell lists
     // with stochastic pairwise MIS; Cell is 32 bytes.
     const int reservoirBuffers = Pipeline::kReservoirBuffers;

@@ -19,6 +19,8 @@
 #include <limits>
 
 #include "core/gris_kernel.h"
+#include "core/math.h"
+#include "core/mis-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace restir {
@@ -26,14 +28,6 @@ namespace HWY_NAMESPACE {
 // Unnamed: the helpers' names must not collide with other kernels' per-target helpers (ODR).
 namespace {
 
-namespace hn = hwy::HWY_NAMESPACE;
-
-using DF = hn::ScalableTag<float>;
-using DI = hn::RebindToSigned<DF>;
-using D8 = hn::Rebind<uint8_t, DI>;
-using VF = hn::Vec<DF>;
-using VI = hn::Vec<DI>;
-using MF = hn::Mask<DF>;
 
 // What a packet computes: one deterministic family of GrisCombine, or GrisResample with given weights.
 enum class Mode { kUniform, kZ, kBalance, kPairwise, kGiven };
@@ -62,29 +56,6 @@ struct OutRows {
   int32_t* guarded;
 };
 
-// The NaN every output NaN is written as (core/gris_kernel.h GrisBatchOutput).
-HWY_INLINE VF CanonicalNaN(VF v) {
-  return hn::IfThenElse(hn::IsNaN(v), hn::Set(DF(), std::numeric_limits<float>::quiet_NaN()), v);
-}
-
-// core/mis.h MisPairwiseCanonicalTerm (seed 004 Eq. 11b, one j); total = c̄ + c_c.
-HWY_INLINE VF PairwiseCanonicalTerm(VF cj, VF cBar, VF cc, VF total, VF targetJ, VF targetC) {
-  const VF zero = hn::Zero(DF());
-  const VF denom = hn::Add(hn::Mul(cBar, targetJ), hn::Mul(cc, targetC));
-  const VF share = hn::Div(cj, total);
-  // !(denom > 0): neither domain produces y, the pair's mass goes to the canonical input.
-  const VF term = hn::IfThenElse(hn::Gt(denom, zero), hn::Mul(share, hn::Div(hn::Mul(cc, targetC), denom)), share);
-  return hn::IfThenElseZero(hn::Gt(total, zero), term);
-}
-
-// core/mis.h MisPairwiseNonCanonical (seed 004 Eq. 11a).
-HWY_INLINE VF PairwiseNonCanonical(VF ci, VF cBar, VF cc, VF total, VF targetI, VF targetC) {
-  const VF zero = hn::Zero(DF());
-  const VF denom = hn::Add(hn::Mul(cBar, targetI), hn::Mul(cc, targetC));
-  const MF ok = hn::And(hn::Gt(total, zero), hn::Gt(denom, zero));
-  return hn::IfThenElseZero(ok, hn::Mul(hn::Div(ci, total), hn::Div(hn::Mul(cBar, targetI), denom)));
-}
-
 // Entries p̂_j(Y_i) of the packet's combinations.
 HWY_INLINE VF TargetRow(const Rows& in, int j, int i) {
   return hn::LoadU(DF(), in.target + (static_cast<size_t>(j) * static_cast<size_t>(in.M) + i) * in.stride);
@@ -100,7 +71,7 @@ HWY_INLINE void GrisPacket(const Rows& in, const OutRows& out) {
   const size_t s = in.stride;
   const VI n = hn::LoadU(di, in.inputs);
   // The loops run to the packet's largest count; lanes with fewer inputs are masked by `live`.
-  const int maxN = std::clamp(static_cast<int>(hn::GetLane(hn::MaxOfLanes(di, n))), 0, in.M);
+  const int maxN = PacketMaxCount(n, in.M);
 
   MF live[kMaxGrisInputs], has[kMaxGrisInputs];
   VF c[kMaxGrisInputs], W[kMaxGrisInputs], pc[kMaxGrisInputs], mis[kMaxGrisInputs];
@@ -153,11 +124,11 @@ HWY_INLINE void GrisPacket(const Rows& in, const OutRows& out) {
           // Seed 004 Eq. 11b: the base share, then the terms of j = 1, 2, ... added in order.
           m = hn::IfThenElseZero(hn::Gt(total, zero), hn::Div(cc, total));
           for (int j = 1; j < maxN; ++j) {
-            const VF term = PairwiseCanonicalTerm(c[j], cBar, cc, total, target(j, 0), pc[0]);
+            const VF term = PairwiseCanonicalTermV(c[j], cBar, cc, total, target(j, 0), pc[0]);
             m = hn::IfThenElse(live[j], hn::Add(m, term), m);
           }
         } else {
-          m = PairwiseNonCanonical(c[i], cBar, cc, total, target(i, i), pc[i]);  // seed 004 Eq. 11a
+          m = PairwiseNonCanonicalV(c[i], cBar, cc, total, target(i, i), pc[i]);  // seed 004 Eq. 11a
         }
       }
       mis[i] = hn::IfThenElseZero(valid, m);
@@ -214,10 +185,10 @@ HWY_INLINE void GrisPacket(const Rows& in, const OutRows& out) {
   // seed 000 Eq. 4: V_X = Σ V_i w_i / Σ w_i, or V of the selected sample; 0 when nothing was selected.
   const VF vis = hn::IfThenElseZero(any, kWeighted ? hn::Div(visW, wSum) : visSel);
   hn::StoreU(sel, di, out.selected);
-  hn::StoreU(CanonicalNaN(wSum), df, out.weightSum);
-  hn::StoreU(CanonicalNaN(outW), df, out.W);
-  hn::StoreU(CanonicalNaN(cs), df, out.confidence);
-  hn::StoreU(CanonicalNaN(vis), df, out.visibility);
+  hn::StoreU(CanonicalNaNV(wSum), df, out.weightSum);
+  hn::StoreU(CanonicalNaNV(outW), df, out.W);
+  hn::StoreU(CanonicalNaNV(cs), df, out.confidence);
+  hn::StoreU(CanonicalNaNV(vis), df, out.visibility);
   hn::StoreU(guarded, di, out.guarded);
 }
 
@@ -338,7 +309,6 @@ HWY_EXPORT(GrisDispatchedTargetName);
 
 namespace {
 
-float CanonicalNaN(float x) { return std::isnan(x) ? std::numeric_limits<float>::quiet_NaN() : x; }
 
 // Combination k's inputs as GrisCombine takes them.
 int InputsAt(const GrisBatch& b, size_t k, GrisInput* in, float* u) {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 namespace restir {
 
@@ -19,6 +20,12 @@ inline constexpr float kInvPi = 0.31830988618379067154f;
 
 // Rec. 709 luminance (DESIGN §4 target and §6 metrics).
 inline float Luminance(const Vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+// A NaN result's sign and payload are not a property of the inputs: when a NaN input meets a NaN an operation
+// creates (x86's default NaN is negative), the result is whichever operand the compiler placed first, and the
+// compiler may commute an add or a multiply differently in each compilation. So every NaN a SIMD kernel or its
+// scalar twin writes is this one (core/kernel-inl.h CanonicalNaNV per lane), on every target.
+inline float CanonicalNaN(float v) { return std::isnan(v) ? std::numeric_limits<float>::quiet_NaN() : v; }
 
 inline bool IsFinite(float v) { return std::isfinite(v); }
 inline bool IsFinite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }

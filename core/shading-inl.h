@@ -13,6 +13,7 @@
 // approximate reciprocals or square roots.
 
 #include "core/bsdf.h"
+#include "core/kernel-inl.h"
 #include "core/ris_kernel.h"  // RisMaterials
 #include "core/shading.h"
 
@@ -29,14 +30,7 @@
 HWY_BEFORE_NAMESPACE();
 namespace restir {
 namespace HWY_NAMESPACE {
-namespace hn = hwy::HWY_NAMESPACE;
-
-// One packet of lanes; the kernels use these names too.
-using DF = hn::ScalableTag<float>;
-using DI = hn::RebindToSigned<DF>;
-using VF = hn::Vec<DF>;
-using VI = hn::Vec<DI>;
-using MF = hn::Mask<DF>;
+// DF, DI, VF, VI, MF and hn come from core/kernel-inl.h.
 
 HWY_INLINE VF Dot(VF ax, VF ay, VF az, VF bx, VF by, VF bz) {
   return hn::Add(hn::Add(hn::Mul(ax, bx), hn::Mul(ay, by)), hn::Mul(az, bz));

@@ -47,12 +47,6 @@ void OutFields(const ShadowRayOutputs& out, float* (&f)[kOutFields]) {
   f[6] = out.tmax;
 }
 
-// IsNaN, not Ne(v, v): Highway's float Ne is the ordered compare (false for NaN) on AVX2 and AVX-512 but the
-// unordered one on SSE4.
-HWY_INLINE VF CanonicalNaNV(VF v) {
-  return hn::IfThenElse(hn::IsNaN(v), hn::Set(DF(), std::numeric_limits<float>::quiet_NaN()), v);
-}
-
 // std::max(a, b) as libstdc++ defines it; hn::Max leaves NaN and signed-zero operands unspecified.
 HWY_INLINE VF StdMaxV(VF a, VF b) { return hn::IfThenElse(hn::Lt(a, b), b, a); }
 
@@ -137,8 +131,6 @@ HWY_EXPORT(ShadowRayKernelTargetName);
 
 namespace {
 
-// See core/target_kernel.cpp CanonicalNaN: a NaN's sign and payload depend on operand order the compiler chose.
-float CanonicalNaN(float v) { return std::isnan(v) ? std::numeric_limits<float>::quiet_NaN() : v; }
 
 }  // namespace
 

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "core/mis-inl.h"
 #include "core/spmis_kernel.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -25,43 +26,12 @@ namespace HWY_NAMESPACE {
 // Unnamed: the helpers' names must not collide with other kernels' per-target helpers (ODR).
 namespace {
 
-namespace hn = hwy::HWY_NAMESPACE;
-
-using DF = hn::ScalableTag<float>;
-using DI = hn::RebindToSigned<DF>;
-using D8 = hn::Rebind<uint8_t, DI>;
-using VF = hn::Vec<DF>;
-using VI = hn::Vec<DI>;
-using MF = hn::Mask<DF>;
-
-// The NaN every output NaN is written as (core/spmis_kernel.h StochasticPairwiseOutput).
-HWY_INLINE VF CanonicalNaN(VF v) {
-  return hn::IfThenElse(hn::IsNaN(v), hn::Set(DF(), std::numeric_limits<float>::quiet_NaN()), v);
-}
 
 // core/spmis.h StochasticMisWeight (seed 004 Eq. 15-16): K / (N P) · m.
 HWY_INLINE VF StochasticMisWeight(VF multiplicity, VF drawCount, VF probability, VF misWeight) {
   const VF zero = hn::Zero(DF());
   const MF ok = hn::And(hn::Gt(probability, zero), hn::Gt(drawCount, zero));
   return hn::IfThenElseZero(ok, hn::Mul(hn::Div(multiplicity, hn::Mul(drawCount, probability)), misWeight));
-}
-
-// core/mis.h MisPairwiseCanonicalTerm (seed 004 Eq. 11b, one j, inside Eq. 18-19); total = c̄ + c_c.
-HWY_INLINE VF PairwiseCanonicalTerm(VF cj, VF cBar, VF cc, VF total, VF targetJ, VF targetC) {
-  const VF zero = hn::Zero(DF());
-  const VF denom = hn::Add(hn::Mul(cBar, targetJ), hn::Mul(cc, targetC));
-  const VF share = hn::Div(cj, total);
-  // !(denom > 0): neither domain produces y, the pair's mass goes to the canonical input (defensive).
-  const VF term = hn::IfThenElse(hn::Gt(denom, zero), hn::Mul(share, hn::Div(hn::Mul(cc, targetC), denom)), share);
-  return hn::IfThenElseZero(hn::Gt(total, zero), term);
-}
-
-// core/mis.h MisPairwiseNonCanonical (seed 004 Eq. 11a, inside Eq. 16-17).
-HWY_INLINE VF PairwiseNonCanonical(VF ci, VF cBar, VF cc, VF total, VF targetI, VF targetC) {
-  const VF zero = hn::Zero(DF());
-  const VF denom = hn::Add(hn::Mul(cBar, targetI), hn::Mul(cc, targetC));
-  const MF ok = hn::And(hn::Gt(total, zero), hn::Gt(denom, zero));
-  return hn::IfThenElseZero(ok, hn::Mul(hn::Div(ci, total), hn::Div(hn::Mul(cBar, targetI), denom)));
 }
 
 // A packet's rows: the batch's arrays offset to the packet's first combination.
@@ -95,7 +65,7 @@ HWY_INLINE void SpmisPacket(const Rows& in, float* outMis, float* outPc) {
   const size_t s = in.stride;
   const VI n = hn::LoadU(di, in.inputs);
   // The loops run to the packet's largest counts; lanes with fewer inputs or draws are masked.
-  const int maxN = std::clamp(static_cast<int>(hn::GetLane(hn::MaxOfLanes(di, n))), 0, in.inputRows);
+  const int maxN = PacketMaxCount(n, in.inputRows);
   if (maxN == 0) return;
 
   MF live[kMaxGrisInputs], valid[kMaxGrisInputs];
@@ -119,13 +89,13 @@ HWY_INLINE void SpmisPacket(const Rows& in, float* outMis, float* outPc) {
     // Seed 004 Eq. 18-19: the base share c_c / (c̄ + c_c), then the terms of the distinct canonical draws.
     VF m = hn::IfThenElseZero(hn::Gt(total, zero), hn::Div(cc, total));
     const VI D = hn::LoadU(di, in.distinct);
-    const int maxD = std::clamp(static_cast<int>(hn::GetLane(hn::MaxOfLanes(di, D))), 0, in.drawRows);
+    const int maxD = PacketMaxCount(D, in.drawRows);
     if (maxD > 0) {
       const VF nc = hn::LoadU(df, in.canonicalDrawCount);
       const VF invM = hn::Div(hn::Set(df, 1.0f), hn::LoadU(df, in.candidateCount));  // P_c = 1/M
       for (int d = 0; d < maxD; ++d) {
         const MF drawn = hn::RebindMask(df, hn::Gt(D, hn::Set(di, d)));
-        const VF pair = PairwiseCanonicalTerm(hn::LoadU(df, in.drawnConfidence + d * s), cBar, cc, total,
+        const VF pair = PairwiseCanonicalTermV(hn::LoadU(df, in.drawnConfidence + d * s), cBar, cc, total,
                                               hn::LoadU(df, in.drawnTarget + d * s), pc[0]);
         const VF term = StochasticMisWeight(hn::LoadU(df, in.drawnMultiplicity + d * s), nc, invM, pair);
         m = hn::IfThenElse(drawn, hn::Add(m, term), m);
@@ -141,7 +111,7 @@ HWY_INLINE void SpmisPacket(const Rows& in, float* outMis, float* outPc) {
     const VF bigN = hn::LoadU(df, in.drawCount);
     for (int t = 1; t < maxN; ++t) {
       if (hn::AllFalse(df, valid[t])) continue;
-      const VF pair = PairwiseNonCanonical(hn::LoadU(df, in.confidence + t * s), cBar, cc, total,
+      const VF pair = PairwiseNonCanonicalV(hn::LoadU(df, in.confidence + t * s), cBar, cc, total,
                                            hn::LoadU(df, in.ownTarget + t * s), pc[t]);
       const VF m = StochasticMisWeight(hn::LoadU(df, in.multiplicity + t * s), bigN,
                                        hn::LoadU(df, in.probability + t * s), pair);
@@ -151,8 +121,8 @@ HWY_INLINE void SpmisPacket(const Rows& in, float* outMis, float* outPc) {
 
   // Only a lane's own inputs are written: entries past its count belong to the caller (GrisBatchArrays rows).
   for (int t = 0; t < maxN; ++t) {
-    hn::BlendedStore(CanonicalNaN(mis[t]), live[t], df, outMis + t * s);
-    hn::BlendedStore(CanonicalNaN(pc[t]), live[t], df, outPc + t * s);
+    hn::BlendedStore(CanonicalNaNV(mis[t]), live[t], df, outMis + t * s);
+    hn::BlendedStore(CanonicalNaNV(pc[t]), live[t], df, outPc + t * s);
   }
 }
 
@@ -266,7 +236,6 @@ HWY_EXPORT(SpmisDispatchedTargetName);
 
 namespace {
 
-float CanonicalNaN(float x) { return std::isnan(x) ? std::numeric_limits<float>::quiet_NaN() : x; }
 
 }  // namespace
 

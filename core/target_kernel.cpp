@@ -30,12 +30,6 @@ constexpr PairField kPairFields[] = {&TargetPairs::eye,           &TargetPairs::
                                      &TargetPairs::radiance};
 constexpr int kPairFieldCount = static_cast<int>(sizeof(kPairFields) / sizeof(kPairFields[0]));
 
-// CanonicalNaN (below) per lane. IsNaN, not Ne(v, v): Highway's float Ne is the ordered compare (false for NaN)
-// on AVX2 and AVX-512 but the unordered one on SSE4.
-HWY_INLINE VF CanonicalNaNV(VF v) {
-  return hn::IfThenElse(hn::IsNaN(v), hn::Set(DF(), std::numeric_limits<float>::quiet_NaN()), v);
-}
-
 // Pairs [0, Lanes) of `p`, whose pointers start at the packet's first pair. `rgb` is null when not wanted.
 HWY_INLINE void TargetPacket(const TargetPairs& p, const RisMaterials& mt, float* target, float* const* rgb) {
   const DF df;
@@ -127,11 +121,6 @@ HWY_EXPORT(TargetKernelTargetName);
 
 namespace {
 
-// A NaN result's sign and payload are not a property of the source: when a NaN input meets a NaN that an
-// operation creates (x86's default NaN is negative), the result is whichever operand the compiler placed first,
-// and the compiler may commute an add or a multiply differently in each compilation of the same expression. So
-// every NaN leaves the kernel as std::numeric_limits<float>::quiet_NaN(), on every target and in the twin.
-float CanonicalNaN(float v) { return std::isnan(v) ? std::numeric_limits<float>::quiet_NaN() : v; }
 
 }  // namespace
 

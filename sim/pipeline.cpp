@@ -433,10 +433,9 @@ bool SimilarSurface(const GBuffer& a, size_t i, const GBuffer& b, size_t j, floa
   return std::abs(da - db) <= depthThreshold * std::max(da, db);
 }
 
-bool FiniteReservoir(const StoredReservoir& r) {
-  return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
-}
-bool FiniteReservoir(const Reservoir& r) {
+// Reservoir or StoredReservoir.
+template <typename R>
+bool FiniteReservoir(const R& r) {
   return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
 }
 
@@ -669,7 +668,6 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       const size_t i = rowStart + x;
       if (!g.IsSurface(i) || !haveLights) continue;
       activeRow[x] = 1;
-      risPixels.local() += 1;
       const Vec3 wo = glm::normalize(camera.position - g.Position(i));  // as ShadingPointAt
       for (int c = 0; c < 3; ++c) woRow[c][x] = wo[c];
     }
@@ -699,6 +697,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     ro.weightSum = outF[10].data();
     ro.targetPdf = outF[11].data();
     if (haveLights) RisInitialSampling(px, in.lights->Soa(), materials, risParams, ro);
+    risPixels.local() += static_cast<uint64_t>(std::count(activeRow.begin(), activeRow.end(), uint8_t{1}));
     std::vector<Reservoir> row(rw);
     ShadowRayBatch& shadowRays = initialRays.local();
     shadowRays.Clear();

@@ -41,8 +41,9 @@ inline constexpr float kInf = std::numeric_limits<float>::infinity();
 
 inline uint32_t Bits(float v) { return std::bit_cast<uint32_t>(v); }
 
-// The kernels' rule for NaN outputs: one canonical bit pattern, whatever payload the arithmetic carried.
-inline float Canonical(float v) { return std::isnan(v) ? kNaN : v; }
+// The kernels' rule for NaN outputs (core/math.h): one canonical bit pattern, whatever payload the arithmetic
+// carried.
+inline float Canonical(float v) { return CanonicalNaN(v); }
 
 // A uniformly distributed unit vector (normalised Gaussian triple).
 inline Vec3 RandomUnit(std::mt19937& rng) {

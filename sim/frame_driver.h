@@ -1,18 +1,22 @@
-// Drives the frames of one sequence exactly as sim/runner.cpp does (Evaluate -> scene.Update -> TracePrimary ->
-// Reproject -> Pipeline::RenderFrame with the previous frame's state, G-buffer and lights), for tests that run
-// many pipelines (seeds, presets) on the same frames.
+// Drives the frames of one sequence as sim/runner.cpp does (Evaluate -> scene.Update -> TracePrimary ->
+// Reproject -> Pipeline::RenderFrame with the previous frame's state, G-buffer and lights), for the tests that run
+// many pipelines (seeds, presets) on the same frames and for the whole-frame benchmark, which times each stage
+// and re-runs them (TracePrimary and Reproject depend only on the frame's state, so repeating them reproduces the
+// same G-buffer).
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <vector>
 
+#include "core/light_sampler.h"
 #include "sim/embree_scene.h"
 #include "sim/gbuffer.h"
 #include "sim/pipeline.h"
 #include "sim/reference.h"
 #include "sim/sequence.h"
 
-namespace restir::test {
+namespace restir {
 
 class FrameDriver {
  public:
@@ -22,13 +26,27 @@ class FrameDriver {
   void BeginFrame(int frame) {
     frame_ = frame;
     state_ = Evaluate(seq_, frame, width_, height_);
+    const auto t0 = std::chrono::steady_clock::now();
     scene_.Update(state_);
-    TracePrimary(scene_, state_.camera, current_);
-    Reproject(state_, previousState_, previous_, scene_.LightObjectId(), ReprojectionParams{}, current_);
+    msSceneUpdate_ = MsSince(t0);
+    Primary();
+    Reprojection();
     lights_ = std::make_unique<LightSampler>(scene_.LightTriangles(), LightSelection::kPower);
   }
+  // The frame's primary rays and G-buffer again; ms taken.
+  double Primary() {
+    const auto t0 = std::chrono::steady_clock::now();
+    TracePrimary(scene_, state_.camera, current_);
+    return MsSince(t0);
+  }
+  // The frame's reprojection again; ms taken.
+  double Reprojection() {
+    const auto t0 = std::chrono::steady_clock::now();
+    Reproject(state_, previousState_, previous_, scene_.LightObjectId(), ReprojectionParams{}, current_);
+    return MsSince(t0);
+  }
 
-  FrameResult Render(Pipeline& pipeline, uint32_t seed) const {
+  FrameInputs Inputs(uint32_t seed) const {
     FrameInputs in;
     in.sequence = &seq_;
     in.state = &state_;
@@ -43,8 +61,9 @@ class FrameDriver {
       in.previousGbuffer = &previous_;
       in.previousLights = &previousLights_;
     }
-    return pipeline.RenderFrame(in);
+    return in;
   }
+  FrameResult Render(Pipeline& pipeline, uint32_t seed) const { return pipeline.RenderFrame(Inputs(seed)); }
 
   ReferenceImage Reference(int spp) const {
     ReferenceParams params;
@@ -59,10 +78,16 @@ class FrameDriver {
     hasPrevious_ = true;
   }
 
+  EmbreeScene& Scene() { return scene_; }
   const GBuffer& Gbuffer() const { return current_; }
+  const GBuffer& PreviousGbuffer() const { return previous_; }
   const FrameState& State() const { return state_; }
+  double MsSceneUpdate() const { return msSceneUpdate_; }
 
  private:
+  static double MsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
   const Sequence& seq_;
   int width_, height_;
   EmbreeScene scene_;
@@ -73,6 +98,7 @@ class FrameDriver {
   std::unique_ptr<LightSampler> lights_;
   bool hasPrevious_ = false;
   int frame_ = 0;
+  double msSceneUpdate_ = 0.0;
 };
 
-}  // namespace restir::test
+}  // namespace restir
