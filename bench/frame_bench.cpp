@@ -705,11 +705,7 @@ double VecBytes(const std::vector<T>& v) {
 
 double GBufferBytes(const GBuffer& g) {
   double b = 0;
-  for (const auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth,
-                        &g.prevX, &g.prevY})
-    b += VecBytes(*v);
-  for (const auto* v : {&g.objectId, &g.materialId, &g.lightId}) b += VecBytes(*v);
-  b += VecBytes(g.prevValid) + VecBytes(g.disoccluded);
+  GBuffer::ForEachArray(g, [&](const auto& v) { b += VecBytes(v); });
   return b;
 }
 

@@ -27,7 +27,7 @@ std::vector<LightTriangle> GridLights(int count) {
   std::vector<LightTriangle> lights;
   for (int i = 0; i < count; ++i) {
     const float x = float(i % 12) - 6.0f, z = float(i / 12) - 3.0f;
-    LightTriangle t;
+    LightTriangle t{};
     MakeLightTriangle(Vec3(x, 3, z), Vec3(x + 0.3f, 3, z), Vec3(x, 3, z + 0.3f),
                       Vec3(1.0f + float(i % 3), 2.0f, 1.0f + float(i % 5)), t);
     if (glm::dot(t.normal, Vec3(0, -1, 0)) < 0) MakeLightTriangle(Vec3(x, 3, z), Vec3(x, 3, z + 0.3f),
@@ -215,7 +215,7 @@ void BM_TargetKernel(benchmark::State& state, SimdTarget target) {
 void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
   const std::vector<LightTriangle> lights = GridLights(72);
   const size_t n = 4096;
-  std::vector<float> in[9];  // position, geometric normal, light position
+  std::vector<float> in[14];  // position, geometric normal, light position, light normal, the two error scales
   for (auto& v : in) v.resize(n);
   for (size_t k = 0; k < n; ++k) {
     const FloorQuery q = MakeFloorQuery(lights, k);
@@ -225,14 +225,19 @@ void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
       in[c][k] = p[c];
       in[3 + c][k] = c == 1 ? 1.0f : 0.0f;
       in[6 + c][k] = y[c];
+      in[9 + c][k] = c == 1 ? -1.0f : 0.0f;  // ceiling lights face down
     }
+    in[12][k] = 4.0f, in[13][k] = 4.0f;
   }
   ShadowRayInputs queries;
   for (int c = 0; c < 3; ++c) {
     queries.position[c] = in[c].data();
     queries.geometricNormal[c] = in[3 + c].data();
     queries.lightPosition[c] = in[6 + c].data();
+    queries.lightNormal[c] = in[9 + c].data();
   }
+  queries.errorScale = in[12].data();
+  queries.lightErrorScale = in[13].data();
   queries.count = n;
   std::vector<float> outF[7];
   for (auto& v : outF) v.resize(n);

@@ -1,6 +1,8 @@
 // Emitters as core/ sees them: one-sided emissive triangles in world space. A quad light is two of them.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -15,6 +17,9 @@ struct LightTriangle {
   Vec3 normal;     // unit normal of the emitting side, normalize(cross(e1, e2))
   float area = 0;  // 0.5 * |cross(e1, e2)|
   Vec3 radiance;   // emitted radiance L_e (linear RGB), zero while the light is switched off
+  // Error scale of a point sampled on it (core/shadow_ray.h): the largest vertex coordinate magnitude, which
+  // bounds the rounding of p0 + b0 e1 + b1 e2 and of Embree's tests against this triangle.
+  float errorScale = 0;
 };
 
 // A point on a light with what the estimators need about it (DESIGN §4 notation: y, p_y, n_y, L_e).
@@ -49,6 +54,9 @@ inline bool MakeLightTriangle(const Vec3& p0, const Vec3& p1, const Vec3& p2, co
   out.normal = c / len;
   out.area = 0.5f * len;
   out.radiance = radiance;
+  out.errorScale = 0.0f;
+  for (const Vec3& p : {p0, p1, p2})
+    out.errorScale = std::max(out.errorScale, std::max(std::fabs(p.x), std::max(std::fabs(p.y), std::fabs(p.z))));
   return true;
 }
 

@@ -14,6 +14,7 @@ struct ShadingPoint {
   Vec3 shadingNormal;    // n, facing the viewer
   Vec3 wo;               // unit direction from x towards the viewer
   Bsdf bsdf;             // reflectance at x
+  float errorScale = 0;  // x's error scale, for spawning rays off it (core/shadow_ray.h)
 };
 
 // Geometry of the segment x -> y: unit direction, distance and squared distance.

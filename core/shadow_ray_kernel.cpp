@@ -2,11 +2,10 @@
 // per-target part is compiled once per Highway target (foreach_target.h); the rest once (HWY_ONCE).
 //
 // Bit-exactness (DESIGN §3): each lane computes core/shadow_ray.h ShadowRaySetup's expression tree term for
-// term: glm::length = sqrt((x x + y y) + z z), vec3 / s divides each component, std::max(a, b) = (a < b) ? b : a
-// (so a NaN in b is dropped and one in a kept, as the scalar code does), the side test is `>= 0` (false for NaN,
-// so a NaN direction offsets against the normal), and 1.0f - 1e-3f is the same folded constant. No MulAdd, no
-// approximate square roots or reciprocals. NaN results are the one thing the source cannot pin down; both sides
-// canonicalise them.
+// term: glm::length = sqrt((x x + y y) + z z), vec3 / s divides each component, NormL1 = (|x| + |y|) + |z|, the
+// offset is (kSpawnRelativeOffset scale) NormL1 with the product taken in that order, and the side test is `>= 0`
+// (false for NaN, so a NaN direction offsets against the normal). No MulAdd, no approximate square roots or
+// reciprocals. NaN results are the one thing the source cannot pin down; both sides canonicalise them.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/shadow_ray_kernel.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
@@ -26,9 +25,9 @@ namespace restir {
 namespace HWY_NAMESPACE {
 namespace {
 
-// Input fields in the order x, ng, y (x y z each), output fields org, dir, tmax: flat, so that the full packets
-// and the padded tail address them alike.
-constexpr int kInFields = 9;
+// Input fields in the order x, ng, y, ny (x y z each), then the two error scales; output fields org, dir, tmax:
+// flat, so that the full packets and the padded tail address them alike.
+constexpr int kInFields = 14;
 constexpr int kOutFields = 7;
 
 void InFields(const ShadowRayInputs& in, const float* (&f)[kInFields]) {
@@ -36,7 +35,10 @@ void InFields(const ShadowRayInputs& in, const float* (&f)[kInFields]) {
     f[c] = in.position[c];
     f[3 + c] = in.geometricNormal[c];
     f[6 + c] = in.lightPosition[c];
+    f[9 + c] = in.lightNormal[c];
   }
+  f[12] = in.errorScale;
+  f[13] = in.lightErrorScale;
 }
 
 void OutFields(const ShadowRayOutputs& out, float* (&f)[kOutFields]) {
@@ -47,40 +49,43 @@ void OutFields(const ShadowRayOutputs& out, float* (&f)[kOutFields]) {
   f[6] = out.tmax;
 }
 
-// std::max(a, b) as libstdc++ defines it; hn::Max leaves NaN and signed-zero operands unspecified.
-HWY_INLINE VF StdMaxV(VF a, VF b) { return hn::IfThenElse(hn::Lt(a, b), b, a); }
+// OffsetRayOrigin (core/shadow_ray.h): p moved off its surface along n, to the side `towards` points to.
+HWY_INLINE void OffsetRayOriginV(const VF (&p)[3], const VF (&n)[3], VF errorScale, const VF (&towards)[3],
+                                 VF (&out)[3]) {
+  const DF df;
+  const VF norm1 = hn::Add(hn::Add(hn::Abs(n[0]), hn::Abs(n[1])), hn::Abs(n[2]));
+  const VF offset = hn::Mul(hn::Mul(hn::Set(df, kSpawnRelativeOffset), errorScale), norm1);
+  const VF side = hn::IfThenElse(hn::Ge(Dot(n, towards), hn::Zero(df)), hn::Set(df, 1.0f), hn::Set(df, -1.0f));
+  const VF signedOffset = hn::Mul(side, offset);
+  for (int c = 0; c < 3; ++c) out[c] = hn::Add(p[c], hn::Mul(signedOffset, n[c]));
+}
 
 // Queries [k, k + Lanes) of the fields.
 HWY_INLINE void ShadowRayPacket(const float* const (&in)[kInFields], float* const (&out)[kOutFields], size_t k) {
   const DF df;
-  VF x[3], ng[3], y[3];
+  VF x[3], ng[3], y[3], ny[3];
   for (int c = 0; c < 3; ++c) {
     x[c] = hn::LoadU(df, in[c] + k);
     ng[c] = hn::LoadU(df, in[3 + c] + k);
     y[c] = hn::LoadU(df, in[6 + c] + k);
+    ny[c] = hn::LoadU(df, in[9 + c] + k);
   }
-  VF toLight[3], dir[3];
-  for (int c = 0; c < 3; ++c) toLight[c] = hn::Sub(y[c], x[c]);
-  const VF d = hn::Sqrt(Dot(toLight, toLight));
-  for (int c = 0; c < 3; ++c) dir[c] = hn::Div(toLight[c], d);
+  const VF errorScale = hn::LoadU(df, in[12] + k);
+  const VF lightErrorScale = hn::LoadU(df, in[13] + k);
 
-  // OffsetRayOrigin(x, ng, dir).
-  const VF scale = StdMaxV(hn::Abs(x[0]), StdMaxV(hn::Abs(x[1]), hn::Abs(x[2])));
-  const VF eps = hn::Mul(hn::Set(df, 1e-4f), hn::Add(hn::Set(df, 1.0f), scale));
-  const VF side = hn::IfThenElse(hn::Ge(Dot(ng, dir), hn::Zero(df)), hn::Set(df, 1.0f), hn::Set(df, -1.0f));
-  const VF offset = hn::Mul(side, eps);
-  VF org[3], toLightFromOrg[3];
-  for (int c = 0; c < 3; ++c) {
-    org[c] = hn::Add(x[c], hn::Mul(offset, ng[c]));
-    toLightFromOrg[c] = hn::Sub(y[c], org[c]);
-  }
-  const VF tmax = hn::Mul(hn::Sqrt(Dot(toLightFromOrg, toLightFromOrg)), hn::Set(df, 1.0f - 1e-3f));
+  VF toLight[3], org[3], back[3], end[3], d[3];
+  for (int c = 0; c < 3; ++c) toLight[c] = hn::Sub(y[c], x[c]);
+  OffsetRayOriginV(x, ng, errorScale, toLight, org);
+  for (int c = 0; c < 3; ++c) back[c] = hn::Sub(org[c], y[c]);
+  OffsetRayOriginV(y, ny, hn::Add(lightErrorScale, hn::Sqrt(Dot(back, back))), back, end);
+  for (int c = 0; c < 3; ++c) d[c] = hn::Sub(end[c], org[c]);
+  const VF length = hn::Sqrt(Dot(d, d));
 
   for (int c = 0; c < 3; ++c) {
     hn::StoreU(CanonicalNaNV(org[c]), df, out[c] + k);
-    hn::StoreU(CanonicalNaNV(dir[c]), df, out[3 + c] + k);
+    hn::StoreU(CanonicalNaNV(hn::Div(d[c], length)), df, out[3 + c] + k);
   }
-  hn::StoreU(CanonicalNaNV(tmax), df, out[6] + k);
+  hn::StoreU(CanonicalNaNV(length), df, out[6] + k);
 }
 
 }  // namespace
@@ -129,17 +134,13 @@ namespace restir {
 HWY_EXPORT(ShadowRayKernel);
 HWY_EXPORT(ShadowRayKernelTargetName);
 
-namespace {
-
-
-}  // namespace
-
 void SetupShadowRaysScalar(const ShadowRayInputs& in, const ShadowRayOutputs& out) {
   for (size_t k = 0; k < in.count; ++k) {
     const ShadowRaySegment r =
         ShadowRaySetup(Vec3(in.position[0][k], in.position[1][k], in.position[2][k]),
                        Vec3(in.geometricNormal[0][k], in.geometricNormal[1][k], in.geometricNormal[2][k]),
-                       Vec3(in.lightPosition[0][k], in.lightPosition[1][k], in.lightPosition[2][k]));
+                       in.errorScale[k], Vec3(in.lightPosition[0][k], in.lightPosition[1][k], in.lightPosition[2][k]),
+                       Vec3(in.lightNormal[0][k], in.lightNormal[1][k], in.lightNormal[2][k]), in.lightErrorScale[k]);
     for (int c = 0; c < 3; ++c) {
       out.org[c][k] = CanonicalNaN(r.org[c]);
       out.dir[c][k] = CanonicalNaN(r.dir[c]);

@@ -1,5 +1,5 @@
 // Shadow-ray setup kernel: for a batch of visibility queries (receiver x with geometric normal ng, light point
-// y), the ray core/shadow_ray.h ShadowRaySetup builds, so the passes set up a whole batch of rays in one call
+// y on an emitter of normal ny), the segment core/shadow_ray.h ShadowRaySetup builds, so the passes set up a whole batch of rays in one call
 // instead of one scalar MakeShadowRay per query (about 13 per pixel per frame).
 //
 // Two implementations beside each other, as core/target_kernel.h: a Highway kernel (dynamic dispatch, a packet of
@@ -14,7 +14,10 @@ namespace restir {
 struct ShadowRayInputs {
   const float* position[3] = {};         // x
   const float* geometricNormal[3] = {};  // ng at x, either orientation (the ray picks its side)
+  const float* errorScale = nullptr;     // x's error scale (sim/gbuffer.h GBuffer::errorScale)
   const float* lightPosition[3] = {};    // y
+  const float* lightNormal[3] = {};      // the emitter's normal at y, either orientation
+  const float* lightErrorScale = nullptr;  // y's error scale (core/light.h LightTriangle::errorScale)
   size_t count = 0;
 };
 

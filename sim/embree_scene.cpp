@@ -4,6 +4,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -15,12 +16,17 @@ namespace restir {
 namespace {
 
 // Embree selects its kernels per ISA, and the AVX2/AVX-512 triangle and box tests are compiled with FMA while
-// the SSE kernels are not: the same ray can get a different t, u, v (in the last bits) and even a different
-// hit/miss verdict at an edge on different machines. DESIGN §3 wants the same bits everywhere, so the ISA is
-// pinned to SSE4.2, which every x86-64 CPU this runs on supports. Thread count is deliberately NOT set here:
-// Embree's "threads=N" installs a process-wide tbb::global_control that would throttle every TBB pass of the
-// simulator; builds are serialised per commit instead (see CommitSerial).
-constexpr const char* kDeviceConfig = "isa=sse4.2";
+// the SSE kernels are not; all of them divide through an approximate reciprocal whose last bits differ between
+// CPU vendors. So Embree's t, u, v differ in the last bits from machine to machine, and the simulator takes only
+// which triangle was hit (and whether a shadow ray is blocked) from it: SurfaceHit's attributes are recomputed
+// in double (EmbreeScene::Intersect), and shadow rays keep a margin of float error from every surface they
+// start or end on (core/shadow_ray.h). The ISA still defaults to SSE4.2, which every x86-64 CPU this runs on
+// supports. Thread count is deliberately NOT set here: Embree's "threads=N" installs a process-wide
+// tbb::global_control that would throttle every TBB pass of the simulator; builds are serialised per commit
+// instead (see CommitSerial).
+std::atomic<EmbreeIsa> gEmbreeIsa{EmbreeIsa::kSse42};
+
+std::string DeviceConfig(EmbreeIsa isa) { return std::string("isa=") + EmbreeIsaName(isa); }
 
 // Embree's parallel builders partition primitives into a number of tasks that depends on the arena's
 // concurrency, so the leaf order (hence which of two primitives at exactly the same t wins) could depend on the
@@ -79,6 +85,37 @@ RTCGeometry NewTriangleGeometry(RTCDevice device, const std::vector<Vec3>& posit
 
 glm::mat3 NormalMatrix(const Mat4& m) { return glm::transpose(glm::inverse(glm::mat3(m))); }
 
+float MaxAbs(const glm::dvec3& v) { return static_cast<float>(std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)})); }
+
+// The error scale of a hit on an instance, given its world-space vertices' (core/shadow_ray.h). Embree
+// intersects an instance by moving the ray into object space with the inverse transform, in float: the
+// object-space origin errs by about u (|o| + |translation|) in world units, times the transform's anisotropy
+// (its largest axis scale over its smallest), which the inverse stretches unevenly. |o| is at most the
+// vertices' scale for a ray spawned off this hit.
+float InstanceErrorScale(const Mat4& m, float vertexScale) {
+  const double s0 = glm::length(glm::dvec3(m[0])), s1 = glm::length(glm::dvec3(m[1])),
+               s2 = glm::length(glm::dvec3(m[2]));
+  const double smallest = std::min({s0, s1, s2}), largest = std::max({s0, s1, s2});
+  const double anisotropy = smallest > 0.0 ? largest / smallest : 1.0;
+  return static_cast<float>(anisotropy * (double(vertexScale) + double(MaxAbs(glm::dvec3(m[3])))));
+}
+
+// Where a ray meets the plane of triangle (p0, p1, p2), in double (Möller & Trumbore 1997): t along `dir`, and
+// the barycentrics u of p1 and v of p2 (Embree's convention). False when the ray runs parallel to the plane.
+bool IntersectPlane(const glm::dvec3& org, const glm::dvec3& dir, const glm::dvec3& p0, const glm::dvec3& p1,
+                    const glm::dvec3& p2, double& t, double& u, double& v) {
+  const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0;
+  const glm::dvec3 pv = glm::cross(dir, e2);
+  const double det = glm::dot(e1, pv);
+  if (!(std::fabs(det) > 0.0) || !std::isfinite(det)) return false;
+  const glm::dvec3 tv = org - p0;
+  const glm::dvec3 qv = glm::cross(tv, e1);
+  u = glm::dot(tv, pv) / det;
+  v = glm::dot(dir, qv) / det;
+  t = glm::dot(e2, qv) / det;
+  return std::isfinite(t) && std::isfinite(u) && std::isfinite(v);
+}
+
 Vec3 TransformPoint(const Mat4& m, const Vec3& p) { return Vec3(m * Vec4(p, 1.0f)); }
 
 std::vector<LightTriangle> BuildLightTrianglesFrom(const std::vector<Light>& lights,
@@ -125,13 +162,15 @@ struct EmbreeScene::Impl {
     int32_t material = 0;
     std::vector<glm::uvec3> triangles;
     std::vector<Vec3> normals;      // object space for animated objects, world space once a static one is baked
-    std::vector<Vec3> positions;    // object space; kept until a static object is baked
+    std::vector<Vec3> positions;    // object space for animated objects, world space once a static one is baked
     RTCScene prototype = nullptr;   // animated objects only
   };
   struct Slot {
     RTCScene top = nullptr;
-    std::vector<RTCGeometry> instances;  // per object; null for static objects
+    std::vector<RTCGeometry> instances;    // per object; null for static objects
     std::vector<glm::mat3> normalToWorld;  // per object: inverse transpose of objectToWorld (animated only)
+    std::vector<glm::dmat4> objectToWorld;  // per object, in double (animated only): for recomputing hits
+    std::vector<Mat4> transform;            // per object (animated only): as Embree has it
   };
 
   RTCDevice device = nullptr;
@@ -139,7 +178,8 @@ struct EmbreeScene::Impl {
   bool staticHasGeometry = false;
   std::vector<ObjectRecord> objects;
   std::vector<Light> lights;
-  std::vector<Vec3> lightNormals;  // per light triangle (zero for a degenerate one)
+  std::vector<Vec3> lightNormals;   // per light triangle (zero for a degenerate one)
+  std::vector<Vec3> lightVertices;  // per light triangle, its three world-space vertices
   Slot slots[2];
   int current = -1;
   int previous = -1;
@@ -177,15 +217,13 @@ struct EmbreeScene::Impl {
       for (size_t i = 0; i < world.size(); ++i) world[i] = TransformPoint(m, rec.positions[i]);
       const glm::mat3 nm = NormalMatrix(m);
       for (Vec3& nrm : rec.normals) nrm = nm * nrm;
-      rec.positions.clear();
-      rec.positions.shrink_to_fit();
+      rec.positions = std::move(world);
       if (rec.triangles.empty()) continue;
-      RTCGeometry g = NewTriangleGeometry(device, world, rec.triangles);
+      RTCGeometry g = NewTriangleGeometry(device, rec.positions, rec.triangles);
       if (!g) continue;
       rtcAttachGeometryByID(staticScene, g, o);
       rtcReleaseGeometry(g);
       staticHasGeometry = true;
-      if (rec.normals.empty()) rec.triangles = {};
     }
     std::vector<Vec3> lightPositions;
     std::vector<glm::uvec3> lightTris;
@@ -215,6 +253,8 @@ struct EmbreeScene::Impl {
     const uint32_t n = static_cast<uint32_t>(objects.size());
     slot.instances.assign(n, nullptr);
     slot.normalToWorld.assign(n, glm::mat3(1.0f));
+    slot.objectToWorld.assign(n, glm::dmat4(1.0));
+    slot.transform.assign(n, Mat4(1.0f));
     for (uint32_t o = 0; o < n; ++o) {
       if (!objects[o].animated || !objects[o].prototype) continue;
       RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
@@ -243,6 +283,8 @@ struct EmbreeScene::Impl {
       rtcSetGeometryTransform(slot.instances[o], 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &m[0][0]);
       rtcCommitGeometry(slot.instances[o]);
       slot.normalToWorld[o] = NormalMatrix(m);
+      slot.objectToWorld[o] = glm::dmat4(m);
+      slot.transform[o] = m;
     }
     CommitSerial(slot.top);
     ThrowOnDeviceError(device, "committing a frame's top-level scene");
@@ -268,10 +310,11 @@ struct EmbreeScene::Impl {
 
 EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl>()) {
   Impl& im = *impl_;
-  im.device = rtcNewDevice(kDeviceConfig);
+  const std::string config = DeviceConfig(gEmbreeIsa.load());
+  im.device = rtcNewDevice(config.c_str());
   if (!im.device) {
-    throw std::runtime_error(std::string("cannot create the Embree device (config \"") + kDeviceConfig +
-                             "\"): error " + std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))));
+    throw std::runtime_error("cannot create the Embree device (config \"" + config + "\"): error " +
+                             std::to_string(static_cast<int>(rtcGetDeviceError(nullptr))));
   }
   const uint32_t n = static_cast<uint32_t>(sequence.objects.size());
   lightObjectId_ = static_cast<int32_t>(n);
@@ -286,6 +329,8 @@ EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl
     // Normals only count when there is one per vertex; anything else falls back to flat shading.
     if (!obj.mesh.normals.empty() && obj.mesh.normals.size() == obj.mesh.positions.size())
       rec.normals = obj.mesh.normals;
+    // Kept to recompute hits (static ones are baked to world space at the first Update).
+    rec.positions = obj.mesh.positions;
     if (obj.animated) {
       if (rec.triangles.empty()) continue;
       rec.prototype = NewScene(im.device);
@@ -295,10 +340,6 @@ EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl
         rtcReleaseGeometry(g);
       }
       CommitSerial(rec.prototype);
-      // Triangles are only looked up again to interpolate vertex normals.
-      if (rec.normals.empty()) rec.triangles = {};
-    } else {
-      rec.positions = obj.mesh.positions;  // baked at the first Update, when the transform is known
     }
   }
   ThrowOnDeviceError(im.device, "building object prototypes");
@@ -307,6 +348,9 @@ EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl
   lights_ = BuildLightTrianglesFrom(im.lights, allOn.lightOn, &lightGroup_);
   im.lightNormals.reserve(lights_.size());
   for (const LightTriangle& t : lights_) im.lightNormals.push_back(t.normal);
+  for (const Light& light : im.lights)
+    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3)
+      im.lightVertices.insert(im.lightVertices.end(), light.vertices.begin() + v, light.vertices.begin() + v + 3);
 }
 
 EmbreeScene::~EmbreeScene() = default;
@@ -373,22 +417,46 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   const uint32_t n = static_cast<uint32_t>(im.objects.size());
   const bool isStatic = inst == im.staticInstanceId;
   const uint32_t objectOrLights = isStatic ? rh.geomId : inst;
+  const bool emitter = objectOrLights >= n;
+  const uint32_t prim = rh.primId;
 
+  // The hit triangle's world-space vertices, in double, and the error scale they give points on it.
+  glm::dvec3 p[3];
+  float errorScale = 0.0f;
+  const Impl::ObjectRecord* rec = emitter ? nullptr : &im.objects[objectOrLights];
+  if (emitter) {
+    if (3 * size_t(prim) + 2 >= im.lightVertices.size()) return out;
+    for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(im.lightVertices[3 * size_t(prim) + k]);
+  } else {
+    if (prim >= rec->triangles.size()) return out;
+    const glm::uvec3 tri = rec->triangles[prim];
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3 v(rec->positions[tri[k]]);
+      p[k] = isStatic ? v : glm::dvec3(slot->objectToWorld[objectOrLights] * glm::dvec4(v, 1.0));
+    }
+  }
+  for (const glm::dvec3& q : p) errorScale = std::max(errorScale, MaxAbs(q));
+  if (!emitter && !isStatic) errorScale = InstanceErrorScale(slot->transform[objectOrLights], errorScale);
+
+  const glm::dvec3 o(org), d(dir);
+  double t = rh.t, u = rh.u, v = rh.v;
+  // A ray exactly parallel to the plane can still graze an edge in Embree's watertight test; it keeps Embree's
+  // answer.
+  IntersectPlane(o, d, p[0], p[1], p[2], t, u, v);
+  const glm::dvec3 position = (1.0 - u - v) * p[0] + u * p[1] + v * p[2];
   out.hit = true;
-  out.t = rh.t;
-  out.position = org + out.t * dir;
+  out.t = static_cast<float>(t);
+  out.position = Vec3(position);
+  out.errorScale = errorScale;
 
-  // Embree 3 reports Ng in the object space of the instanced geometry (unnormalised); static geometry and
-  // emitters are world space under an identity instance, so only animated instances need the normal matrix.
-  Vec3 ng(rh.ngX, rh.ngY, rh.ngZ);
-  if (!isStatic && objectOrLights < n) ng = slot->normalToWorld[objectOrLights] * ng;
-  ng = glm::normalize(ng);
+  glm::dvec3 ngd = glm::cross(p[1] - p[0], p[2] - p[0]);
+  const double ngLength = glm::length(ngd);
+  Vec3 ng = ngLength > 0.0 && std::isfinite(ngLength) ? Vec3(ngd / ngLength) : glm::normalize(Vec3(rh.ngX, rh.ngY, rh.ngZ));
   if (glm::dot(ng, dir) > 0.0f) ng = -ng;
   out.geometricNormal = ng;
   out.shadingNormal = ng;
 
-  if (objectOrLights >= n) {  // emitter
-    const uint32_t prim = rh.primId;
+  if (emitter) {
     out.objectId = lightObjectId_;
     out.materialId = -1;
     out.lightId = static_cast<int32_t>(prim);
@@ -397,17 +465,15 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
     return out;
   }
 
-  const Impl::ObjectRecord& rec = im.objects[objectOrLights];
   out.objectId = static_cast<int32_t>(objectOrLights);
-  out.materialId = rec.material;
+  out.materialId = rec->material;
   out.lightId = -1;
   out.frontFace = true;
-  if (!rec.normals.empty() && rh.primId < rec.triangles.size()) {
-    const glm::uvec3 tri = rec.triangles[rh.primId];
-    const float u = rh.u;
-    const float v = rh.v;
-    // Embree's barycentrics: u weighs vertex 1, v weighs vertex 2.
-    Vec3 ns = (1.0f - u - v) * rec.normals[tri.x] + u * rec.normals[tri.y] + v * rec.normals[tri.z];
+  if (!rec->normals.empty()) {
+    const glm::uvec3 tri = rec->triangles[prim];
+    const glm::dvec3 nd = (1.0 - u - v) * glm::dvec3(rec->normals[tri.x]) + u * glm::dvec3(rec->normals[tri.y]) +
+                          v * glm::dvec3(rec->normals[tri.z]);
+    Vec3 ns(nd);
     if (!isStatic) ns = slot->normalToWorld[objectOrLights] * ns;
     const float len = glm::length(ns);
     if (len > 0.0f && std::isfinite(len)) {
@@ -543,5 +609,33 @@ std::vector<LightTriangle> BuildLightTriangles(const Sequence& sequence, const F
                                                std::vector<uint32_t>* groupOf) {
   return BuildLightTrianglesFrom(sequence.lights, state.lightOn, groupOf);
 }
+
+const char* EmbreeIsaName(EmbreeIsa isa) {
+  switch (isa) {
+    case EmbreeIsa::kSse42: return "sse4.2";
+    case EmbreeIsa::kAvx2: return "avx2";
+    case EmbreeIsa::kAvx512: return "avx512";
+  }
+  return "sse4.2";
+}
+
+bool SetEmbreeIsa(EmbreeIsa isa) {
+  // Embree silently falls back to a lesser ISA when the CPU lacks the one asked for, so ask the CPU.
+  __builtin_cpu_init();
+  const bool supported = isa == EmbreeIsa::kSse42   ? __builtin_cpu_supports("sse4.2")
+                         : isa == EmbreeIsa::kAvx2 ? __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")
+                                                   : __builtin_cpu_supports("avx512f") &&
+                                                         __builtin_cpu_supports("avx512vl") &&
+                                                         __builtin_cpu_supports("avx512bw") &&
+                                                         __builtin_cpu_supports("avx512dq");
+  if (!supported) return false;
+  RTCDevice device = rtcNewDevice(DeviceConfig(isa).c_str());
+  if (!device) return false;
+  rtcReleaseDevice(device);
+  gEmbreeIsa.store(isa);
+  return true;
+}
+
+EmbreeIsa ActiveEmbreeIsa() { return gEmbreeIsa.load(); }
 
 }  // namespace restir

@@ -16,12 +16,24 @@ namespace restir {
 
 enum class SceneFrame { kCurrent, kPrevious };
 
+// Embree's kernel family. Scenes are built for the one chosen when they are created. The default is SSE4.2,
+// which every x86-64 CPU this runs on has; AVX2 and AVX-512 are faster on CPUs that have them.
+enum class EmbreeIsa : uint8_t { kSse42, kAvx2, kAvx512 };
+// Chooses the ISA of scenes created from now on; false (nothing changes) when this CPU or this Embree lacks it.
+bool SetEmbreeIsa(EmbreeIsa isa);
+EmbreeIsa ActiveEmbreeIsa();
+const char* EmbreeIsaName(EmbreeIsa isa);  // "sse4.2", "avx2", "avx512": Embree's own names
+
 // Closest hit of a ray. Normals face the ray origin (every surface is two-sided except emitters, which emit
-// from their front only).
+// from their front only). Embree decides which triangle the ray hits; where on it, and its normal, are then
+// computed here in double precision from that triangle's world-space vertices, and rounded once. So a hit's
+// attributes do not depend on Embree's arithmetic, which differs between ISAs (FMA) and CPUs (its rcp-based
+// division), and the position is as close to the surface as a float can be.
 struct SurfaceHit {
   bool hit = false;
   float t = 0.0f;
   Vec3 position;
+  float errorScale = 0.0f;  // for spawning rays off `position` (core/shadow_ray.h): see sim/embree_scene.cpp
   Vec3 geometricNormal;    // unit, facing the ray origin
   Vec3 shadingNormal;      // unit, interpolated vertex normal when the mesh has normals, facing the ray origin
   int32_t objectId = -1;   // index into Sequence::objects; LightObjectId() for an emitter; -1 on a miss

@@ -14,7 +14,7 @@ void GBuffer::Resize(int w, int h) {
   width = w > 0 ? w : 0;
   height = h > 0 ? h : 0;
   const size_t n = Size();
-  for (auto* v : {&posX, &posY, &posZ, &ngX, &ngY, &ngZ, &nsX, &nsY, &nsZ, &depth}) v->assign(n, 0.0f);
+  for (auto* v : {&posX, &posY, &posZ, &ngX, &ngY, &ngZ, &nsX, &nsY, &nsZ, &errorScale, &depth}) v->assign(n, 0.0f);
   prevX.assign(n, -1.0f);  // -1: not reprojected (Reproject also writes -1 where a point cannot be projected)
   prevY.assign(n, -1.0f);
   objectId.assign(n, -1);
@@ -47,6 +47,7 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
           gbuffer.posX[i] = gbuffer.posY[i] = gbuffer.posZ[i] = 0.0f;
           gbuffer.ngX[i] = gbuffer.ngY[i] = gbuffer.ngZ[i] = 0.0f;
           gbuffer.nsX[i] = gbuffer.nsY[i] = gbuffer.nsZ[i] = 0.0f;
+          gbuffer.errorScale[i] = 0.0f;
           gbuffer.objectId[i] = -1;
           gbuffer.materialId[i] = -1;
           gbuffer.lightId[i] = -1;
@@ -62,6 +63,7 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
         gbuffer.nsX[i] = h.shadingNormal.x;
         gbuffer.nsY[i] = h.shadingNormal.y;
         gbuffer.nsZ[i] = h.shadingNormal.z;
+        gbuffer.errorScale[i] = h.errorScale;
         gbuffer.objectId[i] = h.objectId;
         gbuffer.materialId[i] = h.materialId;
         gbuffer.lightId[i] = h.lightId;

@@ -17,6 +17,7 @@ struct GBuffer {
   std::vector<float> posX, posY, posZ;     // world position of the hit
   std::vector<float> ngX, ngY, ngZ;        // geometric normal, facing the camera
   std::vector<float> nsX, nsY, nsZ;        // shading normal, facing the camera
+  std::vector<float> errorScale;           // the hit's error scale, for spawning rays off it (core/shadow_ray.h)
   std::vector<int32_t> objectId;           // -1: no hit
   std::vector<int32_t> materialId;         // -1: emitter or no hit
   std::vector<int32_t> lightId;            // emitter hit: light triangle; else -1
@@ -24,6 +25,16 @@ struct GBuffer {
   std::vector<float> prevX, prevY;         // continuous pixel coordinates of this point in the previous frame
   std::vector<uint8_t> prevValid;          // reprojection succeeded: on screen and the same surface there
   std::vector<uint8_t> disoccluded;        // surface hit whose reprojection failed (off screen or another surface)
+
+  // Calls f on every per-pixel array, in one fixed order (checkpoints, memory accounting, comparisons).
+  template <typename G, typename F>
+  static void ForEachArray(G& g, F&& f) {
+    for (auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.errorScale,
+                    &g.depth, &g.prevX, &g.prevY})
+      f(*v);
+    for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) f(*v);
+    for (auto* v : {&g.prevValid, &g.disoccluded}) f(*v);
+  }
 
   void Resize(int w, int h);
   size_t Size() const { return static_cast<size_t>(width) * static_cast<size_t>(height); }

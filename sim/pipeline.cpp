@@ -64,6 +64,7 @@ ShadingPoint ShadingPointAt(const GBuffer& g, size_t i, const Camera& camera, co
   sp.shadingNormal = g.ShadingNormal(i);
   sp.wo = glm::normalize(camera.position - sp.position);
   sp.bsdf = bsdfs[static_cast<size_t>(g.materialId[i])];
+  sp.errorScale = g.errorScale[i];
   return sp;
 }
 
@@ -75,14 +76,10 @@ Vec3 DirectEmission(const GBuffer& g, size_t i, const std::vector<LightTriangle>
   return glm::dot(t.normal, g.GeometricNormal(i)) > 0.0f ? t.radiance : Vec3(0.0f);
 }
 
-ShadowRay MakeShadowRay(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition) {
-  const ShadowRaySegment s = ShadowRaySetup(position, geometricNormal, lightPosition);
-  return ShadowRay{s.org, s.dir, s.tmax};
-}
-
 bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
-                       SceneFrame frame) {
-  const ShadowRay ray = MakeShadowRay(sp.position, sp.geometricNormal, lightPosition);
+                       const Vec3& lightNormal, float lightErrorScale, SceneFrame frame) {
+  const ShadowRaySegment ray =
+      ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, lightPosition, lightNormal, lightErrorScale);
   return scene.Occluded(ray.org, ray.dir, ray.tmax, frame);
 }
 
@@ -115,17 +112,24 @@ struct FrameView {
 };
 
 // Shadow rays of a batch of pixels, all in one scene frame: the queries gathered structure-of-arrays, set up by
-// the SIMD kernel (core/shadow_ray_kernel.h; the same bits as MakeShadowRay) and traced in one OccludedBatch call.
+// the SIMD kernel (core/shadow_ray_kernel.h; the same bits as ShadowRaySetup) and traced in one OccludedBatch
+// call.
 class ShadowRayBatch {
  public:
   void Clear() { size_ = 0; }
-  void Add(const GBuffer& g, size_t pixel, const Vec3& lightPosition) {
+  // The segment from G-buffer pixel `pixel` to light point y on an emitter of normal lightNormal.
+  void Add(const GBuffer& g, size_t pixel, const Vec3& y, const Vec3& lightNormal, float lightErrorScale) {
     if (size_ == in_[0].size())  // grow all arrays together; they keep their capacity from batch to batch
       for (auto& v : in_) v.resize(std::max<size_t>(256, 2 * size_));
     const size_t k = size_++;
     in_[0][k] = g.posX[pixel], in_[1][k] = g.posY[pixel], in_[2][k] = g.posZ[pixel];
     in_[3][k] = g.ngX[pixel], in_[4][k] = g.ngY[pixel], in_[5][k] = g.ngZ[pixel];
-    in_[6][k] = lightPosition.x, in_[7][k] = lightPosition.y, in_[8][k] = lightPosition.z;
+    in_[6][k] = y.x, in_[7][k] = y.y, in_[8][k] = y.z;
+    in_[9][k] = lightNormal.x, in_[10][k] = lightNormal.y, in_[11][k] = lightNormal.z;
+    in_[12][k] = g.errorScale[pixel], in_[13][k] = lightErrorScale;
+  }
+  void Add(const GBuffer& g, size_t pixel, const StoredReservoir& r, const std::vector<LightTriangle>& lights) {
+    Add(g, pixel, r.position, r.normal, lights[r.lightId].errorScale);
   }
   size_t Size() const { return size_; }
   // Traces every ray added since Clear; occluded[k] answers the k-th.
@@ -138,9 +142,12 @@ class ShadowRayBatch {
       in.position[c] = in_[c].data();
       in.geometricNormal[c] = in_[3 + c].data();
       in.lightPosition[c] = in_[6 + c].data();
+      in.lightNormal[c] = in_[9 + c].data();
       out.org[c] = out_[c].data();
       out.dir[c] = out_[3 + c].data();
     }
+    in.errorScale = in_[12].data();
+    in.lightErrorScale = in_[13].data();
     in.count = n;
     out.tmax = out_[6].data();
     SetupShadowRays(in, out);
@@ -155,7 +162,8 @@ class ShadowRayBatch {
 
  private:
   size_t size_ = 0;
-  std::vector<float> in_[9], out_[7];  // queries: position, geometric normal, light position; rays: org, dir, tmax
+  // Queries: position, geometric normal, light position, light normal, the two error scales; rays: org, dir, tmax.
+  std::vector<float> in_[14], out_[7];
   std::vector<ShadowRay> rays_;
   std::vector<uint8_t> occluded_;
 };
@@ -262,12 +270,19 @@ class TargetEvaluator {
       const Pending& e = pending_[k];
       const FrameView& v = views_[e.c->view[e.j]];
       const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
-      rays_[f].Add(*v.gbuffer, e.c->domainPixel[e.j], e.c->samples[e.i].position);
+      const LightSample& y = e.c->samples[e.i];
+      rays_[f].Add(*v.gbuffer, e.c->domainPixel[e.j], y.position, y.normal, (*v.lights)[y.lightId].errorScale);
       rayRefs_[f].push_back(static_cast<int64_t>(k));
     }
     for (size_t k = 0; k < visibilityPending_.size(); ++k) {
       const Pending& e = visibilityPending_[k];
-      rays_[0].Add(*views_[e.c->view[0]].gbuffer, e.c->domainPixel[0], e.c->samples[e.i].position);
+      const FrameView& v = views_[e.c->view[0]];
+      const LightSample& y = e.c->samples[e.i];
+      if (y.lightId >= v.lights->size()) {  // a light removed in that frame: nothing to see
+        e.c->inputs[e.i].visibility = 0.0f;
+        continue;
+      }
+      rays_[0].Add(*v.gbuffer, e.c->domainPixel[0], y.position, y.normal, (*v.lights)[y.lightId].errorScale);
       rayRefs_[0].push_back(-1 - static_cast<int64_t>(k));
     }
     for (int f = 0; f < 2; ++f) {
@@ -717,7 +732,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       if (!ip.countCandidates) r.confidence = 1.0f;
       if (ip.visibility && r.HasSample()) {
         const size_t i = rowStart + x;
-        shadowRays.Add(g, i, r.sample.position);
+        shadowRays.Add(g, i, r.sample.position, r.sample.normal, lights[r.sample.lightId].errorScale);
         rayPixel.push_back(static_cast<uint32_t>(x));
       }
     }
@@ -1129,7 +1144,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
       for (size_t k = 0; k < m; ++k) {
         if (!(f[0][k] > 0.0f || f[1][k] > 0.0f || f[2][k] > 0.0f)) continue;
         const size_t i = rowStart + pixelOf[k];
-        shadowRays.Add(g, i, reservoirs_[i].position);
+        shadowRays.Add(g, i, reservoirs_[i], lights);
         rayOf.push_back(static_cast<uint32_t>(k));
       }
       const std::vector<uint8_t>& occluded = shadowRays.Trace(*in.scene, SceneFrame::kCurrent);

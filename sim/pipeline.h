@@ -200,13 +200,9 @@ ShadingPoint ShadingPointAt(const GBuffer& gbuffer, size_t i, const Camera& came
 // Radiance a primary ray sees directly at pixel i: an emitter's front face, else zero.
 Vec3 DirectEmission(const GBuffer& gbuffer, size_t i, const std::vector<LightTriangle>& lights);
 
-// The shadow ray from a receiver (position, geometric normal) to a light point: origin offset off the surface,
-// stopping a relative 1e-3 short of the light.
-ShadowRay MakeShadowRay(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition);
-
-// True when the segment from the receiver to a light point is blocked (shadow ray shortened so it stops short
-// of the light itself).
+// True when the segment from the receiver to a light point (on an emitter of normal lightNormal and error scale
+// lightErrorScale) is blocked: core/shadow_ray.h ShadowRaySetup, both ends spawned off their surfaces.
 bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
-                       SceneFrame frame = SceneFrame::kCurrent);
+                       const Vec3& lightNormal, float lightErrorScale, SceneFrame frame = SceneFrame::kCurrent);
 
 }  // namespace restir

@@ -24,7 +24,7 @@ namespace restir {
 namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching.
-constexpr uint32_t kReferenceVersion = 4;
+constexpr uint32_t kReferenceVersion = 5;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 constexpr char kCacheMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '1'};
@@ -139,7 +139,7 @@ Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::v
   const Vec3 f = UnshadowedContribution(sp, y);
   if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
     ++rays;
-    if (!ShadowRayOccluded(scene, sp, y.position)) {
+    if (!ShadowRayOccluded(scene, sp, y.position, y.normal, lt.errorScale)) {
       float weight = 1.0f;
       if (glossy) {
         const LightPath path = ConnectToLight(sp, y.position, y.normal);
@@ -154,8 +154,8 @@ Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::v
     const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, b0, b1);
     if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
       ++rays;
-      const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, bs.wi), bs.wi,
-                                             std::numeric_limits<float>::infinity());
+      const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
+                                             bs.wi, std::numeric_limits<float>::infinity());
       if (hit.hit && hit.lightId >= 0 && hit.frontFace) {
         const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
         const float cosY = -glm::dot(t.normal, bs.wi);

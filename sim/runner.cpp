@@ -97,12 +97,7 @@ template <typename Io>
 void TransferGbuffer(Io& io, GBuffer& g) {
   io.Pod(g.width);
   io.Pod(g.height);
-  for (auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth, &g.prevX,
-                  &g.prevY})
-    io.Vector(*v);
-  for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) io.Vector(*v);
-  io.Vector(g.prevValid);
-  io.Vector(g.disoccluded);
+  GBuffer::ForEachArray(g, [&](auto& v) { io.Vector(v); });
 }
 
 template <typename Io>
@@ -144,7 +139,7 @@ void RemoveStaleTemporaries(const std::string& dir) {
   for (const auto& p : stale) std::filesystem::remove(p, ec);
 }
 
-constexpr uint64_t kCheckpointMagic = 0x32544B43'52545352ull;  // "RSTRCKT2"
+constexpr uint64_t kCheckpointMagic = 0x33544B43'52545352ull;  // "RSTRCKT3"
 
 }  // namespace
 

@@ -20,6 +20,53 @@ inline double NormalQuantileUpper(double tail) {
   return 0.5 * (lo + hi);
 }
 
+// Regularized incomplete beta function I_x(a, b), by its continued fraction (modified Lentz), using the
+// symmetry I_x(a, b) = 1 - I_{1-x}(b, a) where the fraction converges slowly.
+inline double IncompleteBeta(double x, double a, double b) {
+  if (x <= 0.0) return 0.0;
+  if (x >= 1.0) return 1.0;
+  if (x > (a + 1.0) / (a + b + 2.0)) return 1.0 - IncompleteBeta(1.0 - x, b, a);
+  const double lnFront = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
+  const double tiny = 1e-300;
+  double c = 1.0, d = 1.0 - (a + b) * x / (a + 1.0);
+  d = 1.0 / (std::fabs(d) < tiny ? tiny : d);
+  double f = d;
+  for (int m = 1; m < 1000; ++m) {
+    for (int half = 0; half < 2; ++half) {
+      const double num = half == 0 ? m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m))
+                                   : -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0));
+      d = 1.0 + num * d;
+      d = 1.0 / (std::fabs(d) < tiny ? tiny : d);
+      c = 1.0 + num / c;
+      if (std::fabs(c) < tiny) c = tiny;
+      f *= c * d;
+      if (half == 1 && std::fabs(c * d - 1.0) < 1e-15) return std::exp(lnFront) * f / a;
+    }
+  }
+  return std::exp(lnFront) * f / a;
+}
+
+// P(|T| > t) for Student's t with `dof` degrees of freedom.
+inline double StudentTTwoSidedTail(double t, double dof) {
+  return IncompleteBeta(dof / (dof + t * t), 0.5 * dof, 0.5);
+}
+
+// The t with P(|T| > t) = tail, by bisection.
+inline double StudentTQuantileTwoSided(double tail, double dof) {
+  double lo = 0.0, hi = 1e6;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (StudentTTwoSidedTail(mid, dof) > tail ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Moments of T² for Student's t (dof > 4): E = ν/(ν-2), Var = 2ν²(ν-1)/((ν-2)²(ν-4)).
+inline double StudentTSquaredMean(double dof) { return dof / (dof - 2.0); }
+inline double StudentTSquaredVariance(double dof) {
+  return 2.0 * dof * dof * (dof - 1.0) / ((dof - 2.0) * (dof - 2.0) * (dof - 4.0));
+}
+
 // Upper critical value of chi-square with k degrees of freedom at tail probability `tail`
 // (Wilson–Hilferty cube approximation; within 1% for k >= 10).
 inline double ChiSquareCritical(int k, double tail) {

@@ -64,7 +64,9 @@ TEST(Bsdf, PdfIntegratesToAtMostOne) {
       }
       const double se = std::sqrt(st.StdError() * st.StdError() + success.StdError() * success.StdError());
       EXPECT_NEAR(st.mean, success.mean, z * se) << alpha;
-      if (type == BsdfType::kDiffuse) EXPECT_EQ(success.mean, 1.0);
+      if (type == BsdfType::kDiffuse) {
+        EXPECT_EQ(success.mean, 1.0);
+      }
     }
   }
 }

@@ -83,8 +83,9 @@ TEST(Ris, ZeroWeightCandidateNeverSelected) {
 TEST(Ris, SelectionMatchesExactPmfChiSquare) {
   for (int m : {1, 2, 5}) {
     const auto exact = ExactRisPmf(m);
-    if (m == 1)
+    if (m == 1) {
       for (int k = 0; k < kK; ++k) EXPECT_NEAR(exact[k], kTarget[k] > 0 ? kSource[k] : 0.0, 1e-7);
+    }
     const int n = 400000;
     std::vector<double> obs(kK + 1, 0), exp(kK + 1);
     double mass = 0;

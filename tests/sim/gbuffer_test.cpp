@@ -10,6 +10,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace restir {
@@ -122,14 +123,13 @@ glm::dvec3 PixelDir(const Camera& c, int x, int y) {
 
 // The G-buffer's fields compared bit for bit.
 bool SameBits(const GBuffer& a, const GBuffer& b) {
-  auto eq = [](const auto& u, const auto& v) {
-    return u.size() == v.size() && std::memcmp(u.data(), v.data(), u.size() * sizeof(u[0])) == 0;
+  std::vector<std::string> bytesA, bytesB;
+  auto collect = [](std::vector<std::string>& out) {
+    return [&out](const auto& v) { out.emplace_back(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])); };
   };
-  return eq(a.posX, b.posX) && eq(a.posY, b.posY) && eq(a.posZ, b.posZ) && eq(a.ngX, b.ngX) && eq(a.ngY, b.ngY) &&
-         eq(a.ngZ, b.ngZ) && eq(a.nsX, b.nsX) && eq(a.nsY, b.nsY) && eq(a.nsZ, b.nsZ) &&
-         eq(a.objectId, b.objectId) && eq(a.materialId, b.materialId) && eq(a.lightId, b.lightId) &&
-         eq(a.depth, b.depth) && eq(a.prevX, b.prevX) && eq(a.prevY, b.prevY) && eq(a.prevValid, b.prevValid) &&
-         eq(a.disoccluded, b.disoccluded);
+  GBuffer::ForEachArray(a, collect(bytesA));
+  GBuffer::ForEachArray(b, collect(bytesB));
+  return bytesA == bytesB;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
