@@ -45,7 +45,7 @@
 
 #include "core/light_sampler.h"
 #include "sim/embree_scene.h"
-#include "sim/frame_driver.h"
+#include "sim/frame_loop.h"
 #include "sim/gbuffer.h"
 #include "sim/image.h"
 #include "sim/pipeline.h"
@@ -340,8 +340,8 @@ struct StageTimes {
   }
 };
 
-StageTimes RenderOnce(FrameDriver& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
-  p.RestoreHistory(history);
+StageTimes RenderOnce(FrameLoop& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
+  p.History() = history;
   StageTimes s;
   const double cpu0 = ThreadCpuMs();
   s.primary = d.Primary();
@@ -360,7 +360,7 @@ StageTimes RenderOnce(FrameDriver& d, Pipeline& p, const std::vector<StoredReser
 struct PresetResult {
   std::map<std::string, double> counters;
   // Kept for BM_ShadowRayApi: the driver (its scene holds both frames the rays were traced in) and the rays.
-  std::unique_ptr<FrameDriver> driver;
+  std::unique_ptr<FrameLoop> driver;
   std::vector<CapturedRay> shadow;
 };
 
@@ -369,8 +369,8 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   auto& c = out.counters;
   c["loadavg_start"] = LoadAverage();
   const int w = Width(), h = Height();
-  out.driver = std::make_unique<FrameDriver>(WindowBars(), w, h);
-  FrameDriver& d = *out.driver;
+  out.driver = std::make_unique<FrameLoop>(WindowBars(), w, h);
+  FrameLoop& d = *out.driver;
   Pipeline pipeline(preset.settings);
   d.BeginFrame(kHistoryFrame);
   d.Render(pipeline, WindowBars().seed);
@@ -716,7 +716,7 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
   for (auto _ : state) {
     const int w = Width(), h = Height();
     const double n = double(w) * h;
-    FrameDriver d(WindowBars(), w, h);
+    FrameLoop d(WindowBars(), w, h);
     Pipeline p(preset->settings);
     d.BeginFrame(kHistoryFrame);
     d.Render(p, WindowBars().seed);
@@ -730,7 +730,7 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
     // with stochastic pairwise MIS; Cell is 32 bytes.
     const int reservoirBuffers = Pipeline::kReservoirBuffers;
     const double reservoirs = double(reservoirBuffers) * sizeof(StoredReservoir) * n;
-    const double cells = VecBytes(p.PixelCells()) + VecBytes(p.CellPixels()) + 32.0 * double(p.CellCount());
+    const double cells = VecBytes(p.Cells().pixelCell) + VecBytes(p.Cells().pixels) + sizeof(CellGrid::Cell) * double(p.Cells().cells.size());
     const double frame = VecBytes(fr.image.pixels) + VecBytes(fr.temporalAccepted);
     // sim/runner.cpp, per preset: previousImages + accumSum (ImageRgb each); shared: the reference's mean and
     // standard error and previousReference (ImageRgb each), disoccAge and age (uint16), recentMask and restMask.

@@ -38,14 +38,14 @@ std::vector<LightTriangle> GridLights(int count) {
 }
 
 // Two diffuse materials and a GGX one (alpha 0.09), the kernel benchmarks' receivers run through them.
-RisMaterials BenchMaterials() {
+BsdfSoa BenchMaterials() {
   std::vector<Bsdf> bsdfs(3);
   bsdfs[0].albedo = Vec3(0.6f);
   bsdfs[1].albedo = Vec3(0.3f, 0.5f, 0.7f);
   bsdfs[2].type = BsdfType::kGgx;
   bsdfs[2].albedo = Vec3(0.9f, 0.8f, 0.6f);
   bsdfs[2].alpha = 0.09f;
-  return MakeRisMaterials(bsdfs);
+  return MakeBsdfSoa(bsdfs);
 }
 
 // Query k of the per-pair benchmarks: a floor receiver along the BM_RisKernel row and a random point on one of
@@ -117,7 +117,7 @@ BENCHMARK(BM_InitialRis);
 void BM_RisKernel(benchmark::State& state, SimdTarget target) {
   const std::vector<LightTriangle> lights = GridLights(72);
   const LightSampler sampler(lights, LightSelection::kPower);
-  const RisMaterials materials = BenchMaterials();
+  const BsdfSoa materials = BenchMaterials();
   const size_t n = 1920;
   std::vector<float> in[12];
   for (auto& v : in) v.resize(n);
@@ -173,7 +173,7 @@ void BM_RisKernel(benchmark::State& state, SimdTarget target) {
 // written. Items are pairs.
 void BM_TargetKernel(benchmark::State& state, SimdTarget target) {
   const std::vector<LightTriangle> lights = GridLights(72);
-  const RisMaterials materials = BenchMaterials();
+  const BsdfSoa materials = BenchMaterials();
   const size_t n = 4096;
   std::vector<float> in[21];  // eye, position, geometric normal, shading normal, light position, normal, radiance
   for (auto& v : in) v.resize(n);

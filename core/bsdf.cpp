@@ -74,4 +74,14 @@ float PdfBsdf(const Bsdf& bsdf, const Vec3& n, const Vec3& wo, const Vec3& wi) {
   return GgxD(cosH, bsdf.alpha) * cosH / (4.0f * oh);
 }
 
+BsdfSoa MakeBsdfSoa(const std::vector<Bsdf>& bsdfs) {
+  BsdfSoa m;
+  for (const Bsdf& b : bsdfs) {
+    m.type.push_back(static_cast<int32_t>(b.type));
+    for (int c = 0; c < 3; ++c) m.albedo[c].push_back(b.albedo[c]);
+    m.alpha.push_back(b.alpha);
+  }
+  return m;
+}
+
 }  // namespace restir

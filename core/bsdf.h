@@ -2,6 +2,9 @@
 // Schlick Fresnel. Directions are unit vectors pointing away from the surface; n is the shading normal.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "core/math.h"
 
 namespace restir {
@@ -44,5 +47,19 @@ BsdfSample SampleBsdf(const Bsdf& bsdf, const Vec3& n, const Vec3& wo, float u0,
 
 // Solid-angle density of SampleBsdf producing wi.
 float PdfBsdf(const Bsdf& bsdf, const Vec3& n, const Vec3& wo, const Vec3& wi);
+
+// The BSDFs of a frame's materials as structure-of-arrays, the table every SIMD kernel gathers from (built once
+// per frame, see MakeBsdfSoa).
+struct BsdfSoa {
+  std::vector<int32_t> type;      // static_cast<int32_t>(BsdfType)
+  std::vector<float> albedo[3];   // Bsdf::albedo r g b
+  std::vector<float> alpha;       // Bsdf::alpha
+  size_t Size() const { return type.size(); }
+  // The Bsdf of entry m, as the scalar twins read it.
+  Bsdf At(size_t m) const {
+    return Bsdf{static_cast<BsdfType>(type[m]), Vec3(albedo[0][m], albedo[1][m], albedo[2][m]), alpha[m]};
+  }
+};
+BsdfSoa MakeBsdfSoa(const std::vector<Bsdf>& bsdfs);
 
 }  // namespace restir

@@ -216,7 +216,7 @@ struct PacketOut {
 };
 
 // One packet of Lanes(df) pixels. `in` and `out` point at the packet's first element.
-HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const RisMaterials& mt,
+HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const BsdfSoa& mt,
                           const RisParams& params, const KeyWords& key, const PacketOut& out) {
   const DF df;
   const DI di;
@@ -333,7 +333,7 @@ HWY_INLINE void RisPacket(const PacketIn& in, const LightSamplerSoa& L, const Ri
   hn::StoreU(selTarget, df, out.targetPdf);
 }
 
-void RisKernel(const RisPixels& pixels, const LightSamplerSoa& lights, const RisMaterials& materials,
+void RisKernel(const RisPixels& pixels, const LightSamplerSoa& lights, const BsdfSoa& materials,
                const RisParams& params, const RisOutput& out) {
   const DF df;
   const size_t N = hn::Lanes(df);
@@ -443,16 +443,6 @@ namespace restir {
 HWY_EXPORT(RisKernel);
 HWY_EXPORT(DispatchedTargetName);
 
-RisMaterials MakeRisMaterials(const std::vector<Bsdf>& bsdfs) {
-  RisMaterials m;
-  for (const Bsdf& b : bsdfs) {
-    m.type.push_back(static_cast<int32_t>(b.type));
-    for (int c = 0; c < 3; ++c) m.albedo[c].push_back(b.albedo[c]);
-    m.alpha.push_back(b.alpha);
-  }
-  return m;
-}
-
 namespace {
 
 // LightSampler::Sample on the SoA copy: the same operations on the same values.
@@ -477,7 +467,7 @@ LightSample SampleLightSoa(const LightSamplerSoa& L, float uSelect, float uCoin,
 
 }  // namespace
 
-void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights, const RisMaterials& materials,
+void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights, const BsdfSoa& materials,
                               const RisParams& params, const RisOutput& out) {
   const bool usable = lights.Size() > 0 && materials.Size() > 0;
   for (size_t k = 0; k < px.count; ++k) {
@@ -512,7 +502,7 @@ void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights
   }
 }
 
-void RisInitialSampling(const RisPixels& pixels, const LightSamplerSoa& lights, const RisMaterials& materials,
+void RisInitialSampling(const RisPixels& pixels, const LightSamplerSoa& lights, const BsdfSoa& materials,
                         const RisParams& params, const RisOutput& out) {
   if (UseScalarTwins()) return RisInitialSamplingScalar(pixels, lights, materials, params, out);
   HWY_DYNAMIC_DISPATCH(RisKernel)(pixels, lights, materials, params, out);

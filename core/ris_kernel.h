@@ -25,24 +25,11 @@ struct RisPixels {
   const float* geometricNormal[3] = {};  // facing the viewer
   const float* shadingNormal[3] = {};    // n, facing the viewer
   const float* wo[3] = {};               // unit direction towards the viewer (normalize(camera - x))
-  const int32_t* materialId = nullptr;   // index into RisMaterials; read only where active
+  const int32_t* materialId = nullptr;   // index into BsdfSoa; read only where active
   const uint8_t* active = nullptr;       // nonzero: run RIS for this pixel; zero: output an empty reservoir
   uint32_t pixelBase = 0;                // RNG pixel index of element 0
   size_t count = 0;                      // pixels in the run
 };
-
-// BSDFs as structure-of-arrays (built once per frame, see MakeRisMaterials).
-struct RisMaterials {
-  std::vector<int32_t> type;      // static_cast<int32_t>(BsdfType)
-  std::vector<float> albedo[3];   // Bsdf::albedo r g b
-  std::vector<float> alpha;       // Bsdf::alpha
-  size_t Size() const { return type.size(); }
-  // The Bsdf of entry m, as the scalar twins read it.
-  Bsdf At(size_t m) const {
-    return Bsdf{static_cast<BsdfType>(type[m]), Vec3(albedo[0][m], albedo[1][m], albedo[2][m]), alpha[m]};
-  }
-};
-RisMaterials MakeRisMaterials(const std::vector<Bsdf>& bsdfs);
 
 struct RisParams {
   uint32_t seed = 0;        // RngKey::seed
@@ -65,12 +52,12 @@ struct RisOutput {
 
 // Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar). `lights` must be
 // non-empty whenever a pixel is active.
-void RisInitialSampling(const RisPixels& pixels, const LightSamplerSoa& lights, const RisMaterials& materials,
+void RisInitialSampling(const RisPixels& pixels, const LightSamplerSoa& lights, const BsdfSoa& materials,
                         const RisParams& params, const RisOutput& out);
 
 // The scalar twin, callable directly (tests and benchmarks).
 void RisInitialSamplingScalar(const RisPixels& pixels, const LightSamplerSoa& lights,
-                              const RisMaterials& materials, const RisParams& params, const RisOutput& out);
+                              const BsdfSoa& materials, const RisParams& params, const RisOutput& out);
 
 // Name of the Highway target the dispatched (non-scalar) kernel runs on now, e.g. "AVX3" (tests).
 const char* RisKernelDispatchedTargetName();

@@ -14,7 +14,7 @@
 
 #include "core/bsdf.h"
 #include "core/kernel-inl.h"
-#include "core/ris_kernel.h"  // RisMaterials
+#include "core/bsdf.h"  // BsdfSoa
 #include "core/shading.h"
 
 // Highway's per-target include guard: the body is compiled once for each target foreach_target.h toggles.
@@ -66,7 +66,7 @@ struct BsdfV {
 };
 
 // Every lane's `materialId` must index `mt` (callers substitute a valid id in lanes they ignore).
-HWY_INLINE BsdfV GatherBsdfV(const RisMaterials& mt, VI materialId) {
+HWY_INLINE BsdfV GatherBsdfV(const BsdfSoa& mt, VI materialId) {
   const DF df;
   const DI di;
   BsdfV b;

@@ -36,9 +36,18 @@ inline float StochasticPairwiseCanonicalTerm(float multiplicity, float drawCount
 
 // Confidence adjustment (seed 004 §4.3): each non-canonical confidence, hence c̄, is scaled by N/M, because
 // the estimator effectively reuses N of the M candidates; without it the canonical sample's share collapses as
-// M grows (dark pepper noise, seed 004 Fig. 2).
+// M grows (dark pepper noise, seed 004 Fig. 2). The factor, computed once per pixel:
+inline float ConfidenceScale(float drawCount, float candidateCount) {
+  return candidateCount > 0.0f ? drawCount / candidateCount : 1.0f;
+}
 inline float ScaledConfidence(float confidence, float drawCount, float candidateCount) {
-  return candidateCount > 0.0f ? confidence * drawCount / candidateCount : confidence;
+  return confidence * ConfidenceScale(drawCount, candidateCount);
+}
+
+// Selection weight of cell pixel i for the N non-canonical draws (seed 004 Eq. 17): P(i) ∝ c_i p̂_i(X_i) W_i, the
+// pixel's own unshifted estimate weighted by its confidence (0 for an empty reservoir).
+inline float StochasticPairwiseDrawWeight(float confidence, float targetPdf, float W) {
+  return confidence * targetPdf * W;
 }
 
 // Index drawn from a discrete distribution given by its running (inclusive) cumulative sums, by bisection.

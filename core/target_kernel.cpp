@@ -16,6 +16,7 @@
 
 #include "core/shading-inl.h"
 #include "core/shading.h"
+#include "core/simd.h"
 #include "core/target_kernel.h"
 
 HWY_BEFORE_NAMESPACE();
@@ -31,7 +32,7 @@ constexpr PairField kPairFields[] = {&TargetPairs::eye,           &TargetPairs::
 constexpr int kPairFieldCount = static_cast<int>(sizeof(kPairFields) / sizeof(kPairFields[0]));
 
 // Pairs [0, Lanes) of `p`, whose pointers start at the packet's first pair. `rgb` is null when not wanted.
-HWY_INLINE void TargetPacket(const TargetPairs& p, const RisMaterials& mt, float* target, float* const* rgb) {
+HWY_INLINE void TargetPacket(const TargetPairs& p, const BsdfSoa& mt, float* target, float* const* rgb) {
   const DF df;
   const DI di;
   VF eye[3], x[3], ng[3], n[3], y[3], ny[3], radiance[3];
@@ -57,7 +58,7 @@ HWY_INLINE void TargetPacket(const TargetPairs& p, const RisMaterials& mt, float
     for (int c = 0; c < 3; ++c) hn::StoreU(CanonicalNaNV(f[c]), df, rgb[c]);
 }
 
-void TargetKernel(const TargetPairs& pairs, const RisMaterials& materials, const TargetResults& out) {
+void TargetKernel(const TargetPairs& pairs, const BsdfSoa& materials, const TargetResults& out) {
   const DF df;
   const size_t N = hn::Lanes(df);
   const bool wantRgb = out.contribution[0] != nullptr;
@@ -124,7 +125,7 @@ namespace {
 
 }  // namespace
 
-void EvaluateTargetsScalar(const TargetPairs& p, const RisMaterials& materials, const TargetResults& out) {
+void EvaluateTargetsScalar(const TargetPairs& p, const BsdfSoa& materials, const TargetResults& out) {
   const bool rgb = out.contribution[0] != nullptr;
   for (size_t k = 0; k < p.count; ++k) {
     ShadingPoint sp;
@@ -144,7 +145,7 @@ void EvaluateTargetsScalar(const TargetPairs& p, const RisMaterials& materials, 
   }
 }
 
-void EvaluateTargets(const TargetPairs& pairs, const RisMaterials& materials, const TargetResults& out) {
+void EvaluateTargets(const TargetPairs& pairs, const BsdfSoa& materials, const TargetResults& out) {
   if (UseScalarTwins()) return EvaluateTargetsScalar(pairs, materials, out);
   HWY_DYNAMIC_DISPATCH(TargetKernel)(pairs, materials, out);
 }

@@ -12,17 +12,17 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "core/ris_kernel.h"
+#include "core/bsdf.h"
 
 namespace restir {
 
-// The pairs, structure-of-arrays. The receiver's wo is normalize(eye - x), as sim/pipeline.cpp ShadingPointAt.
+// The pairs, structure-of-arrays. The receiver's wo is normalize(eye - x), as sim/shading_point.cpp ShadingPointAt.
 struct TargetPairs {
   const float* eye[3] = {};              // camera position of the receiver's frame
   const float* position[3] = {};         // x
   const float* geometricNormal[3] = {};  // facing the viewer
   const float* shadingNormal[3] = {};    // n, facing the viewer
-  const int32_t* materialId = nullptr;   // index into RisMaterials
+  const int32_t* materialId = nullptr;   // index into BsdfSoa
   const float* lightPosition[3] = {};    // p_y
   const float* lightNormal[3] = {};      // n_y
   const float* radiance[3] = {};         // L_e(y) in the receiver's frame (zero for a light switched off)
@@ -58,10 +58,10 @@ struct TargetResults {
 };
 
 // Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar).
-void EvaluateTargets(const TargetPairs& pairs, const RisMaterials& materials, const TargetResults& out);
+void EvaluateTargets(const TargetPairs& pairs, const BsdfSoa& materials, const TargetResults& out);
 
 // The scalar twin, callable directly (tests and benchmarks).
-void EvaluateTargetsScalar(const TargetPairs& pairs, const RisMaterials& materials, const TargetResults& out);
+void EvaluateTargetsScalar(const TargetPairs& pairs, const BsdfSoa& materials, const TargetResults& out);
 
 // Name of the Highway target EvaluateTargets runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
 const char* TargetKernelDispatchedTargetName();

@@ -52,10 +52,8 @@ void ParseResolution(const std::string& text, RunOptions& opt) {
 void CheckFilePresets(const Sequence& seq) {
   for (size_t i = 0; i < seq.defaults.presets.size(); ++i) {
     if (FindPreset(seq.defaults.presets[i])) continue;
-    std::string known;
-    for (const Preset& q : AllPresets()) known += (known.empty() ? "" : ", ") + q.name;
-    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": unknown preset '" +
-                     seq.defaults.presets[i] + "' (known: " + known + ")");
+    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": " +
+                     UnknownPresetMessage(seq.defaults.presets[i]));
   }
 }
 

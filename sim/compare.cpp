@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "sim/report.h"
+#include "sim/summary.h"
 #include "sim/sequence.h"
 
 namespace restir {
@@ -50,12 +51,6 @@ double IncompleteBeta(double a, double b, double x) {
   return 1.0 - std::exp(lnFront) * BetaContinuedFraction(b, a, 1.0 - x) / b;
 }
 
-double Mean(const std::vector<double>& v) {
-  double s = 0.0;
-  for (double x : v) s += x;
-  return v.empty() ? NAN : s / static_cast<double>(v.size());
-}
-
 bool SameValue(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
 
 std::string MetricsPath(const std::string& run) {
@@ -95,8 +90,8 @@ ColumnComparison CompareSeries(const std::string& column, const std::vector<doub
   ColumnComparison c;
   c.column = column;
   const size_t n = std::min(a.size(), b.size());
-  c.meanA = Mean(std::vector<double>(a.begin(), a.begin() + n));
-  c.meanB = Mean(std::vector<double>(b.begin(), b.begin() + n));
+  c.meanA = ColumnMean(column, std::vector<double>(a.begin(), a.begin() + n));
+  c.meanB = ColumnMean(column, std::vector<double>(b.begin(), b.begin() + n));
   c.relativeChange = c.meanA != 0.0 ? (c.meanB - c.meanA) / std::fabs(c.meanA) : (c.meanB == 0.0 ? 0.0 : NAN);
   bool identical = true;
   for (size_t i = 0; i < n; ++i) identical = identical && SameValue(a[i], b[i]);
@@ -115,7 +110,8 @@ ColumnComparison CompareSeries(const std::string& column, const std::vector<doub
     for (int i = 0; i < kCompareBatch; ++i) s += b[k * kCompareBatch + i] - a[k * kCompareBatch + i];
     means.push_back(s / kCompareBatch);
   }
-  const double m = Mean(means);
+  double m = 0.0;
+  for (double x : means) m += x / static_cast<double>(means.size());
   double ss = 0.0;
   for (double x : means) ss += (x - m) * (x - m);
   const double se = std::sqrt(ss / (c.batches - 1) / c.batches);

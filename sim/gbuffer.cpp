@@ -164,4 +164,26 @@ void Reproject(const FrameState& currentState, const FrameState& previousState, 
   });
 }
 
+std::vector<uint16_t> AgeDisocclusion(const GBuffer& current, const std::vector<uint16_t>& previousAge) {
+  const int w = current.width, h = current.height;
+  std::vector<uint16_t> age(current.Size(), kNeverDisoccluded);
+  for (size_t i = 0; i < current.Size(); ++i) {
+    if (current.disoccluded[i]) {
+      age[i] = 0;
+    } else if (current.prevValid[i] && !previousAge.empty()) {
+      const int px = std::clamp(static_cast<int>(current.prevX[i]), 0, w - 1);
+      const int py = std::clamp(static_cast<int>(current.prevY[i]), 0, h - 1);
+      const uint16_t a = previousAge[static_cast<size_t>(py) * w + px];
+      age[i] = a == kNeverDisoccluded ? a : static_cast<uint16_t>(std::min<int>(a + 1, kNeverDisoccluded - 1));
+    }
+  }
+  return age;
+}
+
+std::vector<uint8_t> RecentDisocclusionMask(const std::vector<uint16_t>& age) {
+  std::vector<uint8_t> mask(age.size());
+  for (size_t i = 0; i < age.size(); ++i) mask[i] = age[i] < kDisocclusionWindow;
+  return mask;
+}
+
 }  // namespace restir

@@ -60,4 +60,15 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
 void Reproject(const FrameState& currentState, const FrameState& previousState, const GBuffer& previous,
                int32_t lightObjectId, const ReprojectionParams& params, GBuffer& current);
 
+// Disocclusion age (DESIGN §6 "*_disocc: pixels disoccluded in the last 4 frames"): per pixel, frames since its
+// surface was revealed, carried through reprojection so the mask follows the revealed region as the camera moves;
+// kNeverDisoccluded where it never was (or longer ago than 65534 frames). `previousAge` is last frame's (empty
+// on a run's first frame).
+inline constexpr uint16_t kNeverDisoccluded = 0xFFFF;
+inline constexpr uint16_t kDisocclusionWindow = 4;  // frames a reveal counts as recent
+std::vector<uint16_t> AgeDisocclusion(const GBuffer& current, const std::vector<uint16_t>& previousAge);
+
+// Pixels revealed within the last kDisocclusionWindow frames (1) and the rest (0).
+std::vector<uint8_t> RecentDisocclusionMask(const std::vector<uint16_t>& age);
+
 }  // namespace restir

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/math.h"
+#include "sim/hash.h"
 
 namespace restir {
 
@@ -21,9 +22,5 @@ struct ImageRgb {
 
 // FNV-1a over the raw bits of the pixels: equal hashes mean bit-identical images.
 uint64_t HashImage(const ImageRgb& image);
-std::string HexHash(uint64_t h);
-
-// FNV-1a 64 over bytes, chainable through `seed`.
-uint64_t Fnv1a(const void* data, size_t size, uint64_t seed = 0xcbf29ce484222325ull);
 
 }  // namespace restir

@@ -126,4 +126,87 @@ EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRg
   return s;
 }
 
+FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
+  FrameMetricsRow row;
+  row.frame = m.frame;
+  row.preset = m.preset;
+  auto& v = row.values;
+  const size_t pixels = m.image->Size();
+  auto findPass = [&](const char* name) -> const PassStats* {
+    for (const PassStats& ps : *m.passes)
+      if (ps.name == name) return &ps;
+    return nullptr;
+  };
+  double msPasses = 0.0;
+  uint64_t rays = static_cast<uint64_t>(pixels);  // primary rays
+  v.emplace_back("ms_scene_update", m.msSceneUpdate);
+  v.emplace_back("ms_primary", m.msPrimary);
+  v.emplace_back("ms_reproject", m.msReproject);
+  // Fixed columns for every preset: a pass the preset does not run reports 0.
+  for (const char* name : kPassNames) {
+    const PassStats* ps = findPass(name);
+    v.emplace_back(std::string("ms_") + name, ps ? ps->ms : 0.0);
+    msPasses += ps ? ps->ms : 0.0;
+    rays += ps ? ps->rays : 0;
+  }
+  v.emplace_back("ms_frame", m.msSceneUpdate + m.msPrimary + m.msReproject + msPasses);
+  v.emplace_back("ms_reference", m.reference ? m.msReference : 0.0);
+  v.emplace_back("reference_cached", m.referenceCached ? 1.0 : 0.0);
+  v.emplace_back("rays", static_cast<double>(rays));
+  for (const char* name : kPassNames) {
+    const PassStats* ps = findPass(name);
+    v.emplace_back(std::string("rays_per_pixel_") + name, ps ? double(ps->rays) / double(pixels) : 0.0);
+  }
+  if (m.reference) {
+    const ImageRgb& ref = *m.reference;
+    const AccuracyMetrics a = MeasureAccuracy(*m.image, ref);
+    v.emplace_back("rmse", a.rmse);
+    v.emplace_back("luma_rmse", a.lumaRmse);
+    v.emplace_back("relmse", a.relmse);
+    v.emplace_back("luma_ratio", a.lumaRatio);
+    v.emplace_back("rmspe", a.rmspe);
+    v.emplace_back("flip", MeanFlip(*m.flip));
+    v.emplace_back("luma_sum", a.lumaSum);
+    v.emplace_back("reference_luma_sum", a.referenceLumaSum);
+    v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
+    const AccuracyMetrics d = MeasureAccuracy(*m.image, ref, m.recentMask);
+    v.emplace_back("rmse_disocc", d.rmse);
+    v.emplace_back("luma_rmse_disocc", d.lumaRmse);
+    v.emplace_back("relmse_disocc", d.relmse);
+    v.emplace_back("rmspe_disocc", d.rmspe);
+    v.emplace_back("luma_ratio_disocc", d.pixels ? d.lumaRatio : 1.0);
+    v.emplace_back("flip_disocc", MeanFlip(*m.flip, m.recentMask));
+    const AccuracyMetrics r = MeasureAccuracy(*m.image, ref, m.restMask);
+    v.emplace_back("rmse_rest", r.rmse);
+    v.emplace_back("luma_rmse_rest", r.lumaRmse);
+    v.emplace_back("relmse_rest", r.relmse);
+    v.emplace_back("rmspe_rest", r.rmspe);
+    v.emplace_back("luma_ratio_rest", r.pixels ? r.lumaRatio : 1.0);
+    v.emplace_back("flip_rest", MeanFlip(*m.flip, m.restMask));
+    const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref);
+    v.emplace_back("accum_frames", m.accumFrames);
+    v.emplace_back("accum_rmse", acc.rmse);
+    v.emplace_back("accum_luma_ratio", acc.lumaRatio);
+    v.emplace_back("accum_rmspe", acc.rmspe);
+    if (m.ensemble) {
+      v.emplace_back("ensemble_mse", m.ensemble->mse);
+      v.emplace_back("ensemble_bias2", m.ensemble->bias2);
+      v.emplace_back("ensemble_variance", m.ensemble->variance);
+      v.emplace_back("ensemble_bias2_noise", m.ensemble->bias2Noise);
+      v.emplace_back("ensemble_luma_ratio", m.ensemble->lumaRatio);
+      v.emplace_back("ensemble_luma_ratio_stderr", m.ensemble->lumaRatioStdError);
+    }
+    v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
+  }
+  v.emplace_back("stability_luma_rmse", m.previousImage ? StabilityLumaRmse(*m.image, *m.previousImage) : 0.0);
+  v.emplace_back("disocc_fraction", m.disoccFraction);
+  v.emplace_back("disocc_recent_fraction", m.recentFraction);
+  v.emplace_back("temporal_acceptance", m.temporalAcceptance);
+  v.emplace_back("mean_confidence", m.meanConfidence);
+  v.emplace_back("cross_object_reuse", static_cast<double>(m.crossObjectReuse));
+  v.emplace_back("guarded", static_cast<double>(m.guarded));
+  row.imageHash = HexHash(HashImage(*m.image));
+  return row;
+}
+
 }  // namespace restir

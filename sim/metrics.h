@@ -3,9 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include "sim/flip.h"
 #include "sim/image.h"
+#include "sim/passes/frame_view.h"
 
 namespace restir {
 
@@ -53,5 +57,47 @@ struct EnsembleStats {
 // (variance).
 EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRgb& reference,
                               const ImageRgb& referenceStdError, ImageRgb& bias, ImageRgb& variance);
+
+}  // namespace restir
+
+namespace restir {
+
+// One row of metrics.csv (docs/metrics.md defines every column).
+struct FrameMetricsRow {
+  int frame = 0;
+  std::string preset;
+  std::vector<std::pair<std::string, double>> values;  // column name -> value, in column order
+  std::string imageHash;
+};
+
+// Everything one preset's row of a frame is measured from. Pointers not set leave their columns out (no
+// reference: no error columns; no ensemble: no ensemble_* columns) or read as a first frame (no previous image).
+struct FrameMeasurement {
+  int frame = 0;
+  std::string preset;
+  double msSceneUpdate = 0.0, msPrimary = 0.0, msReproject = 0.0;  // the frame's shared stages
+  const std::vector<PassStats>* passes = nullptr;  // the preset's passes, in order
+  const ImageRgb* image = nullptr;                 // the preset's estimate
+  const ImageRgb* previousImage = nullptr;         // its estimate of the previous frame (null: first frame)
+  uint64_t guarded = 0;                            // FrameResult counters
+  double temporalAcceptance = 0.0, meanConfidence = 0.0;
+  uint64_t crossObjectReuse = 0;
+  double disoccFraction = 0.0, recentFraction = 0.0;  // G-buffer disocclusion and its 4-frame window
+  // The reference and what is measured against it:
+  const ImageRgb* reference = nullptr;             // null: no reference, no error columns
+  double msReference = 0.0;                        // its wall time
+  bool referenceCached = false;                    // it was read from the cache
+  double referenceRelStdError = 0.0;               // MeanRelativeStandardError
+  const ImageRgb* previousReference = nullptr;     // the previous frame's (flicker)
+  const FlipMap* flip = nullptr;                   // per-pixel HDR-FLIP of the estimate against the reference
+  const std::vector<uint8_t>* recentMask = nullptr;  // pixels revealed in the last 4 frames
+  const std::vector<uint8_t>* restMask = nullptr;    // the others
+  const ImageRgb* accumulatedMean = nullptr;       // running mean since the scene state last changed
+  int accumFrames = 0;                             // frames in it
+  const EnsembleStats* ensemble = nullptr;         // --ensemble K > 1
+};
+
+// The frame's row: every column of metrics.csv in its fixed order.
+FrameMetricsRow MeasureFrame(const FrameMeasurement& m);
 
 }  // namespace restir

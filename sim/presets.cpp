@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "sim/settings.h"
+#include "sim/text.h"
 
 namespace restir {
 
@@ -121,8 +122,8 @@ const std::vector<Preset>& AllPresets() {
              s.spatial.enabled = true;
              s.spatial.mis = MisFamily::kStochasticPairwise;
              s.spatial.bias = BiasCorrection::kRayTraced;
-             s.spatial.draws = 5;
-             s.spatial.canonicalDraws = 5;
+             s.spatial.stochastic.draws = 5;
+             s.spatial.stochastic.canonicalDraws = 5;
            }),
   };
   return presets;
@@ -132,6 +133,12 @@ const Preset* FindPreset(const std::string& name) {
   for (const Preset& p : AllPresets())
     if (p.name == name) return &p;
   return nullptr;
+}
+
+std::string UnknownPresetMessage(const std::string& name) {
+  std::vector<std::string> names;
+  for (const Preset& p : AllPresets()) names.push_back(p.name);
+  return "unknown preset '" + name + "'" + Suggestion(name, names);
 }
 
 std::string DescribePresets() {

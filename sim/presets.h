@@ -18,6 +18,8 @@ struct Preset {
 const std::vector<Preset>& AllPresets();
 // nullptr when unknown.
 const Preset* FindPreset(const std::string& name);
+// "unknown preset 'x'" with the nearest name or the list of them: the body of every message about one.
+std::string UnknownPresetMessage(const std::string& name);
 // Human-readable listing for `restir-sim presets`.
 std::string DescribePresets();
 

@@ -5,7 +5,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <limits>
@@ -15,9 +14,12 @@
 #include "core/light_sampler.h"
 #include "core/polygon_irradiance.h"
 #include "core/rng.h"
+#include "core/sampling.h"
 #include "core/shading.h"
 #include "sim/atomic_file.h"
-#include "sim/pipeline.h"
+#include "sim/clock.h"
+#include "sim/hash.h"
+#include "sim/shading_point.h"
 
 namespace restir {
 
@@ -37,22 +39,6 @@ constexpr char kCacheMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '1'};
 // examples", ch. 17: randomized QMC).
 constexpr int kSampleDims = 5;  // light selection, two area coordinates, two BSDF coordinates
 constexpr int kReplicates = 16;
-
-struct RdSequence {
-  double alpha[kSampleDims];
-  RdSequence() {
-    // phi_d: the positive root of x^(d+1) = x + 1 (Newton from 2).
-    double phi = 2.0;
-    for (int i = 0; i < 64; ++i)
-      phi -= (std::pow(phi, kSampleDims + 1) - phi - 1.0) / ((kSampleDims + 1) * std::pow(phi, kSampleDims) - 1.0);
-    for (int j = 0; j < kSampleDims; ++j) alpha[j] = std::fmod(std::pow(1.0 / phi, j + 1), 1.0);
-  }
-};
-
-float PowerHeuristic(float a, float b) {
-  const float a2 = a * a, b2 = b * b;
-  return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
-}
 
 // Light selection for one receiver. Power alone spends most samples on lights that barely reach the pixel
 // (the flagship's facade is lit through a window by a few of 72 lights), so the reference mixes, per pixel,
@@ -219,7 +205,7 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
 
 ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                                const GBuffer& g, const ReferenceParams& params) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const int w = g.width, h = g.height;
   std::string cachePath;
   if (!params.cacheDir.empty()) {
@@ -229,7 +215,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     ReferenceImage cached;
     if (ReadCache(cachePath, w, h, cached)) {
       cached.fromCache = true;
-      cached.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      cached.ms = MsSince(t0);
       return cached;
     }
   }
@@ -240,7 +226,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const std::vector<LightTriangle>& lightList = scene.LightTriangles();
   const LightSampler lights(lightList, LightSelection::kPower);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(sequence);
-  static const RdSequence rd;
+  static const RobertsSequence<kSampleDims> rd;
   // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
   // get the same reference, bit for bit, and share one cache entry.
   const uint64_t stateHash = HashFrameState(state);
@@ -255,7 +241,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
         const size_t i = static_cast<size_t>(y) * w + x;
         ref.mean.pixels[i] = DirectEmission(g, i, lightList);
         if (!g.IsSurface(i) || lights.Empty()) continue;
-        const ShadingPoint sp = ShadingPointAt(g, i, state.camera, bsdfs);
+        const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
         dist.Build(sp, lights);
         const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
                          static_cast<uint32_t>(RngPass::kReference)};
@@ -267,10 +253,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
           glm::dvec3 sum(0.0);
           for (int k = 0; k < perReplicate; ++k) {
             float u[kSampleDims];
-            for (int j = 0; j < kSampleDims; ++j) {
-              const double v = shift[j] + double(k) * rd.alpha[j];
-              u[j] = std::min(static_cast<float>(v - std::floor(v)), 0x1.fffffep-1f);
-            }
+            for (int j = 0; j < kSampleDims; ++j) u[j] = rd.Coordinate(shift[j], k, j);
             sum += glm::dvec3(DirectSample(sp, scene, lightList, dist, u, localRays));
           }
           replicateMean[rep] = sum / double(perReplicate);
@@ -287,7 +270,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   });
   ref.rays = rays.combine(std::plus<uint64_t>());
   if (!cachePath.empty()) WriteCache(cachePath, ref);
-  ref.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ref.ms = MsSince(t0);
   return ref;
 }
 

@@ -12,6 +12,9 @@
 #include <sstream>
 
 #include "sim/atomic_file.h"
+#include "sim/summary.h"
+#include "sim/svg_plot.h"
+#include "sim/text.h"
 #include "sim/sequence.h"
 
 namespace restir {
@@ -150,13 +153,6 @@ MetricsTable ReadMetricsCsv(const std::string& path) {
 
 namespace {
 
-double Mean(const std::vector<double>& v) {
-  if (v.empty()) return NAN;
-  double s = 0.0;
-  for (double x : v) s += x;
-  return s / static_cast<double>(v.size());
-}
-
 double Median(std::vector<double> v) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -222,20 +218,6 @@ std::string Fmt(double v, const char* f = "%.4g") {
   return buf;
 }
 
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&#39;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
 
 // Percent-encodes a path component for a relative URL (preset names are identifiers, but be safe).
 std::string UrlPath(const std::string& s) {
@@ -272,7 +254,7 @@ struct PresetSummary {
   double lumaRatioAccumulated = NAN;
 };
 
-double ColumnMean(const MetricsTable& t, const PresetSummary& s, const std::string& name) {
+double SummaryMean(const MetricsTable& t, const PresetSummary& s, const std::string& name) {
   const int c = t.Column(name);
   return c < 0 ? NAN : s.means[c];
 }
@@ -285,38 +267,23 @@ PresetSummary Summarize(const MetricsTable& t, const PresetSeries& p) {
   PresetSummary s;
   s.name = p.name;
   s.rows = static_cast<int>(p.frames.size());
-  for (const auto& col : p.values) s.means.push_back(Mean(col));
+  for (size_t c = 0; c < p.values.size(); ++c) s.means.push_back(ColumnMean(t.columns[c], p.values[c]));
   const int recent = t.Column("disocc_recent_fraction");
   if (recent >= 0) {
-    std::vector<size_t> post;
-    for (size_t i = 0; i < p.frames.size(); ++i)
-      if (p.values[recent][i] > 0.0) post.push_back(i);
-    s.postRevealRows = static_cast<int>(post.size());
-    for (size_t c = 0; c < t.columns.size(); ++c) {
-      if (!EndsWith(t.columns[c], "_disocc")) continue;
-      double sum = 0.0;
-      for (size_t i : post) sum += p.values[c][i];
-      s.postReveal.emplace_back(t.columns[c], post.empty() ? NAN : sum / static_cast<double>(post.size()));
-    }
+    for (double f : p.values[recent]) s.postRevealRows += f > 0.0;
+    for (size_t c = 0; c < t.columns.size(); ++c)
+      if (EndsWith(t.columns[c], "_disocc"))
+        s.postReveal.emplace_back(t.columns[c], PostRevealMean(p.values[c], p.values[recent]));
     const int relmse = t.Column("relmse"), relmseDisocc = t.Column("relmse_disocc");
     if (relmse >= 0 && relmseDisocc >= 0 && !p.frames.empty()) {
       s.hasRecovery = true;
       s.recovery = ComputeRecovery(p.frames, p.values[recent], p.values[relmse], p.values[relmseDisocc]);
     }
   }
-  const double msFrame = ColumnMean(t, s, "ms_frame");
-  s.secondsPerFrame = msFrame / 1000.0;
-  const double relmse = ColumnMean(t, s, "relmse");
-  if (relmse > 0.0 && s.secondsPerFrame > 0.0) s.efficiency = 1.0 / (relmse * s.secondsPerFrame);
+  s.secondsPerFrame = SummaryMean(t, s, "ms_frame") / 1000.0;
+  s.efficiency = Efficiency(SummaryMean(t, s, "relmse"), SummaryMean(t, s, "ms_frame"));
   const int luma = t.Column("luma_sum"), refLuma = t.Column("reference_luma_sum");
-  if (luma >= 0 && refLuma >= 0) {
-    double a = 0.0, b = 0.0;
-    for (size_t i = 0; i < p.frames.size(); ++i) {
-      a += p.values[luma][i];
-      b += p.values[refLuma][i];
-    }
-    if (b > 0.0) s.lumaRatioAccumulated = a / b;
-  }
+  if (luma >= 0 && refLuma >= 0) s.lumaRatioAccumulated = AccumulatedLumaRatio(p.values[luma], p.values[refLuma]);
   return s;
 }
 
@@ -344,7 +311,8 @@ Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   j["sequence"] = run.contains("sequence") && run["sequence"].contains("name") ? run["sequence"]["name"] : Json(nullptr);
   j["metrics"] = "metrics.csv";
   j["definitions"] = {
-      {"mean", "mean over the preset's frames of each numeric metrics.csv column"},
+      {"mean", "mean over the preset's frames of each numeric metrics.csv column; the first frame is left out of "
+               "the timings (ms_*), flicker, stability_luma_rmse and temporal_acceptance (docs/metrics.md)"},
       {"post_reveal", "mean of each *_disocc column over the frames with disocc_recent_fraction > 0"},
       {"recovery", kRecoveryDefinition},
       {"seconds_per_frame", "mean ms_frame / 1000"},
@@ -397,112 +365,21 @@ Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
 
 // ---- plots ----
 
-const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                          "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
-constexpr int kPaletteSize = 10;
-
-double NiceStep(double range, int targetTicks) {
-  if (!(range > 0.0) || !std::isfinite(range)) return 1.0;
-  const double raw = range / targetTicks;
-  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
-  const double f = raw / mag;
-  const double nice = f < 1.5 ? 1.0 : f < 3.0 ? 2.0 : f < 7.0 ? 5.0 : 10.0;
-  return nice * mag;
-}
-
-std::string TickLabel(double v, double step) {
-  if (std::fabs(v) < step * 1e-9) v = 0.0;
-  char buf[64];
-  const double a = std::fabs(v);
-  if (v != 0.0 && (a >= 1e5 || a < 1e-3))
-    std::snprintf(buf, sizeof(buf), "%.2g", v);
-  else {
-    const int decimals = std::max(0, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
-    std::snprintf(buf, sizeof(buf), "%.*f", std::min(decimals, 6), v);
-  }
-  return buf;
-}
-
-std::string Coord(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.1f", v);
-  return buf;
-}
-
 std::string SvgPlot(const MetricsTable& t, const std::string& metric) {
   const int c = t.Column(metric);
-  constexpr double W = 600, H = 250, left = 64, right = 150, top = 26, bottom = 36;
-  const double pw = W - left - right, ph = H - top - bottom;
-  double xmin = INFINITY, xmax = -INFINITY, ymin = 0.0, ymax = -INFINITY;
-  for (const PresetSeries& p : t.presets)
-    for (size_t i = 0; i < p.frames.size(); ++i) {
-      const double v = p.values[c][i];
-      if (!std::isfinite(v)) continue;
-      xmin = std::min(xmin, double(p.frames[i]));
-      xmax = std::max(xmax, double(p.frames[i]));
-      ymin = std::min(ymin, v);
-      ymax = std::max(ymax, v);
-    }
-  if (!std::isfinite(xmin)) xmin = 0, xmax = 1;
-  if (xmax <= xmin) xmin -= 0.5, xmax += 0.5;
-  if (!std::isfinite(ymax) || ymax <= ymin) ymax = ymin + 1.0;
-  const double ystep = NiceStep(ymax - ymin, 5);
-  ymin = std::floor(ymin / ystep) * ystep;
-  ymax = std::ceil(ymax / ystep) * ystep;
-  const double xstep = std::max(1.0, NiceStep(xmax - xmin, 8));
-  auto X = [&](double x) { return left + (x - xmin) / (xmax - xmin) * pw; };
-  auto Y = [&](double y) { return top + ph - (y - ymin) / (ymax - ymin) * ph; };
-
-  std::ostringstream o;
-  o << "<svg class=\"plot\" data-metric=\"" << Escape(metric) << "\" xmlns=\"http://www.w3.org/2000/svg\" width=\""
-    << W << "\" height=\"" << H << "\" viewBox=\"0 0 " << W << " " << H << "\" role=\"img\" aria-label=\""
-    << Escape(metric) << " per frame\">\n";
-  o << "<text x=\"" << left << "\" y=\"16\" class=\"title\">" << Escape(metric) << "</text>\n";
-  // Grid, ticks and labels.
-  for (double y = ymin; y <= ymax + ystep * 1e-6; y += ystep) {
-    const std::string py = Coord(Y(y));
-    o << "<line class=\"grid\" x1=\"" << left << "\" y1=\"" << py << "\" x2=\"" << left + pw << "\" y2=\"" << py
-      << "\"/><text class=\"tick\" x=\"" << left - 4 << "\" y=\"" << py << "\" text-anchor=\"end\" dy=\"0.32em\">"
-      << TickLabel(y, ystep) << "</text>\n";
+  Plot plot;
+  plot.title = metric;
+  plot.xLabel = "frame";
+  plot.cssClass = "plot";
+  plot.dataMetric = metric;
+  for (const PresetSeries& p : t.presets) {
+    PlotSeries s;
+    s.name = p.name;
+    s.x.assign(p.frames.begin(), p.frames.end());
+    s.y = p.values[c];
+    plot.series.push_back(std::move(s));
   }
-  for (double x = std::ceil(xmin / xstep) * xstep; x <= xmax + 1e-9; x += xstep) {
-    const std::string px = Coord(X(x));
-    o << "<line class=\"axis\" x1=\"" << px << "\" y1=\"" << top + ph << "\" x2=\"" << px << "\" y2=\"" << top + ph + 4
-      << "\"/><text class=\"tick\" x=\"" << px << "\" y=\"" << top + ph + 15 << "\" text-anchor=\"middle\">"
-      << TickLabel(x, xstep) << "</text>\n";
-  }
-  o << "<line class=\"axis\" x1=\"" << left << "\" y1=\"" << top + ph << "\" x2=\"" << left + pw << "\" y2=\""
-    << top + ph << "\"/><line class=\"axis\" x1=\"" << left << "\" y1=\"" << top << "\" x2=\"" << left << "\" y2=\""
-    << top + ph << "\"/>\n";
-  o << "<text class=\"tick\" x=\"" << left + pw / 2 << "\" y=\"" << H - 4 << "\" text-anchor=\"middle\">frame</text>\n";
-  // One polyline per preset, legend on the right.
-  for (size_t k = 0; k < t.presets.size(); ++k) {
-    const PresetSeries& p = t.presets[k];
-    const char* colour = kPalette[k % kPaletteSize];
-    o << "<polyline fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"1.5\" data-preset=\"" << Escape(p.name)
-      << "\" points=\"";
-    bool first = true;
-    int finite = 0;
-    for (size_t i = 0; i < p.frames.size(); ++i) {
-      const double v = p.values[c][i];
-      if (!std::isfinite(v)) continue;
-      o << (first ? "" : " ") << Coord(X(p.frames[i])) << "," << Coord(Y(v));
-      first = false;
-      ++finite;
-    }
-    o << "\"/>\n";
-    if (finite == 1)  // a single point draws no line: mark it
-      for (size_t i = 0; i < p.frames.size(); ++i)
-        if (std::isfinite(p.values[c][i]))
-          o << "<circle cx=\"" << Coord(X(p.frames[i])) << "\" cy=\"" << Coord(Y(p.values[c][i]))
-            << "\" r=\"2.5\" fill=\"" << colour << "\"/>\n";
-    const double ly = top + 8 + 15.0 * k;
-    o << "<line x1=\"" << W - right + 10 << "\" y1=\"" << Coord(ly) << "\" x2=\"" << W - right + 28 << "\" y2=\""
-      << Coord(ly) << "\" stroke=\"" << colour << "\" stroke-width=\"2\"/><text class=\"legend\" x=\""
-      << W - right + 32 << "\" y=\"" << Coord(ly) << "\" dy=\"0.32em\">" << Escape(p.name) << "</text>\n";
-  }
-  o << "</svg>\n";
-  return o.str();
+  return restir::SvgPlot(plot);
 }
 
 // ---- images ----
@@ -683,8 +560,8 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
                                   ? JsonText(run.json["sequence"]["name"])
                                   : std::string("(unknown sequence: no run.json)");
   o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>ReSTIR Sim report: "
-    << Escape(seqName) << "</title>\n<style>\n" << kCss << "\n</style>\n</head>\n<body>\n";
-  o << "<h1>ReSTIR Sim report: " << Escape(seqName) << "</h1>\n";
+    << XmlEscape(seqName) << "</title>\n<style>\n" << kCss << "\n</style>\n</head>\n<body>\n";
+  o << "<h1>ReSTIR Sim report: " << XmlEscape(seqName) << "</h1>\n";
   o << "<p class=\"note\">" << t.presets.size() << " preset(s); metrics from <code>metrics.csv</code>, summary in "
     << "<code>summary.json</code>; every column is defined in the project's <code>docs/metrics.md</code>.</p>\n";
 
@@ -714,10 +591,10 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
         {"command line", get({"commandLine"})}};
     o << "<table class=\"config\">\n";
     for (const auto& [k, v] : rows)
-      o << "<tr><th>" << Escape(k) << "</th><td><code>" << Escape(JsonText(v)) << "</code></td></tr>\n";
+      o << "<tr><th>" << XmlEscape(k) << "</th><td><code>" << XmlEscape(JsonText(v)) << "</code></td></tr>\n";
     o << "</table>\n<p class=\"note\">The exact configuration, <code>run.json</code> as written (every preset's "
          "resolved settings):</p>\n<pre id=\"run-json\">"
-      << Escape(run.text) << "</pre>\n";
+      << XmlEscape(run.text) << "</pre>\n";
   } else {
     o << "<p class=\"note\">No <code>run.json</code> beside <code>metrics.csv</code>: configuration unknown.</p>\n";
   }
@@ -732,16 +609,16 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
        "<th>efficiency 1/(relmse·s)</th></tr>\n";
   for (const PresetSummary& s : sums) {
     auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
-    o << "<tr class=\"summary-row\" data-preset=\"" << Escape(s.name) << "\"><td>" << Escape(s.name) << "</td>";
+    o << "<tr class=\"summary-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name) << "</td>";
     o << "<td class=\"num\">" << s.rows << "</td>";
-    cell(ColumnMean(t, s, "relmse"));
-    cell(ColumnMean(t, s, "luma_rmse"));
-    cell(ColumnMean(t, s, "rmspe"));
-    if (hasFlip) cell(ColumnMean(t, s, "flip"));
+    cell(SummaryMean(t, s, "relmse"));
+    cell(SummaryMean(t, s, "luma_rmse"));
+    cell(SummaryMean(t, s, "rmspe"));
+    if (hasFlip) cell(SummaryMean(t, s, "flip"));
     cell(s.lumaRatioAccumulated);
-    cell(ColumnMean(t, s, "flicker"));
-    cell(ColumnMean(t, s, "stability_luma_rmse"));
-    cell(ColumnMean(t, s, "accum_rmse"));
+    cell(SummaryMean(t, s, "flicker"));
+    cell(SummaryMean(t, s, "stability_luma_rmse"));
+    cell(SummaryMean(t, s, "accum_rmse"));
     double postDisocc = NAN;
     for (const auto& [n, v] : s.postReveal)
       if (n == "relmse_disocc") postDisocc = v;
@@ -759,8 +636,8 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
         rec = Fmt(m, "%.3g") + " (" + std::to_string(recovered) + " of " + std::to_string(n) +
               (n == 1 ? " reveal)" : " reveals)");
     }
-    o << "<td class=\"num\">" << Escape(rec) << "</td>";
-    cell(ColumnMean(t, s, "ms_frame"));
+    o << "<td class=\"num\">" << XmlEscape(rec) << "</td>";
+    cell(SummaryMean(t, s, "ms_frame"));
     cell(s.efficiency);
     o << "</tr>\n";
   }
@@ -805,9 +682,9 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
             o << "<td class=\"note\">—</td>";
             return;
           }
-          o << "<td><img src=\"" << Escape(UrlPath(rel)) << "\" alt=\"" << Escape(alt) << "\" width=\"360\"></td>";
+          o << "<td><img src=\"" << XmlEscape(UrlPath(rel)) << "\" alt=\"" << XmlEscape(alt) << "\" width=\"360\"></td>";
         };
-        o << "<tr><td>" << Escape(p.name) << "</td>";
+        o << "<tr><td>" << XmlEscape(p.name) << "</td>";
         img(hasPreview ? preview : "", p.name + " frame " + std::to_string(frame) + " estimate and reference");
         img(maps.error, p.name + " frame " + std::to_string(frame) + " error heat map");
         img(maps.flip, p.name + " frame " + std::to_string(frame) + " FLIP map");

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/metrics.h"
+
 namespace restir {
 
 struct RunOptions {
@@ -29,14 +31,6 @@ struct RunOptions {
   int ensemble = 1;                      // K runs per preset with seeds seed..seed+K-1: bias²/variance split
   std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
   std::string commandLine;               // recorded in run.json
-};
-
-// One row of metrics.csv.
-struct FrameMetricsRow {
-  int frame = 0;
-  std::string preset;
-  std::vector<std::pair<std::string, double>> values;  // column name -> value, in column order
-  std::string imageHash;
 };
 
 struct RunResult {

@@ -16,23 +16,15 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "sim/json_locator.h"
+#include "sim/animation.h"
+#include "sim/hash.h"
+#include "sim/json_reader.h"
+#include "sim/obj_reader.h"
+#include "sim/shapes.h"
+#include "sim/text.h"
 
 namespace restir {
 namespace {
-
-using Json = nlohmann::json;
-
-// --- small helpers
-// ------------------------------------------------------------------------------------------
-
-// Error messages must stay on one line whatever the offending text contains.
-std::string OneLine(std::string s) {
-  for (char& c : s) {
-    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
-  }
-  return s;
-}
 
 std::string FormatNumber(double v) {
   char buf[64];
@@ -46,71 +38,6 @@ std::string FormatVec(const Vec3& v) {
   return buf;
 }
 
-size_t EditDistance(std::string_view a, std::string_view b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t above = row[j];
-      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
-// " (did you mean 'x'?)" for a close candidate, else " (expected one of: a, b, c)" so the user always learns
-// what is accepted.
-std::string Suggestion(const std::string& given, const std::vector<std::string>& candidates) {
-  if (candidates.empty()) return "";
-  const std::string* best = nullptr;
-  size_t bestDistance = 0;
-  for (const std::string& c : candidates) {
-    const size_t d = EditDistance(given, c);
-    if (!best || d < bestDistance) {
-      best = &c;
-      bestDistance = d;
-    }
-  }
-  const size_t limit = std::max<size_t>(2, std::min(given.size(), best->size()) / 3);
-  if (bestDistance <= limit) return " (did you mean '" + *best + "'?)";
-  std::string list;
-  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
-  return " (expected one of: " + list + ")";
-}
-
-uint64_t Fnv1a(uint64_t h, std::string_view bytes) {
-  for (unsigned char c : bytes) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
-std::string TypeName(const Json& v) {
-  switch (v.type()) {
-    case Json::value_t::null:
-      return "null";
-    case Json::value_t::boolean:
-      return "boolean";
-    case Json::value_t::string:
-      return "string";
-    case Json::value_t::array:
-      return "array";
-    case Json::value_t::object:
-      return "object";
-    case Json::value_t::binary:
-      return "binary";
-    case Json::value_t::discarded:
-      return "nothing";
-    default:
-      return "number";
-  }
-}
-
 bool ReadFileBytes(const std::string& path, std::string& out) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
@@ -121,166 +48,6 @@ bool ReadFileBytes(const std::string& path, std::string& out) {
   return true;
 }
 
-// --- geometry
-// -----------------------------------------------------------------------------------------------
-
-// Appends a triangle whose winding makes its geometric normal point away from `inside`, so generated solids
-// are consistently outward-facing without hand-ordering every face.
-void AddTriangleOutward(Mesh& mesh, uint32_t a, uint32_t b, uint32_t c, const Vec3& inside) {
-  const Vec3& pa = mesh.positions[a];
-  const Vec3 n = glm::cross(mesh.positions[b] - pa, mesh.positions[c] - pa);
-  const Vec3 centroid = (pa + mesh.positions[b] + mesh.positions[c]) / 3.0f;
-  if (glm::dot(n, centroid - inside) < 0.0f) std::swap(b, c);
-  mesh.triangles.emplace_back(a, b, c);
-}
-
-// Corners center-u-v, center+u-v, center+u+v, center-u+v: counter-clockwise seen from the cross(u, v) side.
-void QuadCorners(const Vec3& c, const Vec3& u, const Vec3& v, Vec3 out[4]) {
-  out[0] = c - u - v;
-  out[1] = c + u - v;
-  out[2] = c + u + v;
-  out[3] = c - u + v;
-}
-
-void AppendBox(Mesh& mesh, const Vec3& lo, const Vec3& hi) {
-  const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
-  for (int i = 0; i < 8; ++i) {
-    mesh.positions.emplace_back((i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z);
-  }
-  const Vec3 center = 0.5f * (lo + hi);
-  // Each face as four corner indices (bit 0 = x, bit 1 = y, bit 2 = z) going round the face.
-  static constexpr int kFaces[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                                       {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
-  for (const auto& f : kFaces) {
-    AddTriangleOutward(mesh, base + f[0], base + f[1], base + f[2], center);
-    AddTriangleOutward(mesh, base + f[0], base + f[2], base + f[3], center);
-  }
-}
-
-Mesh MakeSphere(const Vec3& center, float radius, int segments) {
-  Mesh mesh;
-  const int rings = std::max(2, segments / 2);
-  auto addVertex = [&](const Vec3& n) {
-    mesh.positions.push_back(center + radius * n);
-    mesh.normals.push_back(n);
-  };
-  addVertex(Vec3(0.0f, 1.0f, 0.0f));
-  for (int r = 1; r < rings; ++r) {
-    const float theta = kPi * static_cast<float>(r) / static_cast<float>(rings);
-    for (int s = 0; s < segments; ++s) {
-      const float phi = 2.0f * kPi * static_cast<float>(s) / static_cast<float>(segments);
-      addVertex(Vec3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)));
-    }
-  }
-  addVertex(Vec3(0.0f, -1.0f, 0.0f));
-  const uint32_t bottom = static_cast<uint32_t>(mesh.positions.size() - 1);
-  auto ringVertex = [&](int r, int s) {
-    return static_cast<uint32_t>(1 + (r - 1) * segments + s % segments);
-  };
-  for (int s = 0; s < segments; ++s) {
-    AddTriangleOutward(mesh, 0, ringVertex(1, s), ringVertex(1, s + 1), center);
-    AddTriangleOutward(mesh, bottom, ringVertex(rings - 1, s), ringVertex(rings - 1, s + 1), center);
-    for (int r = 1; r + 1 < rings; ++r) {
-      AddTriangleOutward(mesh, ringVertex(r, s), ringVertex(r + 1, s), ringVertex(r + 1, s + 1), center);
-      AddTriangleOutward(mesh, ringVertex(r, s), ringVertex(r + 1, s + 1), ringVertex(r, s + 1), center);
-    }
-  }
-  return mesh;
-}
-
-// Exact values at multiples of 90 degrees, so a quarter turn maps axes onto axes without 1e-8 residue.
-void SinCosDegrees(float degrees, float& s, float& c) {
-  const float quarter = degrees / 90.0f;
-  if (quarter == std::floor(quarter) && std::fabs(quarter) < 1e6f) {
-    static constexpr float kSin[4] = {0.0f, 1.0f, 0.0f, -1.0f};
-    static constexpr float kCos[4] = {1.0f, 0.0f, -1.0f, 0.0f};
-    const int q = ((static_cast<int>(quarter) % 4) + 4) % 4;
-    s = kSin[q];
-    c = kCos[q];
-    return;
-  }
-  const float r = glm::radians(degrees);
-  s = std::sin(r);
-  c = std::cos(r);
-}
-
-Mat4 TransformMatrix(const Vec3& translate, const Vec3& rotateDegrees, const Vec3& scale) {
-  float sx, cx, sy, cy, sz, cz;
-  SinCosDegrees(rotateDegrees.x, sx, cx);
-  SinCosDegrees(rotateDegrees.y, sy, cy);
-  SinCosDegrees(rotateDegrees.z, sz, cz);
-  // GLM matrices are column-major: m[column][row].
-  Mat4 rx(1.0f), ry(1.0f), rz(1.0f), s(1.0f), t(1.0f);
-  rx[1][1] = cx;
-  rx[1][2] = sx;
-  rx[2][1] = -sx;
-  rx[2][2] = cx;
-  ry[0][0] = cy;
-  ry[0][2] = -sy;
-  ry[2][0] = sy;
-  ry[2][2] = cy;
-  rz[0][0] = cz;
-  rz[0][1] = sz;
-  rz[1][0] = -sz;
-  rz[1][1] = cz;
-  s[0][0] = scale.x;
-  s[1][1] = scale.y;
-  s[2][2] = scale.z;
-  t[3] = Vec4(translate, 1.0f);
-  return t * rz * ry * rx * s;
-}
-
-// --- interpolation
-// ------------------------------------------------------------------------------------------
-
-// Finds the segment containing frame and the (eased) parameter within it; clamps outside the keyed range.
-template <typename Key>
-void FindSegment(const std::vector<Key>& keys, int frame, size_t& i, float& t) {
-  i = 0;
-  t = 0.0f;
-  if (keys.size() < 2 || frame <= keys.front().frame) return;
-  if (frame >= keys.back().frame) {
-    i = keys.size() - 1;
-    return;
-  }
-  while (i + 1 < keys.size() && keys[i + 1].frame <= frame) ++i;
-  t = static_cast<float>(frame - keys[i].frame) / static_cast<float>(keys[i + 1].frame - keys[i].frame);
-  if (keys[i].interpolation == Interpolation::kSmooth) t = t * t * (3.0f - 2.0f * t);  // smoothstep
-}
-
-CameraKey InterpolateCamera(const std::vector<CameraKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const CameraKey& a = keys[i];
-  const CameraKey& b = keys[i + 1];
-  CameraKey k = a;
-  k.frame = frame;
-  k.position = glm::mix(a.position, b.position, t);
-  k.lookAt = glm::mix(a.lookAt, b.lookAt, t);
-  k.vfovDegrees = glm::mix(a.vfovDegrees, b.vfovDegrees, t);
-  return k;
-}
-
-TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const TransformKey& a = keys[i];
-  const TransformKey& b = keys[i + 1];
-  TransformKey k = a;
-  k.frame = frame;
-  k.translate = glm::mix(a.translate, b.translate, t);
-  k.rotateDegrees = glm::mix(a.rotateDegrees, b.rotateDegrees, t);
-  k.scale = glm::mix(a.scale, b.scale, t);
-  return k;
-}
-
-// The camera's view distance below which position and lookAt count as the same point.
-constexpr float kMinLookDistance = 1e-6f;
-
 // Whole-scene budgets. Every shape and grid has its own bound, but a few kilobytes of JSON repeating the
 // largest ones (1024-segment spheres, 10000 window bars, 65536-light grids) would otherwise take gigabytes and
 // many seconds to generate before anything could complain; the fuzzer's hang and memory limits hold the
@@ -288,121 +55,18 @@ constexpr float kMinLookDistance = 1e-6f;
 constexpr size_t kMaxSceneTriangles = size_t(1) << 22;  // 4,194,304 object triangles
 constexpr size_t kMaxLights = size_t(1) << 18;          // 262,144 lights (524,288 emitter triangles for quads)
 
-Camera MakeCamera(const CameraKey& key, int width, int height) {
-  Camera cam;
-  cam.position = key.position;
-  cam.vfovDegrees = key.vfovDegrees;
-  cam.width = width;
-  cam.height = height;
-  const Vec3 d = key.lookAt - key.position;
-  const float len = glm::length(d);
-  cam.forward = len > kMinLookDistance ? d / len : Vec3(0.0f, 0.0f, -1.0f);
-  Vec3 side = glm::cross(cam.forward, Vec3(0.0f, 1.0f, 0.0f));
-  if (glm::length(side) < 1e-6f) {
-    // Looking straight up or down: take image-up along -z / +z so that right stays +x.
-    side = glm::cross(cam.forward, Vec3(0.0f, 0.0f, cam.forward.y > 0.0f ? 1.0f : -1.0f));
-  }
-  cam.right = glm::normalize(side);
-  cam.up = glm::cross(cam.right, cam.forward);
-  return cam;
-}
-
 // --- the reader
 // ---------------------------------------------------------------------------------------------
 
-class Reader {
+class Reader : public JsonReader {
  public:
-  Reader(const std::string& file, const std::string& text, const std::string& baseDir)
-      : file_(file), locator_(text), baseDir_(baseDir), hash_(Fnv1a(14695981039346656037ull, text)) {}
+  Reader(const std::string& file, std::string text, const std::string& baseDir)
+      : JsonReader(file, std::move(text)), baseDir_(baseDir), hash_(Fnv1a(Text().data(), Text().size())) {}
 
   Sequence Read(const Json& root);
+  std::string Hash() const { return HexHash(hash_); }
 
  private:
-  [[noreturn]] void FailAt(const SourcePos& pos, const std::string& pointer,
-                           const std::string& message) const {
-    throw InputError(OneLine(file_ + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
-                             ": error at " + (pointer.empty() ? std::string("(top level)") : pointer) + ": " +
-                             message));
-  }
-  // Problem with the value at pointer.
-  [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const {
-    FailAt(locator_.ValuePos(pointer), pointer, message);
-  }
-  // Problem with the key of the member at pointer (unknown or duplicate key).
-  [[noreturn]] void FailKey(const std::string& pointer, const std::string& message) const {
-    FailAt(locator_.KeyPos(pointer), pointer, message);
-  }
-
-  // Typed access. Each checks the JSON type and reports "expected ..., got ..." at the value.
-  const Json& AsObject(const Json& v, const std::string& p) const {
-    if (!v.is_object()) Fail(p, "expected an object, got " + TypeName(v));
-    return v;
-  }
-  const Json& AsArray(const Json& v, const std::string& p, bool nonEmpty) const {
-    if (!v.is_array()) Fail(p, "expected an array, got " + TypeName(v));
-    if (nonEmpty && v.empty()) Fail(p, "expected a non-empty array");
-    return v;
-  }
-  void CheckKeys(const Json& obj, const std::string& p, const std::vector<std::string>& known) const {
-    for (auto it = obj.begin(); it != obj.end(); ++it) {
-      if (std::find(known.begin(), known.end(), it.key()) == known.end()) {
-        FailKey(PointerChild(p, it.key()), "unknown key '" + it.key() + "'" + Suggestion(it.key(), known));
-      }
-    }
-  }
-  const Json* Find(const Json& obj, const std::string& key) const {
-    auto it = obj.find(key);
-    return it == obj.end() ? nullptr : &*it;
-  }
-  const Json& Need(const Json& obj, const std::string& p, const std::string& key) const {
-    const Json* v = Find(obj, key);
-    if (!v) Fail(p, "missing required key '" + key + "'");
-    return *v;
-  }
-  double Number(const Json& v, const std::string& p) const {
-    if (!v.is_number()) Fail(p, "expected a number, got " + TypeName(v));
-    return v.get<double>();
-  }
-  float Float(const Json& v, const std::string& p) const {
-    const float f = static_cast<float>(Number(v, p));
-    if (!std::isfinite(f)) Fail(p, "number " + v.dump() + " is out of single-precision range");
-    return f;
-  }
-  int64_t Integer(const Json& v, const std::string& p, int64_t lo, int64_t hi,
-                  const std::string& what) const {
-    if (!v.is_number()) Fail(p, "expected an integer, got " + TypeName(v));
-    int64_t value = 0;
-    if (v.is_number_integer()) {
-      value = v.is_number_unsigned() ? static_cast<int64_t>(std::min<uint64_t>(v.get<uint64_t>(), INT64_MAX))
-                                     : v.get<int64_t>();
-    } else {
-      const double d = v.get<double>();
-      if (d != std::floor(d) || std::fabs(d) > 9e15) Fail(p, "expected an integer, got " + v.dump());
-      value = static_cast<int64_t>(d);
-    }
-    if (value < lo || value > hi) {
-      Fail(p, what + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
-                  std::to_string(value));
-    }
-    return value;
-  }
-  std::string String(const Json& v, const std::string& p) const {
-    if (!v.is_string()) Fail(p, "expected a string, got " + TypeName(v));
-    return v.get<std::string>();
-  }
-  std::string Name(const Json& v, const std::string& p) const {
-    std::string s = String(v, p);
-    if (s.empty()) Fail(p, "name must not be empty");
-    return s;
-  }
-  Vec3 Vector(const Json& v, const std::string& p) const {
-    if (!v.is_array() || v.size() != 3) {
-      Fail(p, "expected an array of 3 numbers, got " +
-                  (v.is_array() ? "an array of " + std::to_string(v.size()) : TypeName(v)));
-    }
-    return Vec3(Float(v[0], PointerChild(p, 0)), Float(v[1], PointerChild(p, 1)),
-                Float(v[2], PointerChild(p, 2)));
-  }
   Vec3 Color(const Json& v, const std::string& p, const std::string& what, bool allowBlack) const {
     const Vec3 c = Vector(v, p);
     if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f)
@@ -479,8 +143,6 @@ class Reader {
   void ReadCamera(const Json& camera, const std::string& p, Sequence& seq);
   void ReadRender(const Json& render, const std::string& p, Sequence& seq);
 
-  std::string file_;
-  JsonLocator locator_;
   std::string baseDir_;
   uint64_t hash_;
   int frameCount_ = 1;
@@ -488,24 +150,6 @@ class Reader {
   std::map<std::string, std::string> lightNames_;
   std::unordered_map<std::string, Mesh> meshCache_;  // resolved OBJ path → mesh, so a file is read once
 
- public:
-  void CheckNesting() const {
-    SourcePos pos;
-    if (locator_.TooDeep(pos)) {
-      throw InputError(file_ + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
-                       ": error: JSON nests deeper than " + std::to_string(JsonLocator::kMaxDepth) +
-                       " levels");
-    }
-  }
-  void CheckDuplicateKeys() const {
-    const std::string& dup = locator_.DuplicateKeyPointer();
-    if (!dup.empty()) FailKey(dup, "duplicate key '" + dup.substr(dup.rfind('/') + 1) + "'");
-  }
-  std::string Hash() const {
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(hash_));
-    return buf;
-  }
 };
 
 Sequence Reader::Read(const Json& root) {
@@ -520,7 +164,7 @@ Sequence Reader::Read(const Json& root) {
   const Json& res = Need(root, "", "resolution");
   if (!res.is_array() || res.size() != 2) {
     Fail("/resolution", "expected [width, height], got " +
-                            (res.is_array() ? "an array of " + std::to_string(res.size()) : TypeName(res)));
+                            (res.is_array() ? "an array of " + std::to_string(res.size()) : JsonTypeName(res)));
   }
   seq.width = static_cast<int>(Integer(res[0], "/resolution/0", 1, 16384, "width"));
   seq.height = static_cast<int>(Integer(res[1], "/resolution/1", 1, 16384, "height"));
@@ -622,10 +266,7 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
       CheckKeys(shape, p, {"type", "center", "u", "v"});
       const Vec3 c = vec("center"), u = vec("u"), v = vec("v");
       if (!(glm::length(glm::cross(u, v)) > 0.0f)) Fail(p, "degenerate quad: u and v are zero or parallel");
-      Vec3 corners[4];
-      QuadCorners(c, u, v, corners);
-      mesh.positions.assign(corners, corners + 4);
-      mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+      mesh = MakeQuad(c, u, v);
       break;
     }
     case 1: {  // box
@@ -661,10 +302,7 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
         Fail(p + "/spacing", "spacing must exceed thickness so bars do not overlap, got spacing " +
                                  FormatNumber(spacing) + " thickness " + FormatNumber(thickness));
       }
-      for (int i = 0; i < count; ++i) {
-        const Vec3 lo = origin + Vec3(static_cast<float>(i) * spacing, 0.0f, 0.0f);
-        AppendBox(mesh, lo, lo + Vec3(thickness, height, depth));
-      }
+      AppendWindowBars(mesh, origin, count, spacing, thickness, height, depth);
       break;
     }
     default: {  // mesh
@@ -678,9 +316,7 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
   return mesh;
 }
 
-// Minimal Wavefront OBJ: v, vn and f (v, v/vt, v//vn, v/vt/vn; negative indices; polygons fan-triangulated).
-// Other statements (vt, o, g, s, usemtl, mtllib, l ...) are ignored. Errors name the OBJ file, line and
-// column.
+// A mesh file, resolved against the sequence's directory and read once per run; its bytes enter the content hash.
 Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   namespace fs = std::filesystem;
   fs::path resolved = fs::path(file);
@@ -696,130 +332,12 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   }
   // Only the bytes: the name as written is already in the sequence text, and the resolved path depends on the
   // working directory, which must not change the hash (it keys the reference cache).
-  hash_ = Fnv1a(hash_, bytes);
+  hash_ = Fnv1a(bytes.data(), bytes.size(), hash_);
 
-  const SourcePos from = locator_.ValuePos(p);
-  const std::string origin = " (mesh of " + file_ + ":" + std::to_string(from.line) + ":" +
-                             std::to_string(from.column) + " " + p + ")";
-  auto fail = [&](int line, size_t column, const std::string& message) {
-    throw InputError(OneLine(objPath + ":" + std::to_string(line) + ":" + std::to_string(column) +
-                             ": error: " + message + origin));
-  };
-
-  std::vector<Vec3> positions, normals;
-  struct Corner {
-    int position;
-    int normal;  // -1: none
-  };
-  std::vector<std::vector<Corner>> faces;
-  std::istringstream in(bytes);
-  std::string line;
-  int lineNo = 0;
-  while (std::getline(in, line)) {
-    ++lineNo;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    // Tokens with their 1-based columns.
-    std::vector<std::pair<std::string_view, size_t>> tokens;
-    for (size_t i = 0; i < line.size();) {
-      if (line[i] == '#') break;
-      if (line[i] == ' ' || line[i] == '\t') {
-        ++i;
-        continue;
-      }
-      const size_t start = i;
-      while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '#') ++i;
-      tokens.emplace_back(std::string_view(line).substr(start, i - start), start + 1);
-    }
-    if (tokens.empty()) continue;
-    const std::string_view cmd = tokens[0].first;
-    auto number = [&](size_t t) {
-      if (t >= tokens.size()) fail(lineNo, line.size() + 1, "expected a number");
-      const std::string_view s = tokens[t].first;
-      float v = 0.0f;
-      const char* first = s.data() + (s.size() > 1 && s[0] == '+' ? 1 : 0);
-      auto [ptr, ec] = std::from_chars(first, s.data() + s.size(), v);
-      if (ec != std::errc() || ptr != s.data() + s.size() || !std::isfinite(v)) {
-        fail(lineNo, tokens[t].second, "expected a number, got '" + std::string(s) + "'");
-      }
-      return v;
-    };
-    if (cmd == "v" || cmd == "vn") {
-      if (tokens.size() < 4 || tokens.size() > (cmd == "v" ? 5u : 4u)) {
-        fail(lineNo, tokens[0].second, "'" + std::string(cmd) + "' needs 3 coordinates");
-      }
-      const Vec3 value(number(1), number(2), number(3));
-      if (cmd == "v") {
-        positions.push_back(value);
-      } else {
-        if (!(glm::length(value) > 0.0f)) fail(lineNo, tokens[1].second, "zero-length normal");
-        normals.push_back(glm::normalize(value));
-      }
-    } else if (cmd == "f") {
-      if (tokens.size() < 4) fail(lineNo, tokens[0].second, "a face needs at least 3 vertices");
-      std::vector<Corner> face;
-      for (size_t t = 1; t < tokens.size(); ++t) {
-        const std::string_view tok = tokens[t].first;
-        // Up to three '/'-separated indices: position, texture (ignored), normal.
-        int idx[3] = {0, 0, 0};
-        bool has[3] = {false, false, false};
-        size_t field = 0, start = 0;
-        for (size_t k = 0; k <= tok.size(); ++k) {
-          if (k < tok.size() && tok[k] != '/') continue;
-          if (field > 2) fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
-          const std::string_view part = tok.substr(start, k - start);
-          if (!part.empty()) {
-            auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), idx[field]);
-            if (ec != std::errc() || ptr != part.data() + part.size() || idx[field] == 0) {
-              fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
-            }
-            has[field] = true;
-          } else if (field == 0) {
-            fail(lineNo, tokens[t].second, "bad face vertex '" + std::string(tok) + "'");
-          }
-          ++field;
-          start = k + 1;
-        }
-        // OBJ indices are 1-based; negative ones count back from the latest element.
-        auto resolve = [&](int index, size_t count, const char* what) {
-          const long long r = index > 0 ? index - 1LL : static_cast<long long>(count) + index;
-          if (r < 0 || r >= static_cast<long long>(count)) {
-            fail(lineNo, tokens[t].second,
-                 std::string(what) + " index " + std::to_string(index) + " out of range (" +
-                     std::to_string(count) + " defined so far)");
-          }
-          return static_cast<int>(r);
-        };
-        Corner c{resolve(idx[0], positions.size(), "vertex"), -1};
-        if (has[2]) c.normal = resolve(idx[2], normals.size(), "normal");
-        face.push_back(c);
-      }
-      faces.push_back(std::move(face));
-    }
-  }
-  if (faces.empty()) fail(std::max(lineNo, 1), 1, "the mesh has no faces");
-
-  // Mesh normals are per vertex: split positions by (position, normal) pair when every corner has a normal,
-  // otherwise use flat shading, since a partly-normalled mesh has no consistent per-vertex answer.
-  bool allNormals = true;
-  for (const auto& face : faces) {
-    for (const Corner& c : face) allNormals = allNormals && c.normal >= 0;
-  }
-  Mesh mesh;
-  std::map<std::pair<int, int>, uint32_t> vertexOf;
-  auto vertex = [&](const Corner& c) {
-    const std::pair<int, int> key(c.position, allNormals ? c.normal : -1);
-    auto [it, inserted] = vertexOf.emplace(key, static_cast<uint32_t>(mesh.positions.size()));
-    if (inserted) {
-      mesh.positions.push_back(positions[c.position]);
-      if (allNormals) mesh.normals.push_back(normals[c.normal]);
-    }
-    return it->second;
-  };
-  for (const auto& face : faces) {
-    const uint32_t first = vertex(face[0]);
-    for (size_t k = 1; k + 1 < face.size(); ++k)
-      mesh.triangles.emplace_back(first, vertex(face[k]), vertex(face[k + 1]));
-  }
+  const SourcePos from = Position(p);
+  const Mesh mesh = ParseObjMesh(bytes, objPath,
+                                 " (mesh of " + File() + ":" + std::to_string(from.line) + ":" +
+                                     std::to_string(from.column) + " " + p + ")");
   meshCache_.emplace(objPath, mesh);
   return mesh;
 }
@@ -1064,42 +582,8 @@ void Reader::ReadRender(const Json& render, const std::string& p, Sequence& seq)
 }  // namespace
 
 Sequence ParseSequence(const std::string& text, const std::string& path, const std::string& baseDir) {
-  Json root;
-  try {
-    root = Json::parse(text);
-  } catch (const Json::parse_error& e) {
-    // e.byte counts the characters read, the offending one included.
-    size_t offset = e.byte > 0 ? e.byte - 1 : 0;
-    std::string what = e.what();
-    if (what.find("invalid literal") != std::string::npos) {
-      // The lexer stops after reading part of a bad literal ("tru}"): point at where the literal starts.
-      auto literalChar = [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.';
-      };
-      while (offset > 0 && offset <= text.size() && literalChar(text[offset - 1])) --offset;
-    }
-    const SourcePos pos = PosFromOffset(text, offset);
-    size_t cut = what.find("column ");
-    cut = cut == std::string::npos ? std::string::npos : what.find(": ", cut);
-    if (cut != std::string::npos) what = what.substr(cut + 2);
-    throw InputError(OneLine(path + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
-                             ": error: invalid JSON: " + what));
-  } catch (const Json::exception& e) {
-    // Number overflow (1e999) is nlohmann's out_of_range, without a position: find the literal in the text.
-    std::string what = e.what();
-    const size_t q1 = what.find('\'');
-    const size_t q2 = q1 == std::string::npos ? q1 : what.find('\'', q1 + 1);
-    SourcePos pos;
-    if (q2 != std::string::npos) pos = PosFromOffset(text, text.find(what.substr(q1 + 1, q2 - q1 - 1)));
-    const size_t bracket = what.find("] ");
-    if (bracket != std::string::npos) what = what.substr(bracket + 2);
-    throw InputError(OneLine(path + ":" + std::to_string(pos.line) + ":" + std::to_string(pos.column) +
-                             ": error: invalid JSON: " + what));
-  }
   Reader reader(path, text, baseDir);
-  reader.CheckNesting();
-  reader.CheckDuplicateKeys();
-  Sequence seq = reader.Read(root);
+  Sequence seq = reader.Read(reader.Root());
   seq.path = path;
   return seq;
 }
@@ -1114,33 +598,6 @@ Sequence LoadSequence(const std::string& path) {
   std::string baseDir = fs::path(path).parent_path().string();
   if (baseDir.empty()) baseDir = ".";
   return ParseSequence(text, path, baseDir);
-}
-
-FrameState Evaluate(const Sequence& sequence, int frame, int width, int height) {
-  FrameState state;
-  state.frame = frame;
-  if (!sequence.cameraKeys.empty()) {
-    state.camera = MakeCamera(InterpolateCamera(sequence.cameraKeys, frame), width, height);
-  } else {
-    state.camera.width = width;
-    state.camera.height = height;
-  }
-  state.objectToWorld.reserve(sequence.objects.size());
-  for (const Object& obj : sequence.objects) {
-    if (obj.keys.empty()) {
-      state.objectToWorld.push_back(Mat4(1.0f));
-      continue;
-    }
-    const TransformKey k = InterpolateTransform(obj.keys, frame);
-    state.objectToWorld.push_back(TransformMatrix(k.translate, k.rotateDegrees, k.scale));
-  }
-  state.lightOn.reserve(sequence.lights.size());
-  for (const Light& light : sequence.lights) {
-    bool on = light.onRanges.empty();
-    for (const auto& [first, last] : light.onRanges) on = on || (frame >= first && frame < last);
-    state.lightOn.push_back(on ? 1 : 0);
-  }
-  return state;
 }
 
 std::string SummarizeSequence(const Sequence& seq) {

@@ -7,6 +7,7 @@
 
 #include "core/gris.h"
 #include "sim/sequence.h"
+#include "sim/text.h"
 
 namespace restir {
 
@@ -119,33 +120,19 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("spatial.iterations", spatial.iterations),
       RESTIR_FIELD("spatial.normalThreshold", spatial.normalThreshold),
       RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
-      RESTIR_FIELD("spatial.draws", spatial.draws),
-      RESTIR_FIELD("spatial.canonicalDraws", spatial.canonicalDraws),
-      RESTIR_FIELD("spatial.cellTile", spatial.cellTile),
-      RESTIR_FIELD("spatial.normalBins", spatial.normalBins),
-      RESTIR_FIELD("spatial.cellSearchIterations", spatial.cellSearchIterations),
-      RESTIR_FIELD("spatial.cellSearchRadius", spatial.cellSearchRadius),
-      RESTIR_FIELD("spatial.cellSearchGrowth", spatial.cellSearchGrowth),
-      RESTIR_FIELD("spatial.confidenceScaling", spatial.confidenceScaling),
+      RESTIR_FIELD("spatial.draws", spatial.stochastic.draws),
+      RESTIR_FIELD("spatial.canonicalDraws", spatial.stochastic.canonicalDraws),
+      RESTIR_FIELD("spatial.cellTile", spatial.stochastic.cellTile),
+      RESTIR_FIELD("spatial.normalBins", spatial.stochastic.normalBins),
+      RESTIR_FIELD("spatial.cellSearchIterations", spatial.stochastic.cellSearchIterations),
+      RESTIR_FIELD("spatial.cellSearchRadius", spatial.stochastic.cellSearchRadius),
+      RESTIR_FIELD("spatial.cellSearchGrowth", spatial.stochastic.cellSearchGrowth),
+      RESTIR_FIELD("spatial.confidenceScaling", spatial.stochastic.confidenceScaling),
       RESTIR_ENUM_FIELD("shade.visibility", shade.visibility, kVisNames),
   };
   return fields;
 }
 
-size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diag = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
 
 }  // namespace
 
@@ -156,8 +143,6 @@ std::vector<std::pair<std::string, std::string>> SettingsToStrings(const Pipelin
 }
 
 void ApplySetting(PipelineSettings& settings, const std::string& key, const std::string& value) {
-  const Field* best = nullptr;
-  size_t bestDistance = ~size_t{0};
   for (const Field& f : Fields()) {
     if (f.name == key) {
       f.set(settings, key, value);
@@ -165,7 +150,7 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
         throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
                          " spatial neighbours");
       if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
-      const SpatialParams& sp = settings.spatial;
+      const StochasticPairwiseParams& sp = settings.spatial.stochastic;
       if (sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
           sp.canonicalDraws > kMaxGrisInputs - 1)
         throw InputError("--set: error at " + key + ": draws and canonicalDraws must be in [1, " +
@@ -177,11 +162,10 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
                          std::to_string(kMaxCellSearchIterations) + "]");
       return;
     }
-    const size_t d = EditDistance(f.name, key);
-    if (d < bestDistance) bestDistance = d, best = &f;
   }
-  throw InputError("--set: error: unknown setting '" + key + "'" +
-                   (best ? " (did you mean '" + best->name + "'?)" : std::string()));
+  std::vector<std::string> names;
+  for (const Field& f : Fields()) names.push_back(f.name);
+  throw InputError("--set: error: unknown setting '" + key + "'" + Suggestion(key, names));
 }
 
 void ApplySettingAssignment(PipelineSettings& settings, const std::string& assignment) {

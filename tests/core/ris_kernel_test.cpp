@@ -181,7 +181,7 @@ size_t CheckCase(const PixelRun& run, uint32_t pixelBase, const std::vector<Ligh
                LightSelection selection, const std::vector<Bsdf>& bsdfs, const RisParams& params,
                const std::string& what) {
   const LightSampler sampler(lights, selection);
-  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const RisPixels px = run.View(pixelBase);
   Outputs twin(run.active.size());
   RisInitialSamplingScalar(px, sampler.Soa(), materials, params, twin.View());
@@ -237,7 +237,7 @@ TEST_F(RisKernelTest, BitIdenticalAcrossTargetsOnRandomInputs) {
     // GGX receivers that selected something (the twin decides; the targets agree with it).
     const LightSampler sampler(lights, selection);
     Outputs o(count);
-    RisInitialSamplingScalar(run.View(base), sampler.Soa(), MakeRisMaterials(bsdfs), params, o.View());
+    RisInitialSamplingScalar(run.View(base), sampler.Soa(), MakeBsdfSoa(bsdfs), params, o.View());
     for (size_t k = 0; k < count; ++k)
       selectedGgx += run.active[k] && bsdfs[static_cast<size_t>(run.material[k])].type == BsdfType::kGgx &&
                      o.f[11][k] > 0.0f;
@@ -267,7 +267,7 @@ TEST_F(RisKernelTest, AllZeroTargetsGiveEmptyReservoirs) {
   CheckCase(run, 0, lights, LightSelection::kPower, bsdfs, params, "zero targets");
   const LightSampler sampler(lights, LightSelection::kPower);
   Outputs o(37);
-  RisInitialSampling(run.View(0), sampler.Soa(), MakeRisMaterials(bsdfs), params, o.View());
+  RisInitialSampling(run.View(0), sampler.Soa(), MakeBsdfSoa(bsdfs), params, o.View());
   for (size_t k = 0; k < 37; ++k) {
     EXPECT_EQ(o.f[10][k], 0.0f);
     EXPECT_EQ(o.f[11][k], 0.0f);
@@ -290,7 +290,7 @@ TEST_F(RisKernelTest, InactivePixelsAndEmptySamplersOutputEmptyReservoirs) {
   for (SimdTarget t : SupportedSimdTargets()) {
     ASSERT_TRUE(SetSimdTarget(t));
     Outputs o(21);
-    RisInitialSampling(active.View(0), sampler.Soa(), MakeRisMaterials(bsdfs), params, o.View());
+    RisInitialSampling(active.View(0), sampler.Soa(), MakeBsdfSoa(bsdfs), params, o.View());
     for (size_t k = 0; k < 21; ++k) {
       EXPECT_EQ(o.id[k], 0);
       for (int f = 0; f < 12; ++f) EXPECT_EQ(o.f[f][k], 0.0f) << SimdTargetName(t);

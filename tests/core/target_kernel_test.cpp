@@ -214,7 +214,7 @@ TEST_F(TargetKernel, GlmNormalizeIsProductWithReciprocalSqrt) {
 TEST_F(TargetKernel, ScalarTwinEqualsTargetFunctionOfUnshadowedContribution) {
   std::mt19937 rng(4242);
   const std::vector<Bsdf> bsdfs = TestMaterials();
-  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const PairSet pairs = RandomPairs(rng, 3000, static_cast<int>(bsdfs.size()));
   Results twin(pairs.Size());
   EvaluateTargetsScalar(pairs.View(), materials, twin.View(true));
@@ -244,7 +244,7 @@ TEST_F(TargetKernel, ScalarTwinEqualsTargetFunctionOfUnshadowedContribution) {
 TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
   std::mt19937 rng(20260611);
   const std::vector<Bsdf> bsdfs = TestMaterials();
-  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const size_t n = 4099;  // a multiple of no vector width: ends in a tail on every target
   const PairSet pairs = RandomPairs(rng, n, static_cast<int>(bsdfs.size()));
   Results twin(n);
@@ -287,7 +287,7 @@ TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
 TEST_F(TargetKernel, TailsTouchOnlyTheirPairsOnEveryTarget) {
   std::mt19937 rng(77);
   const std::vector<Bsdf> bsdfs = TestMaterials();
-  const RisMaterials materials = MakeRisMaterials(bsdfs);
+  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const float sentinel = std::bit_cast<float>(0x7FC0DEADu);
   for (size_t count : {0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 33, 37}) {
     const PairSet pairs = RandomPairs(rng, count, static_cast<int>(bsdfs.size()));

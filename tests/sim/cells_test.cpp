@@ -6,6 +6,7 @@
 #include "sim/embree_scene.h"
 #include "sim/gbuffer.h"
 #include "sim/pipeline.h"
+#include "sim/shading_point.h"
 #include "sim/presets.h"
 #include "sim/sequence.h"
 
@@ -38,7 +39,6 @@ CellRun RunCells(int threads) {
     Reproject(state, previousState, previous, scene.LightObjectId(), ReprojectionParams{}, current);
     const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
     FrameInputs in;
-    in.sequence = &seq;
     in.state = &state;
     in.scene = &scene;
     in.gbuffer = &current;
@@ -53,9 +53,9 @@ CellRun RunCells(int threads) {
     previousState = state;
     previousLights = scene.LightTriangles();
   }
-  out.pixelCell = pipeline.PixelCells();
-  out.cellPixels = pipeline.CellPixels();
-  out.cells = pipeline.CellCount();
+  out.pixelCell = pipeline.Cells().pixelCell;
+  out.cellPixels = pipeline.Cells().pixels;
+  out.cells = pipeline.Cells().cells.size();
   return out;
 }
 

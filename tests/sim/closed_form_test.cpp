@@ -31,7 +31,7 @@
 #include "core/polygon_irradiance.h"
 #include "core/shadow_ray.h"
 #include "scene_fixtures.h"
-#include "sim/frame_driver.h"
+#include "sim/frame_loop.h"
 #include "sim/presets.h"
 #include "sim/reference.h"
 #include "sim/settings.h"
@@ -336,12 +336,12 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
   ASSERT_NE(preset, nullptr);
   PipelineSettings settings = preset->settings;
   settings.spatial.radius = 4.0f;
-  settings.spatial.cellSearchRadius = 4.0f;
+  settings.spatial.stochastic.cellSearchRadius = 4.0f;
   constexpr int kSeeds = 48, kFrames = 4;
   for (const Config& c : Grid()) {
     if (glm::length(c.translation) > 0.0f && glm::length(c.translation) < 999.0f) continue;
     const Sequence seq = MakeScene(c, 64);
-    FrameDriver driver(seq, 64, 64);
+    FrameLoop driver(seq, 64, 64);
     std::vector<test::RunningStats> stats(64 * 64);
     std::vector<std::vector<double>> seedSums(kSeeds, std::vector<double>(64 * 64, 0.0));
     // One pipeline per seed: each keeps its own history across the frames.

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/frame_driver.h"
+#include "sim/frame_loop.h"
 #include "sim/metrics.h"
 #include "sim/presets.h"
 #include "stats.h"
@@ -110,7 +110,7 @@ CaseOutcome RunCase(const std::string& file) {
     out.presets[p.name].seedTotals.assign(seeds, 0.0);
   }
 
-  FrameDriver d(seq, w, h);
+  FrameLoop d(seq, w, h);
   // A static stretch shares one reference, as in the runner's cache (the state, not the frame, keys it), so
   // its error counts once per frame of the stretch: the stretch adds n·R to the total and n²·var(R).
   ReferenceImage ref;

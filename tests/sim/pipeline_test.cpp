@@ -2,7 +2,7 @@
 // TracePrimary -> Reproject -> Pipeline::RenderFrame with the previous frame's state, G-buffer and lights),
 // compared with the converged reference. Every statistical test names its statistic and false-failure rate; all
 // seeds are fixed, so each outcome is deterministic and a failure means the estimator's distribution changed.
-#include "sim/frame_driver.h"
+#include "sim/frame_loop.h"
 #include "sim/pipeline.h"
 
 #include <gtest/gtest.h>
@@ -156,7 +156,7 @@ const OccludedRuns& GetOccludedRuns() {
       cr.lastTotalLuma.assign(kOccSeeds, 0.0);
     }
     const double averaged = kOccFrames - kOccFirstAveraged;
-    FrameDriver d(seq, kOccW, kOccH);
+    FrameLoop d(seq, kOccW, kOccH);
     for (int f = 0; f < kOccFrames; ++f) {
       d.BeginFrame(f);
       for (size_t c = 0; c < configs.size(); ++c) {
@@ -300,7 +300,7 @@ TEST(Pipeline, UnbiasedRightAfterDisocclusion) {
     for (int s = 0; s < kSeeds; ++s) pipelines[c].push_back(std::make_unique<Pipeline>(PresetSettings(names[c])));
     r.runs[names[c]].luma.assign(kSeeds, std::vector<double>(n, 0.0));
   }
-  FrameDriver d(seq, kW, kH);
+  FrameLoop d(seq, kW, kH);
   double disoccluded = 0.0;
   for (int f = 0; f < kFrames; ++f) {
     d.BeginFrame(f);
@@ -366,7 +366,7 @@ TEST(Pipeline, BiasedPresetDarkens) {
 TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
   const Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
   constexpr int kW = 160, kH = 90, kFrames = 6;
-  FrameDriver d(seq, kW, kH);
+  FrameLoop d(seq, kW, kH);
   Pipeline pipeline(PresetSettings("restir-unbiased"));
   for (int f = 0; f < kFrames; ++f) {
     d.BeginFrame(f);
@@ -421,7 +421,7 @@ TEST(Pipeline, NoGhostingAfterOccluderMoves) {
   std::vector<std::vector<double>> relmse(presets.size(), std::vector<double>(kFrames, 0.0));
   std::vector<std::vector<ImageRgb>> beforeMove(presets.size());  // frame 9's images
   std::vector<double> ghostRelmse(presets.size(), 0.0);
-  FrameDriver d(seq, kW, kH);
+  FrameLoop d(seq, kW, kH);
   ReferenceImage ref;
   double lumaBefore = 0.0, lumaAfter = 0.0;
   for (int f = 0; f < kFrames; ++f) {
@@ -482,7 +482,7 @@ TEST(Pipeline, ThreadCountDoesNotChangeBits) {
     std::vector<std::unique_ptr<Pipeline>> pipelines;
     for (const Preset& p : AllPresets()) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
     hashes.resize(pipelines.size());
-    FrameDriver d(seq, kW, kH);
+    FrameLoop d(seq, kW, kH);
     for (int f = 8; f <= 10; ++f) {
       d.BeginFrame(f);
       for (size_t p = 0; p < pipelines.size(); ++p) hashes[p].push_back(HashImage(d.Render(*pipelines[p], 42).image));
@@ -509,7 +509,7 @@ TEST(Pipeline, LightSwitchedOffInvalidatesSamples) {
   seq.lights.front().onRanges = {{0, 3}};
   for (const Preset& preset : AllPresets()) {
     if (!preset.settings.temporal.enabled) continue;
-    FrameDriver d(seq, kW, kH);
+    FrameLoop d(seq, kW, kH);
     Pipeline pipeline(preset.settings);
     for (int f = 0; f <= 4; ++f) {
       d.BeginFrame(f);

@@ -7,6 +7,7 @@
 #include "core/polygon_irradiance.h"
 #include "scene_fixtures.h"
 #include "sim/pipeline.h"
+#include "sim/shading_point.h"
 #include "sim/presets.h"
 #include "stats.h"
 
@@ -80,7 +81,6 @@ TEST(Reference, RisMeanOverSeedsMatchesLambertChiSquare) {
   std::vector<test::RunningStats> stats(r.gbuffer.Size());
   for (uint32_t seed = 0; seed < 96; ++seed) {
     FrameInputs in;
-    in.sequence = &r.seq;
     in.state = &r.state;
     in.scene = r.scene.get();
     in.gbuffer = &r.gbuffer;

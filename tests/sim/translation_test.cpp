@@ -18,7 +18,7 @@
 #include <cstdio>
 #include <string>
 
-#include "sim/frame_driver.h"
+#include "sim/frame_loop.h"
 #include "sim/presets.h"
 
 namespace restir {
@@ -51,7 +51,7 @@ TEST_P(Translation, FlagshipRendersAsAtTheOrigin) {
   const Sequence near = LoadSequence("sequences/window_bars_pan.json");
   const Sequence far = Translated(near, t);
   const int w = 96, h = 54;
-  FrameDriver a(near, w, h), b(far, w, h);
+  FrameLoop a(near, w, h), b(far, w, h);
   std::vector<Pipeline> pa, pb;
   for (const Preset& p : AllPresets()) pa.emplace_back(p.settings), pb.emplace_back(p.settings);
   const float spacing = std::nextafter(static_cast<float>(tol.distance + 10.0), INFINITY) -

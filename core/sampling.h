@@ -1,0 +1,46 @@
+// Small sampling helpers the passes and the reference share (pbrt-v4's util/sampling.h in spirit): pure functions
+// of their random numbers, each with its test in tests/core/sampling_test.cpp.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/math.h"
+
+namespace restir {
+
+// Offset of a uniform point in a disk of the given radius, by the polar map: r = radius sqrt(u0), φ = 2π u1. The
+// spatial passes round it to a neighbouring pixel (DESIGN §4 "Spatial reuse", seed 004 §5.1's search positions).
+inline Vec2 SampleUniformDiskPolar(float radius, float u0, float u1) {
+  const float r = radius * std::sqrt(u0);
+  const float phi = 2.0f * kPi * u1;
+  return Vec2(r * std::cos(phi), r * std::sin(phi));
+}
+
+// Veach's power heuristic with β = 2 for one sample from each of two strategies (Veach 1997 §9.2.1):
+// w_a = p_a² / (p_a² + p_b²); 0 when both densities are 0.
+inline float PowerHeuristic(float a, float b) {
+  const float a2 = a * a, b2 = b * b;
+  return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+// Roberts' R_d low-discrepancy sequence in D dimensions (Roberts 2018, "The unreasonable effectiveness of
+// quasirandom sequences"): point k is frac(shift + k α) with α_j = φ_d^-(j+1), φ_d the positive root of
+// x^(D+1) = x + 1. Randomly shifted copies are independent replicates of a randomised QMC estimator (Owen 2013,
+// "Monte Carlo theory, methods and examples", ch. 17), each of whose points is uniformly distributed.
+template <int D>
+struct RobertsSequence {
+  double alpha[D];
+  RobertsSequence() {
+    double phi = 2.0;  // Newton from 2
+    for (int i = 0; i < 64; ++i) phi -= (std::pow(phi, D + 1) - phi - 1.0) / ((D + 1) * std::pow(phi, D) - 1.0);
+    for (int j = 0; j < D; ++j) alpha[j] = std::fmod(std::pow(1.0 / phi, j + 1), 1.0);
+  }
+  // Coordinate j of point k of the copy shifted by `shift`, as a float in [0, 1).
+  float Coordinate(double shift, int k, int j) const {
+    const double v = shift + double(k) * alpha[j];
+    return std::min(static_cast<float>(v - std::floor(v)), 0x1.fffffep-1f);
+  }
+};
+
+}  // namespace restir

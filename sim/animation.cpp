@@ -1,0 +1,148 @@
+#include "sim/animation.h"
+
+#include <cmath>
+
+namespace restir {
+
+namespace {
+
+// Exact values at multiples of 90 degrees, so a quarter turn maps axes onto axes without 1e-8 residue.
+void SinCosDegrees(float degrees, float& s, float& c) {
+  const float quarter = degrees / 90.0f;
+  if (quarter == std::floor(quarter) && std::fabs(quarter) < 1e6f) {
+    static constexpr float kSin[4] = {0.0f, 1.0f, 0.0f, -1.0f};
+    static constexpr float kCos[4] = {1.0f, 0.0f, -1.0f, 0.0f};
+    const int q = ((static_cast<int>(quarter) % 4) + 4) % 4;
+    s = kSin[q];
+    c = kCos[q];
+    return;
+  }
+  const float r = glm::radians(degrees);
+  s = std::sin(r);
+  c = std::cos(r);
+}
+
+}  // namespace
+
+Mat4 TransformMatrix(const Vec3& translate, const Vec3& rotateDegrees, const Vec3& scale) {
+  float sx, cx, sy, cy, sz, cz;
+  SinCosDegrees(rotateDegrees.x, sx, cx);
+  SinCosDegrees(rotateDegrees.y, sy, cy);
+  SinCosDegrees(rotateDegrees.z, sz, cz);
+  // GLM matrices are column-major: m[column][row].
+  Mat4 rx(1.0f), ry(1.0f), rz(1.0f), s(1.0f), t(1.0f);
+  rx[1][1] = cx;
+  rx[1][2] = sx;
+  rx[2][1] = -sx;
+  rx[2][2] = cx;
+  ry[0][0] = cy;
+  ry[0][2] = -sy;
+  ry[2][0] = sy;
+  ry[2][2] = cy;
+  rz[0][0] = cz;
+  rz[0][1] = sz;
+  rz[1][0] = -sz;
+  rz[1][1] = cz;
+  s[0][0] = scale.x;
+  s[1][1] = scale.y;
+  s[2][2] = scale.z;
+  t[3] = Vec4(translate, 1.0f);
+  return t * rz * ry * rx * s;
+}
+
+namespace {
+
+// Finds the segment containing frame and the (eased) parameter within it; clamps outside the keyed range.
+template <typename Key>
+void FindSegment(const std::vector<Key>& keys, int frame, size_t& i, float& t) {
+  i = 0;
+  t = 0.0f;
+  if (keys.size() < 2 || frame <= keys.front().frame) return;
+  if (frame >= keys.back().frame) {
+    i = keys.size() - 1;
+    return;
+  }
+  while (i + 1 < keys.size() && keys[i + 1].frame <= frame) ++i;
+  t = static_cast<float>(frame - keys[i].frame) / static_cast<float>(keys[i + 1].frame - keys[i].frame);
+  if (keys[i].interpolation == Interpolation::kSmooth) t = t * t * (3.0f - 2.0f * t);  // smoothstep
+}
+
+}  // namespace
+
+CameraKey InterpolateCamera(const std::vector<CameraKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const CameraKey& a = keys[i];
+  const CameraKey& b = keys[i + 1];
+  CameraKey k = a;
+  k.frame = frame;
+  k.position = glm::mix(a.position, b.position, t);
+  k.lookAt = glm::mix(a.lookAt, b.lookAt, t);
+  k.vfovDegrees = glm::mix(a.vfovDegrees, b.vfovDegrees, t);
+  return k;
+}
+
+TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const TransformKey& a = keys[i];
+  const TransformKey& b = keys[i + 1];
+  TransformKey k = a;
+  k.frame = frame;
+  k.translate = glm::mix(a.translate, b.translate, t);
+  k.rotateDegrees = glm::mix(a.rotateDegrees, b.rotateDegrees, t);
+  k.scale = glm::mix(a.scale, b.scale, t);
+  return k;
+}
+
+Camera MakeCamera(const CameraKey& key, int width, int height) {
+  Camera cam;
+  cam.position = key.position;
+  cam.vfovDegrees = key.vfovDegrees;
+  cam.width = width;
+  cam.height = height;
+  const Vec3 d = key.lookAt - key.position;
+  const float len = glm::length(d);
+  cam.forward = len > kMinLookDistance ? d / len : Vec3(0.0f, 0.0f, -1.0f);
+  Vec3 side = glm::cross(cam.forward, Vec3(0.0f, 1.0f, 0.0f));
+  if (glm::length(side) < 1e-6f) {
+    // Looking straight up or down: take image-up along -z / +z so that right stays +x.
+    side = glm::cross(cam.forward, Vec3(0.0f, 0.0f, cam.forward.y > 0.0f ? 1.0f : -1.0f));
+  }
+  cam.right = glm::normalize(side);
+  cam.up = glm::cross(cam.right, cam.forward);
+  return cam;
+}
+
+FrameState Evaluate(const Sequence& sequence, int frame, int width, int height) {
+  FrameState state;
+  state.frame = frame;
+  if (!sequence.cameraKeys.empty()) {
+    state.camera = MakeCamera(InterpolateCamera(sequence.cameraKeys, frame), width, height);
+  } else {
+    state.camera.width = width;
+    state.camera.height = height;
+  }
+  state.objectToWorld.reserve(sequence.objects.size());
+  for (const Object& obj : sequence.objects) {
+    if (obj.keys.empty()) {
+      state.objectToWorld.push_back(Mat4(1.0f));
+      continue;
+    }
+    const TransformKey k = InterpolateTransform(obj.keys, frame);
+    state.objectToWorld.push_back(TransformMatrix(k.translate, k.rotateDegrees, k.scale));
+  }
+  state.lightOn.reserve(sequence.lights.size());
+  for (const Light& light : sequence.lights) {
+    bool on = light.onRanges.empty();
+    for (const auto& [first, last] : light.onRanges) on = on || (frame >= first && frame < last);
+    state.lightOn.push_back(on ? 1 : 0);
+  }
+  return state;
+}
+
+}  // namespace restir

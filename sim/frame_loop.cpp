@@ -1,0 +1,69 @@
+#include "sim/frame_loop.h"
+
+#include "sim/clock.h"
+#include "sim/shading_point.h"
+
+namespace restir {
+
+FrameLoop::FrameLoop(const Sequence& sequence, int width, int height)
+    : sequence_(sequence), width_(width), height_(height), scene_(sequence), bsdfs_(MaterialBsdfs(sequence)) {}
+
+void FrameLoop::BeginFrame(int frame) {
+  state_ = Evaluate(sequence_, frame, width_, height_);
+  const auto t0 = Clock::now();
+  scene_.Update(state_);
+  timings_.sceneUpdate = MsSince(t0);
+  timings_.primary = Primary();
+  timings_.reproject = Reprojection();
+  disocclusionAge_ = AgeDisocclusion(current_, hasPrevious_ ? disocclusionAge_ : std::vector<uint16_t>());
+  lights_ = std::make_unique<LightSampler>(scene_.LightTriangles(), LightSelection::kPower);
+}
+
+double FrameLoop::Primary() {
+  const auto t0 = Clock::now();
+  TracePrimary(scene_, state_.camera, current_);
+  return MsSince(t0);
+}
+
+double FrameLoop::Reprojection() {
+  const auto t0 = Clock::now();
+  Reproject(state_, previousState_, hasPrevious_ ? previous_ : GBuffer(), scene_.LightObjectId(),
+            ReprojectionParams{}, current_);
+  return MsSince(t0);
+}
+
+FrameInputs FrameLoop::Inputs(uint32_t seed) const {
+  FrameInputs in;
+  in.state = &state_;
+  in.scene = &scene_;
+  in.gbuffer = &current_;
+  in.lights = lights_.get();
+  in.materials = &bsdfs_;
+  in.seed = seed;
+  in.frame = static_cast<uint32_t>(state_.frame);
+  if (hasPrevious_) {
+    in.previousState = &previousState_;
+    in.previousGbuffer = &previous_;
+    in.previousLights = &previousLights_;
+  }
+  return in;
+}
+
+ReferenceImage FrameLoop::Reference(int spp) const {
+  ReferenceParams params;
+  params.samplesPerPixel = spp;
+  return RenderReference(sequence_, state_, scene_, current_, params);
+}
+
+void FrameLoop::EndFrame() {
+  std::swap(current_, previous_);
+  previousState_ = state_;
+  previousLights_ = scene_.LightTriangles();
+  hasPrevious_ = true;
+}
+
+void FrameLoop::RestoreScene() {
+  if (hasPrevious_) scene_.Update(previousState_);
+}
+
+}  // namespace restir

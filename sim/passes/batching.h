@@ -1,0 +1,230 @@
+// The batching machinery the passes share (issue 6): pixels go through the passes in batches of up to
+// kBatchPixels of a row; a batch's target entries p̂_j(Y_i) go through the SIMD target kernel in one call, its
+// shadow rays through Embree's packet interface in one call per scene frame, and its GRIS combinations through
+// the SIMD combination kernel. Every value is the one evaluating each entry on its own would give, so the batch
+// size never changes a bit.
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "core/gris.h"
+#include "core/gris_kernel.h"
+#include "core/target_kernel.h"
+#include "sim/passes/frame_view.h"
+
+namespace restir {
+
+// Pixels per batch: small enough that a batch's combinations stay in cache.
+inline constexpr int kBatchPixels = 64;
+// A combination's domains: its inputs, plus (stochastic pairwise) the pixels its canonical draws picked.
+inline constexpr int kMaxDomains = 2 * kMaxGrisInputs;
+
+// Rows are the unit of parallel work of the row passes: every pixel is independent, so the result does not
+// depend on the split.
+template <typename F>
+void ForEachRow(int height, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& r) {
+    for (int y = r.begin(); y < r.end(); ++y) f(y);
+  });
+}
+
+// Batches of up to kBatchPixels pixels of a row, in order: f(y, x0, x1).
+template <typename F>
+void ForEachBatch(int width, int height, F&& f) {
+  const int batchesPerRow = (width + kBatchPixels - 1) / kBatchPixels;
+  tbb::parallel_for(tbb::blocked_range<int>(0, height * batchesPerRow), [&](const tbb::blocked_range<int>& r) {
+    for (int b = r.begin(); b < r.end(); ++b) {
+      const int y = b / batchesPerRow, x0 = (b % batchesPerRow) * kBatchPixels;
+      f(y, x0, std::min(width, x0 + kBatchPixels));
+    }
+  });
+}
+
+// The frame a combination's domain lives in: its G-buffer, camera, light list and scene (DESIGN §4 "p̂ from i").
+struct DomainFrame {
+  const GBuffer* gbuffer = nullptr;
+  Vec3 eye{0.0f};
+  const std::vector<LightTriangle>* lights = nullptr;
+  SceneFrame scene = SceneFrame::kCurrent;
+};
+
+// (receiver, light point) pairs gathered structure-of-arrays for the target kernel (core/target_kernel.h).
+class TargetPairBuffer {
+ public:
+  void Clear();
+  // The receiver at G-buffer pixel `pixel`, seen from `eye`, and a light point with the radiance it has there.
+  void Add(const Vec3& eye, const GBuffer& g, size_t pixel, const Vec3& lightPosition, const Vec3& lightNormal,
+           const Vec3& radiance);
+  size_t Size() const { return material_.size(); }
+  // p̂ of every pair into target[0, Size()), and L_e f_r G into contribution[c] when not null.
+  void Evaluate(const BsdfSoa& materials, float* target, float* const* contribution = nullptr) const;
+
+ private:
+  std::vector<float> field_[kTargetPairFields];  // MakeTargetPairs' order
+  std::vector<int32_t> material_;
+};
+
+// Shadow rays of a batch of pixels, all in one scene frame: the queries gathered structure-of-arrays, set up by
+// the SIMD kernel (core/shadow_ray_kernel.h; the same bits as ShadowRaySetup) and traced in one OccludedBatch
+// call.
+class ShadowRayBatch {
+ public:
+  void Clear() { size_ = 0; }
+  // The segment from G-buffer pixel `pixel` to light point y on an emitter of normal lightNormal.
+  void Add(const GBuffer& g, size_t pixel, const Vec3& y, const Vec3& lightNormal, float lightErrorScale);
+  void Add(const GBuffer& g, size_t pixel, const StoredReservoir& r, const std::vector<LightTriangle>& lights) {
+    Add(g, pixel, r.position, r.normal, lights[r.lightId].errorScale);
+  }
+  size_t Size() const { return size_; }
+  // Traces every ray added since Clear; occluded[k] answers the k-th.
+  const std::vector<uint8_t>& Trace(const EmbreeScene& scene, SceneFrame frame);
+
+ private:
+  size_t size_ = 0;
+  // Queries: position, geometric normal, light position, light normal, the two error scales; rays: org, dir, tmax.
+  std::vector<float> in_[14], out_[7];
+  std::vector<ShadowRay> rays_;
+  std::vector<uint8_t> occluded_;
+};
+
+enum class Entry : uint8_t { kUnknown, kQueued, kKnown };
+
+// One pixel's GRIS combination while its batch is assembled: the inputs (input 0 canonical), the domains and
+// the entries p̂_j(Y_i) evaluated so far.
+struct Combination {
+  uint32_t pixel = 0;
+  int count = 0;    // inputs
+  int domains = 0;  // count, plus any extra domains
+  uint8_t view[kMaxDomains];            // DomainFrame of domain j
+  uint32_t domainPixel[kMaxDomains];    // G-buffer pixel of domain j
+  LightSample samples[kMaxGrisInputs];  // Y_i (radiance unused: each domain looks it up in its own frame)
+  GrisInput inputs[kMaxGrisInputs];
+  float u[kMaxGrisInputs];              // streaming-selection uniforms
+  float target[kMaxDomains][kMaxGrisInputs];
+  Entry state[kMaxDomains][kMaxGrisInputs];
+  void Reset(uint32_t p, int inputCount, int domainCount) {
+    pixel = p;
+    count = inputCount;
+    domains = domainCount;
+    for (int j = 0; j < domainCount; ++j)
+      for (int i = 0; i < inputCount; ++i) state[j][i] = Entry::kUnknown;
+  }
+  void AddDomain(uint8_t v, uint32_t p) {
+    view[domains] = v;
+    domainPixel[domains] = p;
+    for (int i = 0; i < count; ++i) state[domains][i] = Entry::kUnknown;
+    ++domains;
+  }
+  // Appends input `slot` = count: its entries in the existing domains start unknown.
+  int AddInput() {
+    const int slot = count++;
+    for (int j = 0; j < slot; ++j) state[j][slot] = Entry::kUnknown;
+    return slot;
+  }
+  // The entry p̂_j(Y_i) if evaluated, else 0 (an entry a family never reads).
+  float Known(int j, int i) const { return state[j][i] == Entry::kKnown ? target[j][i] : 0.0f; }
+};
+
+// Evaluates queued entries p̂_j(Y_i) of a batch of combinations: the unshadowed targets in one call of the SIMD
+// kernel (core/target_kernel.h), then, with visibility, one shadow ray per positive entry, traced as a batch per
+// frame. Also traces the visibility re-test of spatial neighbours (seed 000 Algorithm 1). The values are those of
+// evaluating each entry on its own, so the batch size never changes the bits.
+class TargetEvaluator {
+ public:
+  // Sets what the next batches evaluate against (the buffers are kept from batch to batch).
+  void Bind(const DomainFrame* views, const BsdfSoa& materials, const EmbreeScene& scene, bool visibility);
+  // Queues p̂_j(Y_i) of `c` unless it is known or queued.
+  void Request(Combination& c, int j, int i);
+  // Queues a shadow ray from input 0's surface to Y_i; Resolve sets input i's visibility from it.
+  void RequestVisibility(Combination& c, int i) { visibilityPending_.push_back({&c, 0, static_cast<uint8_t>(i)}); }
+  // Evaluates everything queued. `rays` counts the shadow rays traced.
+  void Resolve(uint64_t& rays);
+  uint64_t Evaluated() const { return evaluated_; }  // pairs handed to the target kernel so far
+
+ private:
+  struct Pending {
+    Combination* c;
+    uint8_t j, i;
+  };
+  const DomainFrame* views_ = nullptr;
+  const BsdfSoa* materials_ = nullptr;
+  const EmbreeScene* scene_ = nullptr;
+  bool visibility_ = false;
+  uint64_t evaluated_ = 0;
+  std::vector<Pending> pending_, visibilityPending_;
+  TargetPairBuffer pairs_;
+  std::vector<float> values_;
+  ShadowRayBatch rays_[2];           // current frame, previous frame
+  std::vector<int64_t> rayRefs_[2];  // >= 0: pending entry; < 0: -1 - visibility request
+};
+
+// Queues the canonical targets p̂_c(Y_i) that GrisCombine reads first: inputs that can contribute.
+void RequestCanonicalTargets(Combination& c, TargetEvaluator& ev);
+
+// Queues every other entry GrisCombine will read. Once the canonical targets are known, which entries a family
+// reads depends on them alone (pairwise: p̂_j(Y_0) and p̂_i(Y_i) where p̂_c > 0; balance: column i where
+// p̂_c(Y_i) > 0; Z: the selected column, and the selection uses c_i and p̂_c only), so a dry run of the
+// combination with the unknown entries at 0 names them exactly: no ray is traced that the scalar order would not
+// trace.
+void RequestFamilyTargets(Combination& c, MisFamily family, VisibilityCarry carry, TargetEvaluator& ev);
+
+// A batch's combinations laid out for the GRIS kernel (core/gris_kernel.h): one lane per combination.
+class CombineBatch {
+ public:
+  // Lays out combos[order[0..count)] (order null: combos[0..count)). With `matrix`, the known target entries
+  // (every entry the family reads, see RequestFamilyTargets; the rest are never read and stay 0).
+  void Fill(const Combination* combos, const int* order, int count, bool matrix);
+  // The laid-out arrays, for kernels that fill the MIS weights and canonical targets GrisResampleBatch reads.
+  GrisBatchArrays& Arrays() { return arrays_; }
+  // GrisCombine of every lane (family weights from the matrix) or GrisResample (given weights).
+  void Combine(MisFamily family, VisibilityCarry carry);
+  void Resample(VisibilityCarry carry);
+  uint64_t Combined() const { return combined_; }  // combinations handed to the GRIS kernel so far
+  GrisResult Result(int k) const;
+
+ private:
+  GrisBatchOutput Output() { return GrisBatchOutput{selected_, weightSum_, W_, confidence_, visibility_, guarded_}; }
+  GrisBatchArrays arrays_;
+  uint64_t combined_ = 0;
+  int32_t selected_[kBatchPixels], guarded_[kBatchPixels];
+  float weightSum_[kBatchPixels], W_[kBatchPixels], confidence_[kBatchPixels], visibility_[kBatchPixels];
+};
+
+// The output reservoir of a combination (the selected sample with its canonical target).
+StoredReservoir OutputOf(const Combination& c, const GrisResult& gr, float confidence);
+
+// The MIS family a reuse pass runs: `none` bias correction means uniform weights whatever the family.
+inline MisFamily EffectiveFamily(MisFamily family, BiasCorrection bias) {
+  return bias == BiasCorrection::kNone ? MisFamily::kUniform : family;
+}
+
+// How a combination carries visibility for the shading pass to use.
+inline VisibilityCarry CarryFor(VisibilityReuse v) {
+  return v == VisibilityReuse::kWeighted ? VisibilityCarry::kWeighted : VisibilityCarry::kSelected;
+}
+
+// Neighbour similarity (DESIGN §4): surface pixel j of `b` is usable for pixel i of `a` when its geometric normal
+// is within normalThreshold (dot) and its view depth within depthThreshold (relative).
+bool SimilarSurface(const GBuffer& a, size_t i, const GBuffer& b, size_t j, float normalThreshold,
+                    float depthThreshold);
+
+// A stored reservoir's sample and its GRIS input.
+LightSample SampleOf(const StoredReservoir& r);
+inline GrisInput InputOf(const StoredReservoir& r, float confidence) {
+  return GrisInput{r.HasSample(), r.W, confidence, r.visibility};
+}
+
+// Per-thread scratch of a reuse pass's batches, reused from batch to batch.
+struct BatchScratch {
+  std::vector<Combination> combinations = std::vector<Combination>(kBatchPixels);
+  std::vector<int> order = std::vector<int>(kBatchPixels);  // the batch's combinations still in play
+  TargetEvaluator evaluator;
+  CombineBatch combine;
+};
+
+}  // namespace restir

@@ -1,0 +1,88 @@
+#include "sim/passes/shade.h"
+
+#include <tbb/combinable.h>
+#include <tbb/enumerable_thread_specific.h>
+
+#include "sim/clock.h"
+#include "sim/passes/batching.h"
+#include "sim/shading_point.h"
+
+namespace restir {
+
+void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuffer& reservoirs, ImageRgb& image,
+           PassStats& stats) {
+  const auto t0 = Clock::now();
+  const GBuffer& g = *view.gbuffer;
+  const int w = g.width, h = g.height;
+  image = ImageRgb(w, h);
+  const std::vector<LightTriangle>& lights = view.Lights();
+  const bool carryVisibility = params.visibility != VisibilityReuse::kNone;
+  tbb::combinable<uint64_t> targets([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
+  struct RowScratch {
+    TargetPairBuffer pairs;
+    std::vector<float> target, f[3];
+    std::vector<uint32_t> pixelOf, rayOf;
+    ShadowRayBatch shadowRays;
+  };
+  tbb::enumerable_thread_specific<RowScratch> scratch;
+  // f comes from the target kernel, a row's shadow rays go to Embree as one batch.
+  ForEachRow(h, [&](int y) {
+    const size_t rowStart = static_cast<size_t>(y) * w;
+    RowScratch& sc = scratch.local();
+    sc.pairs.Clear();
+    sc.pixelOf.clear();
+    sc.rayOf.clear();
+    sc.shadowRays.Clear();
+    for (int x = 0; x < w; ++x) {
+      const size_t i = rowStart + static_cast<size_t>(x);
+      const StoredReservoir& r = reservoirs[i];
+      if (!(g.IsSurface(i) && r.HasSample() && r.lightId < lights.size())) continue;
+      sc.pairs.Add(view.eye, g, i, r.position, r.normal, lights[r.lightId].radiance);
+      sc.pixelOf.push_back(static_cast<uint32_t>(x));
+    }
+    const size_t m = sc.pixelOf.size();
+    targets.local() += m;
+    sc.target.resize(m);
+    for (auto& v : sc.f) v.resize(m);
+    float* contribution[3] = {sc.f[0].data(), sc.f[1].data(), sc.f[2].data()};
+    sc.pairs.Evaluate(*view.materials, sc.target.data(), contribution);
+    if (!carryVisibility) {
+      for (size_t k = 0; k < m; ++k) {
+        if (!(sc.f[0][k] > 0.0f || sc.f[1][k] > 0.0f || sc.f[2][k] > 0.0f)) continue;
+        const size_t i = rowStart + sc.pixelOf[k];
+        sc.shadowRays.Add(g, i, reservoirs[i], lights);
+        sc.rayOf.push_back(static_cast<uint32_t>(k));
+      }
+      const std::vector<uint8_t>& occluded = sc.shadowRays.Trace(*view.scene, SceneFrame::kCurrent);
+      rays.local() += occluded.size();
+      for (size_t r = 0; r < occluded.size(); ++r)
+        if (occluded[r]) sc.f[0][sc.rayOf[r]] = sc.f[1][sc.rayOf[r]] = sc.f[2][sc.rayOf[r]] = 0.0f;
+    }
+    size_t k = 0;
+    for (int x = 0; x < w; ++x) {
+      const size_t i = rowStart + static_cast<size_t>(x);
+      Vec3 c = DirectEmission(g, i, lights);
+      if (k < m && sc.pixelOf[k] == static_cast<uint32_t>(x)) {
+        const StoredReservoir& r = reservoirs[i];
+        Vec3 fx(sc.f[0][k], sc.f[1][k], sc.f[2][k]);
+        if (carryVisibility) fx *= r.visibility;
+        c += fx * r.W;
+        ++k;
+      }
+      if (!IsFinite(c)) {
+        guarded.local() += 1;
+        c = Vec3(0.0f);
+      }
+      image.pixels[i] = c;
+    }
+  });
+  stats.name = "shade";
+  stats.ms = MsSince(t0);
+  stats.rays = rays.combine(std::plus<uint64_t>());
+  stats.targets = targets.combine(std::plus<uint64_t>());
+  stats.guarded = guarded.combine(std::plus<uint64_t>());
+}
+
+}  // namespace restir

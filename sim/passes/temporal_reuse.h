@@ -1,0 +1,32 @@
+// Temporal reuse (DESIGN §2 TemporalReuse; seed 003 §3-5): each pixel's reservoir combined by GRIS with the
+// previous frame's reservoir at its reprojected pixel, validated and confidence-capped.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mis.h"
+#include "sim/passes/frame_view.h"
+
+namespace restir {
+
+struct TemporalParams {
+  bool enabled = false;                          // reuse the previous frame's reservoir
+  MisFamily mis = MisFamily::kUniform;           // MIS family of the two-input combination
+  BiasCorrection bias = BiasCorrection::kBasic;  // how targets enter the MIS weights
+  float maxHistory = 20.0f;                      // cap on the previous reservoir's confidence (seed 003 §4.3)
+  bool sampleChecks = true;    // seed 003's sample tests: reject an empty previous reservoir or p̂_c(Y_prev) = 0
+                               // (they depend on the sample, so unbiased presets turn them off)
+  bool targetRatioClamp = false;  // also reject unless p̂_c(Y_prev) / p̂_prev(Y_prev) is in [0.1, 10]
+  bool permutation = false;       // RTXDI permutation sampling: read a per-frame XOR-permuted previous pixel
+};
+
+// Combines `current` (this frame's reservoirs, updated in place) with `previous` (last frame's output, one per
+// pixel of the previous G-buffer). `accepted` (resized to the frame) marks the pixels whose previous reservoir
+// entered the combination. Without history (the view has no previous frame, or `previous` does not match it)
+// nothing changes. `visibility` is what the shading pass will use, which decides how visibility is carried.
+void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, const FrameView& view,
+                   const ReservoirBuffer& previous, ReservoirBuffer& current, std::vector<uint8_t>& accepted,
+                   PassStats& stats);
+
+}  // namespace restir
