@@ -5,7 +5,7 @@
 //   frame        scene update + primary (G-buffer) + reproject + initial + temporal + spatial + shade: the runner's
 //                ms_frame. Frame 0 is rendered once for history; frame 1 (temporal input present) is re-rendered
 //                `reps` times from the same history and the fastest repetition counts.
-//   ray floor    the exact rays that frame traced (recorded through EmbreeScene's RayHook in a capture render of
+//   ray floor    the exact rays that frame traced (recorded through a RayHook, sim/embree_probe.h, in a capture render of
 //                the same frame, checked bit-identical by image hash) traced alone with Embree, in the same
 //                batching as the passes (primary rays rtcIntersect1 one at a time, shadow rays through
 //                EmbreeScene::OccludedBatch with the passes' entry point, in blocks of consecutive captured rays),
@@ -44,7 +44,7 @@
 #include <vector>
 
 #include "core/light_sampler.h"
-#include "sim/embree_scene.h"
+#include "sim/embree_probe.h"
 #include "sim/frame_loop.h"
 #include "sim/gbuffer.h"
 #include "sim/image.h"
@@ -421,9 +421,9 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   const size_t pixels = static_cast<size_t>(w) * h;
   Recorder rec;
   rec.Reset(shadowRays, pixels);
-  d.Scene().SetRayHook(&rec);
+  SetRayHook(d.Scene(), &rec);
   const StageTimes cap = RenderOnce(d, pipeline, history);
-  d.Scene().SetRayHook(nullptr);
+  SetRayHook(d.Scene(), nullptr);
   const size_t shadowCount = std::min(rec.ShadowCount(), rec.Shadow().size());
   const size_t primaryCount = std::min(rec.PrimaryCount(), rec.Primary().size());
   c["capture_hash_match"] = cap.hash == frameHash ? 1 : 0;
@@ -449,7 +449,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   ToStreamOrder(rec.Primary(), 0, primaryCount, &rec.Hits());
   for (const auto& [name, r] : range) ToStreamOrder(rec.Shadow(), r.first, r.second);
   rayFloor["primary"] = TimeParallel(0, primaryCount, FloorReps(), [&](size_t i) {
-    const RawHit hit = scene.IntersectRaw(prim[i].org, prim[i].dir, prim[i].tmax);
+    const RawHit hit = IntersectRaw(scene, prim[i].org, prim[i].dir, prim[i].tmax);
     if (uint8_t(hit.geomId != ~0u) != prim[i].answer) mismatches.fetch_add(1, std::memory_order_relaxed);
   });
   // Shadow rays go through OccludedBatch with the passes' entry point, in blocks of consecutive captured rays
@@ -484,7 +484,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
     const double cpu0 = ThreadCpuMs();
     for (size_t i = 0; i < primaryCount; ++i)
-      benchmark::DoNotOptimize(scene.IntersectRaw(prim[i].org, prim[i].dir, prim[i].tmax));
+      benchmark::DoNotOptimize(IntersectRaw(scene, prim[i].org, prim[i].dir, prim[i].tmax));
     for (const auto& [name, r] : range)
       for (size_t begin = r.first; begin < r.second; begin += kFloorBlock)
         traceBlock(begin, std::min(r.second, begin + kFloorBlock));
@@ -496,7 +496,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   {
     Replayer replay(shad, shadowCount, prim, rec.Hits(), primaryCount);
     c["replay_table_mb"] = double(replay.Bytes()) / 1048576.0;
-    d.Scene().SetRayHook(&replay);
+    SetRayHook(d.Scene(), &replay);
     StageTimes rep;
     double repBest = 1e300;
     for (int r = 0; r < Reps(); ++r) {
@@ -504,7 +504,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
       const StageTimes s = RenderOnce(d, pipeline, history);
       if (s.Total(sceneUpdate) < repBest) repBest = s.Total(sceneUpdate), rep = s;
     }
-    d.Scene().SetRayHook(nullptr);
+    SetRayHook(d.Scene(), nullptr);
     c["replay_hash_match"] = rep.hash == frameHash ? 1 : 0;
     c["replay_misses"] = double(replay.Misses());
     c["replay_hash_lookups"] = double(replay.HashLookups());
@@ -533,10 +533,10 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     kernelFloor["scene_update"] = sceneUpdate;
     // One thread, CPU time: replayed frame minus all lookups alone.
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-    d.Scene().SetRayHook(&replay);
+    SetRayHook(d.Scene(), &replay);
     replay.ResetCursors();
     const StageTimes rep1 = RenderOnce(d, pipeline, history);
-    d.Scene().SetRayHook(nullptr);
+    SetRayHook(d.Scene(), nullptr);
     if (rep1.hash != frameHash) c["replay_hash_match"] = 0;
     replay.ResetCursors();
     const double cpu0 = ThreadCpuMs();
@@ -676,7 +676,7 @@ void BM_ShadowRayApi(benchmark::State& state, OcclusionApi api) {
                         [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t b = r.begin(); b != r.end(); ++b) {
                             const size_t begin = b * kBatch, count = std::min(kBatch, n - begin);
-                            scene.OccludedBatch(api, rays[f].data() + begin, occ[f].data() + begin, count, frame);
+                            OccludedBatch(scene, api, rays[f].data() + begin, occ[f].data() + begin, count, frame);
                           }
                         });
     }

@@ -1,5 +1,8 @@
 #include "sim/embree_scene.h"
 
+// RawHit and OcclusionApi; the probe's functions are defined below only with RESTIR_RAY_HOOKS.
+#include "sim/embree_probe.h"
+
 #include <embree3/rtcore.h>
 #include <tbb/task_arena.h>
 
@@ -142,6 +145,42 @@ std::vector<LightTriangle> BuildLightTrianglesFrom(const std::vector<Light>& lig
     }
   }
   return out;
+}
+
+}  // namespace
+
+namespace {
+
+// Packets of N shadow rays (RTCRay4/8/16); lanes past the end or with tmax <= 0 are inactive.
+template <int N, typename Packet, typename Trace>
+void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* rays, uint8_t* occluded,
+                     size_t count, Trace trace) {
+  for (size_t base = 0; base < count; base += N) {
+    alignas(64) Packet packet;
+    alignas(64) int valid[N];
+    const size_t lanes = std::min<size_t>(N, count - base);
+    for (size_t i = 0; i < static_cast<size_t>(N); ++i) {
+      const bool active = i < lanes && rays[base + i].tmax > 0.0f;
+      const ShadowRay& r = rays[base + (i < lanes ? i : 0)];
+      valid[i] = active ? -1 : 0;
+      packet.org_x[i] = active ? r.org.x : 0.0f;
+      packet.org_y[i] = active ? r.org.y : 0.0f;
+      packet.org_z[i] = active ? r.org.z : 0.0f;
+      packet.tnear[i] = 0.0f;
+      packet.dir_x[i] = active ? r.dir.x : 0.0f;
+      packet.dir_y[i] = active ? r.dir.y : 0.0f;
+      packet.dir_z[i] = active ? r.dir.z : 1.0f;
+      packet.time[i] = 0.0f;
+      packet.tfar[i] = active ? r.tmax : 0.0f;
+      packet.mask[i] = 0xffffffffu;
+      packet.id[i] = static_cast<unsigned>(i);
+      packet.flags[i] = 0;
+    }
+    trace(valid, scene, &ctx, &packet);
+    for (size_t i = 0; i < lanes; ++i) {
+      occluded[base + i] = valid[i] != 0 && packet.tfar[i] == -std::numeric_limits<float>::infinity() ? 1 : 0;
+    }
+  }
 }
 
 }  // namespace
@@ -306,6 +345,15 @@ struct EmbreeScene::Impl {
     r.flags = 0;
     return r;
   }
+
+  RawHit IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const;
+  bool OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const;
+  void OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
+                     SceneFrame frame) const;
+
+#ifdef RESTIR_RAY_HOOKS
+  const RayHook* hook = nullptr;  // sim/embree_probe.h: the benchmark's observer
+#endif
 };
 
 EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl>()) {
@@ -374,12 +422,12 @@ void EmbreeScene::Update(const FrameState& state) {
   lights_ = BuildLightTrianglesFrom(im.lights, state.lightOn, &lightGroup_);
 }
 
-RawHit EmbreeScene::IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+RawHit EmbreeScene::Impl::IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
   RawHit out;
-  const Impl::Slot* slot = impl_->SlotFor(frame);
+  const Slot* slot = SlotFor(frame);
   if (!slot || !(tmax > 0.0f)) return out;
   RTCRayHit rh;
-  rh.ray = Impl::MakeRay(org, dir, tmax);
+  rh.ray = MakeRay(org, dir, tmax);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   for (unsigned l = 0; l < RTC_MAX_INSTANCE_LEVEL_COUNT; ++l) rh.hit.instID[l] = RTC_INVALID_GEOMETRY_ID;
@@ -405,12 +453,14 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   if (!slot || !(tmax > 0.0f)) return out;
 
   RawHit rh;
-  if (hook_ == nullptr) [[likely]] {
-    rh = IntersectRaw(org, dir, tmax, frame);
-  } else if (!hook_->AnswerIntersect(org, dir, tmax, frame, rh)) {
-    rh = IntersectRaw(org, dir, tmax, frame);
-    hook_->TracedIntersect(org, dir, tmax, frame, rh);
+#ifdef RESTIR_RAY_HOOKS
+  if (im.hook == nullptr || !im.hook->AnswerIntersect(org, dir, tmax, frame, rh)) {
+    rh = im.IntersectRaw(org, dir, tmax, frame);
+    if (im.hook) im.hook->TracedIntersect(org, dir, tmax, frame, rh);
   }
+#else
+  rh = im.IntersectRaw(org, dir, tmax, frame);
+#endif
   if (rh.geomId == RTC_INVALID_GEOMETRY_ID) return out;
 
   const uint32_t inst = rh.instId;
@@ -486,18 +536,22 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
 }
 
 bool EmbreeScene::Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
-  if (hook_ == nullptr) [[likely]] return OccludedRaw(org, dir, tmax, frame);
-  bool occluded = false;
-  if (hook_->AnswerOccluded(org, dir, tmax, frame, occluded)) return occluded;
-  occluded = OccludedRaw(org, dir, tmax, frame);
-  hook_->TracedOccluded(org, dir, tmax, frame, occluded);
-  return occluded;
+#ifdef RESTIR_RAY_HOOKS
+  if (const RayHook* hook = impl_->hook) {
+    bool occluded = false;
+    if (hook->AnswerOccluded(org, dir, tmax, frame, occluded)) return occluded;
+    occluded = impl_->OccludedRaw(org, dir, tmax, frame);
+    hook->TracedOccluded(org, dir, tmax, frame, occluded);
+    return occluded;
+  }
+#endif
+  return impl_->OccludedRaw(org, dir, tmax, frame);
 }
 
-bool EmbreeScene::OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
-  RTCScene scene = impl_->SceneFor(frame);
+bool EmbreeScene::Impl::OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  RTCScene scene = SceneFor(frame);
   if (!scene || !(tmax > 0.0f)) return false;
-  RTCRay ray = Impl::MakeRay(org, dir, tmax);
+  RTCRay ray = MakeRay(org, dir, tmax);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   rtcOccluded1(scene, &ctx, &ray);
@@ -505,53 +559,20 @@ bool EmbreeScene::OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, Scen
   return ray.tfar == -std::numeric_limits<float>::infinity();
 }
 
-namespace {
-
-// Packets of N shadow rays (RTCRay4/8/16); lanes past the end or with tmax <= 0 are inactive.
-template <int N, typename Packet, typename Trace>
-void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* rays, uint8_t* occluded,
-                     size_t count, Trace trace) {
-  for (size_t base = 0; base < count; base += N) {
-    alignas(64) Packet packet;
-    alignas(64) int valid[N];
-    const size_t lanes = std::min<size_t>(N, count - base);
-    for (size_t i = 0; i < static_cast<size_t>(N); ++i) {
-      const bool active = i < lanes && rays[base + i].tmax > 0.0f;
-      const ShadowRay& r = rays[base + (i < lanes ? i : 0)];
-      valid[i] = active ? -1 : 0;
-      packet.org_x[i] = active ? r.org.x : 0.0f;
-      packet.org_y[i] = active ? r.org.y : 0.0f;
-      packet.org_z[i] = active ? r.org.z : 0.0f;
-      packet.tnear[i] = 0.0f;
-      packet.dir_x[i] = active ? r.dir.x : 0.0f;
-      packet.dir_y[i] = active ? r.dir.y : 0.0f;
-      packet.dir_z[i] = active ? r.dir.z : 1.0f;
-      packet.time[i] = 0.0f;
-      packet.tfar[i] = active ? r.tmax : 0.0f;
-      packet.mask[i] = 0xffffffffu;
-      packet.id[i] = static_cast<unsigned>(i);
-      packet.flags[i] = 0;
-    }
-    trace(valid, scene, &ctx, &packet);
-    for (size_t i = 0; i < lanes; ++i) {
-      occluded[base + i] = valid[i] != 0 && packet.tfar[i] == -std::numeric_limits<float>::infinity() ? 1 : 0;
-    }
-  }
-}
-
-}  // namespace
 
 void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count, SceneFrame frame) const {
-  OccludedBatch(kPassOcclusionApi, rays, occluded, count, frame);
-}
-
-void EmbreeScene::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
-                                SceneFrame frame) const {
-  if (hook_ != nullptr) {  // recorded or answered ray by ray (benchmark only)
+#ifdef RESTIR_RAY_HOOKS
+  if (impl_->hook != nullptr) {  // recorded or answered ray by ray
     for (size_t i = 0; i < count; ++i) occluded[i] = Occluded(rays[i].org, rays[i].dir, rays[i].tmax, frame) ? 1 : 0;
     return;
   }
-  RTCScene scene = impl_->SceneFor(frame);
+#endif
+  impl_->OccludedBatch(OcclusionApi::k4, rays, occluded, count, frame);
+}
+
+void EmbreeScene::Impl::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
+                                      SceneFrame frame) const {
+  RTCScene scene = SceneFor(frame);
   if (!scene) {
     std::fill(occluded, occluded + count, uint8_t{0});
     return;
@@ -593,7 +614,7 @@ void EmbreeScene::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t
         for (size_t i = 0; i < m; ++i) {
           const ShadowRay& r = rays[base + i];
           const bool active = r.tmax > 0.0f;
-          chunk[i] = Impl::MakeRay(r.org, active ? r.dir : Vec3(0.0f, 0.0f, 1.0f), active ? r.tmax : 0.0f);
+          chunk[i] = MakeRay(r.org, active ? r.dir : Vec3(0.0f, 0.0f, 1.0f), active ? r.tmax : 0.0f);
           if (!active) chunk[i].tnear = 1.0f;
         }
         rtcOccluded1M(scene, &ctx, chunk, static_cast<unsigned>(m), sizeof(RTCRay));
@@ -637,5 +658,32 @@ bool SetEmbreeIsa(EmbreeIsa isa) {
 }
 
 EmbreeIsa ActiveEmbreeIsa() { return gEmbreeIsa.load(); }
+
+#ifdef RESTIR_RAY_HOOKS
+
+struct EmbreeProbe {
+  static EmbreeScene::Impl& Of(const EmbreeScene& scene) { return *scene.impl_; }
+};
+
+void SetRayHook(EmbreeScene& scene, const RayHook* hook) { EmbreeProbe::Of(scene).hook = hook; }
+
+RawHit IntersectRaw(const EmbreeScene& scene, const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) {
+  return EmbreeProbe::Of(scene).IntersectRaw(org, dir, tmax, frame);
+}
+
+bool OccludedRaw(const EmbreeScene& scene, const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) {
+  return EmbreeProbe::Of(scene).OccludedRaw(org, dir, tmax, frame);
+}
+
+void OccludedBatch(const EmbreeScene& scene, OcclusionApi api, const ShadowRay* rays, uint8_t* occluded,
+                   size_t count, SceneFrame frame) {
+  if (EmbreeProbe::Of(scene).hook != nullptr) {
+    scene.OccludedBatch(rays, occluded, count, frame);
+    return;
+  }
+  EmbreeProbe::Of(scene).OccludedBatch(api, rays, occluded, count, frame);
+}
+
+#endif  // RESTIR_RAY_HOOKS
 
 }  // namespace restir

@@ -49,45 +49,6 @@ struct ShadowRay {
   float tmax = 0.0f;
 };
 
-// Embree's raw answer to a closest-hit query, before EmbreeScene turns it into a SurfaceHit.
-struct RawHit {
-  float t = 0.0f;                // tfar at the hit
-  float ngX = 0.0f, ngY = 0.0f, ngZ = 0.0f;  // Embree's unnormalised Ng (object space of the instanced geometry)
-  float u = 0.0f, v = 0.0f;      // barycentrics
-  uint32_t geomId = 0xffffffffu; // RTC_INVALID_GEOMETRY_ID on a miss
-  uint32_t primId = 0xffffffffu;
-  uint32_t instId = 0xffffffffu; // instID[0]
-};
-
-// Which Embree entry point traces a batch of shadow rays (bench/frame_bench.cpp compares them).
-enum class OcclusionApi : uint8_t {
-  k1,         // rtcOccluded1, one ray at a time
-  k4,         // rtcOccluded4 packets
-  k8,         // rtcOccluded8 packets
-  k16,        // rtcOccluded16 packets
-  kStream1M,  // rtcOccluded1M stream of RTCRay
-};
-// The entry point the passes batch their shadow rays through: the fastest on captured frames
-// (docs/performance.md, "Shadow-ray entry points").
-inline constexpr OcclusionApi kPassOcclusionApi = OcclusionApi::k4;
-
-// Optional observer of every query an EmbreeScene answers, for the frame benchmark: it records the exact rays a
-// frame traces (ray floor) and can answer them from memory instead of Embree (kernel floor). Unset (the default)
-// it costs one null-pointer test per query. Callbacks run concurrently from the passes' threads.
-class RayHook {
- public:
-  virtual ~RayHook() = default;
-  // Before tracing: return true and fill the answer to skip Embree.
-  virtual bool AnswerOccluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame,
-                              bool& occluded) const { return false; }
-  virtual bool AnswerIntersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame,
-                               RawHit& hit) const { return false; }
-  // After Embree traced the query (not called for answered ones).
-  virtual void TracedOccluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame, bool occluded) const {}
-  virtual void TracedIntersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame,
-                               const RawHit& hit) const {}
-};
-
 class EmbreeScene {
  public:
   explicit EmbreeScene(const Sequence& sequence);
@@ -102,20 +63,10 @@ class EmbreeScene {
   SurfaceHit Intersect(const Vec3& org, const Vec3& dir, float tmax,
                        SceneFrame frame = SceneFrame::kCurrent) const;
   bool Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;
-  // Traces a batch of shadow rays; occluded[i] = 1 when ray i is blocked.
+  // Traces a batch of shadow rays (Embree packets of 4, the fastest entry point on captured frames:
+  // docs/performance.md "Shadow-ray entry points"); occluded[i] = 1 when ray i is blocked.
   void OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count,
                      SceneFrame frame = SceneFrame::kCurrent) const;
-  // The same through a chosen Embree entry point (same answers; for measuring which is fastest).
-  void OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
-                     SceneFrame frame = SceneFrame::kCurrent) const;
-
-  // Embree alone, never the hook: what Intersect and Occluded trace.
-  RawHit IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;
-  bool OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;
-
-  // Observer of Intersect, Occluded and OccludedBatch queries (a batch then goes ray by ray); nullptr to remove.
-  // Not thread-safe against queries: set it between passes.
-  void SetRayHook(const RayHook* hook) { hook_ = hook; }
 
   // Light triangles of the current frame in a fixed order (radiance zero while their light is off), and the
   // index of the Sequence::lights entry each came from.
@@ -125,8 +76,8 @@ class EmbreeScene {
 
  private:
   struct Impl;
+  friend struct EmbreeProbe;  // sim/embree_probe.h: the benchmarks' and tests' access, in restir_sim_probe only
   std::unique_ptr<Impl> impl_;
-  const RayHook* hook_ = nullptr;
   std::vector<LightTriangle> lights_;
   std::vector<uint32_t> lightGroup_;
   int32_t lightObjectId_ = 0;

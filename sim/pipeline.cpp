@@ -29,46 +29,47 @@ FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {
   return v;
 }
 
-FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
-  const BsdfSoa materials = MakeBsdfSoa(*in.materials);
-  const FrameView view = MakeFrameView(in, materials);
-  const VisibilityReuse visibility = settings_.shade.visibility;
-  FrameResult result;
-  auto run = [&](auto&& pass) { pass(result.passes.emplace_back()); };
+namespace {
 
-  run([&](PassStats& s) { InitialSampling(settings_.initial, view, reservoirs_, s); });
-  if (settings_.temporal.enabled)
-    run([&](PassStats& s) {
-      TemporalReuse(settings_.temporal, visibility, view, previousReservoirs_, reservoirs_, result.temporalAccepted, s);
-    });
-  else
-    result.temporalAccepted.assign(in.gbuffer->Size(), 0);
-  if (settings_.spatial.enabled && settings_.spatial.mis == MisFamily::kStochasticPairwise)
-    run([&](PassStats& s) {
-      StochasticPairwiseReuse(settings_.spatial, visibility, view, reservoirs_, previousReservoirs_, cells_, s);
-    });
-  else if (settings_.spatial.enabled)
-    run([&](PassStats& s) {
-      SpatialReuse(settings_.spatial, visibility, view, settings_.temporal.enabled ? &result.temporalAccepted : nullptr,
-                   reservoirs_, previousReservoirs_, s);
-    });
-  run([&](PassStats& s) { Shade(settings_.shade, view, reservoirs_, result.image, s); });
-
-  // Counters, in pixel order (deterministic).
-  const GBuffer& g = *in.gbuffer;
+// The frame's counters, in pixel order (deterministic).
+void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, FrameResult& r) {
   size_t surfaces = 0, accepted = 0;
   double confidence = 0.0;
   for (size_t i = 0; i < g.Size(); ++i) {
     if (!g.IsSurface(i)) continue;
     ++surfaces;
-    accepted += result.temporalAccepted[i];
-    confidence += reservoirs_[i].confidence;
+    accepted += r.temporalAccepted[i];
+    confidence += reservoirs[i].confidence;
   }
-  for (const PassStats& s : result.passes) result.guardedEvents += s.guarded, result.crossObjectReuse += s.crossObjectReuse;
-  result.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
-  result.meanConfidence = surfaces ? confidence / double(surfaces) : 0.0;
-  std::swap(previousReservoirs_, reservoirs_);
-  return result;
+  for (const PassStats& s : r.passes) r.guardedEvents += s.guarded, r.crossObjectReuse += s.crossObjectReuse;
+  r.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
+  r.meanConfidence = surfaces ? confidence / double(surfaces) : 0.0;
+}
+
+}  // namespace
+
+// DESIGN §2, from InitialSampling to Shade.
+FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
+  const BsdfSoa materials = MakeBsdfSoa(*in.materials);
+  const FrameView view = MakeFrameView(in, materials);
+  const PipelineSettings& s = settings_;
+  const VisibilityReuse visibility = s.shade.visibility;
+  FrameResult r;
+  r.temporalAccepted.assign(in.gbuffer->Size(), 0);
+  InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());
+  if (s.temporal.enabled)
+    TemporalReuse(s.temporal, visibility, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
+                  r.passes.emplace_back());
+  if (s.spatial.enabled && s.spatial.mis == MisFamily::kStochasticPairwise)
+    StochasticPairwiseReuse(s.spatial, visibility, view, reservoirs_, previousReservoirs_, cells_,
+                            r.passes.emplace_back());
+  else if (s.spatial.enabled)
+    SpatialReuse(s.spatial, visibility, view, s.temporal.enabled ? &r.temporalAccepted : nullptr, reservoirs_,
+                 previousReservoirs_, r.passes.emplace_back());
+  Shade(s.shade, view, reservoirs_, r.image, r.passes.emplace_back());
+  Tally(*in.gbuffer, reservoirs_, r);
+  std::swap(previousReservoirs_, reservoirs_);  // this frame's output is the next frame's temporal input
+  return r;
 }
 
 }  // namespace restir

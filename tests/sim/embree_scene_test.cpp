@@ -9,86 +9,21 @@
 #include <limits>
 #include <vector>
 
+#include "mesh_fixtures.h"
+
 namespace restir {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-// [-1,1]^2 in the xy plane, counter-clockwise seen from +z.
-Mesh QuadMesh() {
-  Mesh m;
-  m.positions = {Vec3(-1, -1, 0), Vec3(1, -1, 0), Vec3(1, 1, 0), Vec3(-1, 1, 0)};
-  m.triangles = {glm::uvec3(0, 1, 2), glm::uvec3(0, 2, 3)};
-  return m;
-}
-
-// [-0.5,0.5]^3, outward counter-clockwise faces, four vertices per face.
-Mesh BoxMesh() {
-  Mesh m;
-  for (int a = 0; a < 3; ++a) {
-    for (float s : {1.0f, -1.0f}) {
-      Vec3 n(0.0f), ea(0.0f), eb(0.0f);
-      n[a] = s;
-      ea[(a + 1) % 3] = 1.0f;
-      eb[(a + 2) % 3] = 1.0f;
-      const Vec3 u = s > 0 ? ea : eb;
-      const Vec3 v = s > 0 ? eb : ea;
-      const Vec3 c = 0.5f * n;
-      const uint32_t base = static_cast<uint32_t>(m.positions.size());
-      m.positions.push_back(c - 0.5f * u - 0.5f * v);
-      m.positions.push_back(c + 0.5f * u - 0.5f * v);
-      m.positions.push_back(c + 0.5f * u + 0.5f * v);
-      m.positions.push_back(c - 0.5f * u + 0.5f * v);
-      m.triangles.emplace_back(base, base + 1, base + 2);
-      m.triangles.emplace_back(base, base + 2, base + 3);
-    }
-  }
-  return m;
-}
-
-Mat4 Trs(const Vec3& t, const Vec3& rotDeg, const Vec3& s) {
-  Mat4 m = glm::translate(Mat4(1.0f), t);
-  m = glm::rotate(m, glm::radians(rotDeg.z), Vec3(0, 0, 1));
-  m = glm::rotate(m, glm::radians(rotDeg.y), Vec3(0, 1, 0));
-  m = glm::rotate(m, glm::radians(rotDeg.x), Vec3(1, 0, 0));
-  return glm::scale(m, s);
-}
-
-Object MakeObject(const std::string& name, Mesh mesh, bool animated, uint32_t material = 0) {
-  Object o;
-  o.name = name;
-  o.mesh = std::move(mesh);
-  o.animated = animated;
-  o.material = material;
-  o.keys.push_back(TransformKey{});
-  return o;
-}
-
-Light QuadLight(const std::string& name, float y, Vec3 radiance) {
-  // Emits downwards (-y): counter-clockwise seen from below.
-  Light l;
-  l.name = name;
-  l.radiance = radiance;
-  const Vec3 a(-1, y, -1), b(1, y, -1), c(1, y, 1), d(-1, y, 1);
-  l.vertices = {a, b, c, a, c, d};
-  return l;
-}
-
-Sequence BaseSequence() {
-  Sequence s;
-  s.materials.resize(2);
-  s.materials[0].name = "grey";
-  s.materials[1].name = "red";
-  return s;
-}
-
-FrameState StateFor(const Sequence& s, std::vector<Mat4> xforms, int frame = 0) {
-  FrameState st;
-  st.frame = frame;
-  st.objectToWorld = std::move(xforms);
-  st.lightOn.assign(s.lights.size(), 1);
-  return st;
-}
+using test::BoxMesh;
+using test::MakeObject;
+using test::QuadMesh;
+using test::Trs;
+using test::BaseSequence;
+using test::QuadLight;
+using test::StateFor;
+using test::TestRng;
 
 void ExpectVecNear(const Vec3& a, const Vec3& b, float tol) {
   EXPECT_NEAR(a.x, b.x, tol);
@@ -96,17 +31,6 @@ void ExpectVecNear(const Vec3& a, const Vec3& b, float tol) {
   EXPECT_NEAR(a.z, b.z, tol);
 }
 
-// Deterministic test randomness (xorshift), independent of the standard library's distributions.
-struct TestRng {
-  uint64_t s;
-  float Next() {
-    s ^= s << 13;
-    s ^= s >> 7;
-    s ^= s << 17;
-    return static_cast<float>((s >> 40) & 0xffffff) * (1.0f / 16777216.0f);
-  }
-  float Range(float a, float b) { return a + (b - a) * Next(); }
-};
 
 TEST(EmbreeScene, IntersectQuadGivesAnalyticDistanceAndNormal) {
   Sequence s = BaseSequence();
@@ -344,60 +268,6 @@ TEST(EmbreeScene, OccludedBatchMatchesOccludedForRandomRays) {
   scene.OccludedBatch(rays.data(), tail.data(), tail.size());
   for (size_t i = 0; i < tail.size(); ++i)
     EXPECT_EQ(tail[i] != 0, scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax));
-  // Every Embree entry point gives the same answers (bench/frame_bench.cpp compares their speed).
-  for (OcclusionApi api : {OcclusionApi::k1, OcclusionApi::k4, OcclusionApi::k8, OcclusionApi::k16,
-                           OcclusionApi::kStream1M}) {
-    for (SceneFrame f : {SceneFrame::kCurrent, SceneFrame::kPrevious}) {
-      std::vector<uint8_t> batch(kRays - 3, 7);  // not a multiple of any packet width
-      scene.OccludedBatch(api, rays.data(), batch.data(), batch.size(), f);
-      size_t mismatches = 0;
-      for (size_t i = 0; i < batch.size(); ++i)
-        mismatches += (batch[i] != 0) != scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax, f) || batch[i] > 1;
-      EXPECT_EQ(mismatches, 0u) << "api " << static_cast<int>(api);
-    }
-  }
-}
-
-// The benchmark's RayHook sees every query with Embree's answer, and can answer in Embree's place.
-TEST(EmbreeScene, RayHookRecordsAndAnswersQueries) {
-  Sequence s = BaseSequence();
-  s.objects.push_back(MakeObject("floor", QuadMesh(), false));
-  s.lights.push_back(QuadLight("l", 4.0f, Vec3(3)));
-  EmbreeScene scene(s);
-  scene.Update(StateFor(s, {Trs(Vec3(0, -2, 0), Vec3(-90, 0, 0), Vec3(6))}, 0));
-  struct Hook : RayHook {
-    bool answer = false;
-    mutable int occluded = 0, intersect = 0, answered = 0;
-    bool AnswerOccluded(const Vec3&, const Vec3&, float, SceneFrame, bool& o) const override {
-      if (!answer) return false;
-      ++answered;
-      o = true;
-      return true;
-    }
-    void TracedOccluded(const Vec3&, const Vec3&, float, SceneFrame, bool) const override { ++occluded; }
-    void TracedIntersect(const Vec3&, const Vec3&, float, SceneFrame, const RawHit& h) const override {
-      ++intersect;
-      EXPECT_NE(h.geomId, 0xffffffffu);
-    }
-  } hook;
-  const Vec3 org(0, 0, 0), down(0, -1, 0), up(0, 1, 0);  // floor 2 below, light 4 above: up to 3 is clear
-  const bool blockedBelow = scene.Occluded(org, down, 10.0f);
-  EXPECT_TRUE(blockedBelow);
-  const SurfaceHit below = scene.Intersect(org, down, 100.0f);
-  scene.SetRayHook(&hook);
-  EXPECT_EQ(scene.Occluded(org, down, 10.0f), blockedBelow);
-  EXPECT_FALSE(scene.Occluded(org, up, 3.0f));
-  const SurfaceHit hooked = scene.Intersect(org, down, 100.0f);
-  EXPECT_EQ(hooked.t, below.t);
-  EXPECT_EQ(hook.occluded, 2);
-  EXPECT_EQ(hook.intersect, 1);
-  hook.answer = true;
-  EXPECT_TRUE(scene.Occluded(org, up, 3.0f));
-  EXPECT_EQ(hook.answered, 1);
-  EXPECT_EQ(hook.occluded, 2);
-  scene.SetRayHook(nullptr);
-  EXPECT_FALSE(scene.Occluded(org, up, 3.0f));
-  EXPECT_EQ(hook.answered, 1);
 }
 
 }  // namespace

@@ -13,60 +13,17 @@
 #include <string>
 #include <vector>
 
+#include "mesh_fixtures.h"
+
 namespace restir {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-// [-1,1]^2 in the xy plane, counter-clockwise seen from +z.
-Mesh QuadMesh() {
-  Mesh m;
-  m.positions = {Vec3(-1, -1, 0), Vec3(1, -1, 0), Vec3(1, 1, 0), Vec3(-1, 1, 0)};
-  m.triangles = {glm::uvec3(0, 1, 2), glm::uvec3(0, 2, 3)};
-  return m;
-}
-
-// [-0.5,0.5]^3, outward counter-clockwise faces.
-Mesh BoxMesh() {
-  Mesh m;
-  for (int a = 0; a < 3; ++a) {
-    for (float s : {1.0f, -1.0f}) {
-      Vec3 n(0.0f), ea(0.0f), eb(0.0f);
-      n[a] = s;
-      ea[(a + 1) % 3] = 1.0f;
-      eb[(a + 2) % 3] = 1.0f;
-      const Vec3 u = s > 0 ? ea : eb;
-      const Vec3 v = s > 0 ? eb : ea;
-      const Vec3 c = 0.5f * n;
-      const uint32_t base = static_cast<uint32_t>(m.positions.size());
-      m.positions.push_back(c - 0.5f * u - 0.5f * v);
-      m.positions.push_back(c + 0.5f * u - 0.5f * v);
-      m.positions.push_back(c + 0.5f * u + 0.5f * v);
-      m.positions.push_back(c - 0.5f * u + 0.5f * v);
-      m.triangles.emplace_back(base, base + 1, base + 2);
-      m.triangles.emplace_back(base, base + 2, base + 3);
-    }
-  }
-  return m;
-}
-
-Mat4 Trs(const Vec3& t, const Vec3& rotDeg, const Vec3& s) {
-  Mat4 m = glm::translate(Mat4(1.0f), t);
-  m = glm::rotate(m, glm::radians(rotDeg.z), Vec3(0, 0, 1));
-  m = glm::rotate(m, glm::radians(rotDeg.y), Vec3(0, 1, 0));
-  m = glm::rotate(m, glm::radians(rotDeg.x), Vec3(1, 0, 0));
-  return glm::scale(m, s);
-}
-
-Object MakeObject(const std::string& name, Mesh mesh, bool animated, uint32_t material = 0) {
-  Object o;
-  o.name = name;
-  o.mesh = std::move(mesh);
-  o.animated = animated;
-  o.material = material;
-  o.keys.push_back(TransformKey{});
-  return o;
-}
+using test::BoxMesh;
+using test::MakeObject;
+using test::QuadMesh;
+using test::Trs;
 
 // Camera looking along `forward` (yaw/pitch applied by the caller), +Y up.
 Camera MakeCamera(const Vec3& position, const Vec3& forward, int w, int h, float vfov) {

@@ -1,0 +1,76 @@
+// The k-neighbour spatial pass alone on a hand-made frame (sim/passes/spatial_reuse.h): each pixel's output
+// confidence is its own plus that of the similar neighbours it combined, and its sample comes from itself or one
+// of them: never from a pixel whose surface differs (another normal), never from outside the radius; where
+// temporal reuse failed, more neighbours are drawn.
+#include "sim/passes/spatial_reuse.h"
+
+#include <gtest/gtest.h>
+
+#include "hand_made_frame.h"
+#include "sim/passes/initial_sampling.h"
+
+namespace restir {
+namespace {
+
+TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
+  test::HandMadeFrame f(24, 12);
+  // The right half faces another way: no pixel of one half may reuse the other's.
+  for (size_t i = 0; i < f.gbuffer.Size(); ++i)
+    if (static_cast<int>(i % 24) >= 12) f.gbuffer.ngX[i] = 1, f.gbuffer.ngY[i] = 0, f.gbuffer.nsX[i] = 1, f.gbuffer.nsY[i] = 0;
+  ReservoirBuffer reservoirs, spare;
+  PassStats stats;
+  InitialSampling(InitialSamplingParams{}, f.View(3), reservoirs, stats);
+  const ReservoirBuffer input = reservoirs;
+  SpatialParams params;
+  params.enabled = true;
+  params.mis = MisFamily::kUniform;
+  params.neighbours = 5;
+  params.radius = 3.0f;
+  SpatialReuse(params, VisibilityReuse::kNone, f.View(3), nullptr, reservoirs, spare, stats);
+  EXPECT_EQ(stats.name, "spatial");
+  EXPECT_EQ(reservoirs.size(), input.size());
+  int combined = 0;
+  for (size_t i = 0; i < reservoirs.size(); ++i) {
+    const int x = static_cast<int>(i % 24), y = static_cast<int>(i / 24);
+    const float c = reservoirs[i].confidence;
+    EXPECT_GE(c, 1.0f);
+    EXPECT_LE(c, 1.0f + params.neighbours);
+    combined += c > 1.0f;
+    if (!reservoirs[i].HasSample()) continue;
+    // Where did the sample come from? Input samples are distinct points on the light.
+    int source = -1;
+    for (size_t j = 0; j < input.size(); ++j)
+      if (input[j].position == reservoirs[i].position && input[j].lightId == reservoirs[i].lightId) source = int(j);
+    ASSERT_GE(source, 0) << i;
+    const int sx = source % 24, sy = source / 24;
+    EXPECT_EQ(sx >= 12, x >= 12) << "pixel " << i << " took its sample from the other half, pixel " << source;
+    EXPECT_LE(std::hypot(sx - x, sy - y), params.radius + 0.71) << "pixel " << i << " from pixel " << source;
+  }
+  EXPECT_GT(combined, static_cast<int>(reservoirs.size()) / 2);
+}
+
+TEST(SpatialReuse, WhereTemporalReuseFailedMoreNeighboursAreCombined) {
+  test::HandMadeFrame f(32, 16);
+  ReservoirBuffer initial, spare;
+  PassStats stats;
+  InitialSampling(InitialSamplingParams{}, f.View(5), initial, stats);
+  SpatialParams params;
+  params.enabled = true;
+  params.neighbours = 2;
+  params.disocclusionNeighbours = 10;
+  params.radius = 6.0f;
+  auto meanConfidence = [&](uint8_t accepted) {
+    ReservoirBuffer r = initial;
+    const std::vector<uint8_t> temporalAccepted(r.size(), accepted);
+    SpatialReuse(params, VisibilityReuse::kNone, f.View(5), &temporalAccepted, r, spare, stats);
+    double sum = 0.0;
+    for (const StoredReservoir& x : r) sum += x.confidence;
+    return sum / r.size();
+  };
+  const double accepted = meanConfidence(1), failed = meanConfidence(0);
+  EXPECT_LE(accepted, 3.0);
+  EXPECT_GT(failed, 6.0);
+}
+
+}  // namespace
+}  // namespace restir

@@ -1,0 +1,105 @@
+// The temporal-reuse pass alone on a hand-made frame (sim/passes/temporal_reuse.h): with a previous frame every
+// pixel combines its reservoir with the one it reprojects onto, the previous confidence capped at maxHistory;
+// pixels whose reprojection failed, and every pixel without a previous frame, keep their reservoir untouched.
+#include "sim/passes/temporal_reuse.h"
+
+#include <gtest/gtest.h>
+
+#include "hand_made_frame.h"
+#include "sim/passes/initial_sampling.h"
+
+namespace restir {
+namespace {
+
+struct Buffers {
+  ReservoirBuffer current, previous;
+};
+
+// This frame's initial reservoirs (seed 1) and a previous frame's (seed 2) with confidence `previousConfidence`.
+Buffers Initial(test::HandMadeFrame& f, float previousConfidence) {
+  Buffers b;
+  PassStats stats;
+  InitialSampling(InitialSamplingParams{}, f.View(1), b.current, stats);
+  InitialSampling(InitialSamplingParams{}, f.View(2), b.previous, stats);
+  for (StoredReservoir& r : b.previous) r.confidence = previousConfidence;
+  return b;
+}
+
+bool SameSample(const StoredReservoir& a, const StoredReservoir& b) {
+  return a.lightId == b.lightId && a.position == b.position;
+}
+
+TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
+  test::HandMadeFrame f(9, 5);
+  f.gbuffer.prevValid[4] = 0;  // reprojection failed here
+  Buffers b = Initial(f, 50.0f);
+  const ReservoirBuffer before = b.current;
+  TemporalParams params;
+  params.enabled = true;
+  params.maxHistory = 20.0f;
+  std::vector<uint8_t> accepted;
+  PassStats stats;
+  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, /*history=*/true), b.previous, b.current, accepted,
+                stats);
+  EXPECT_EQ(stats.name, "temporal");
+  EXPECT_EQ(stats.rays, 0u);  // basic bias correction traces nothing
+  EXPECT_EQ(stats.combinations, f.gbuffer.Size() - 1);
+  EXPECT_EQ(stats.crossObjectReuse, 0u);
+  size_t fromPrevious = 0;
+  for (size_t i = 0; i < b.current.size(); ++i) {
+    if (i == 4) {
+      EXPECT_EQ(accepted[i], 0);
+      EXPECT_TRUE(SameSample(b.current[i], before[i]));
+      EXPECT_EQ(b.current[i].confidence, 1.0f);
+      continue;
+    }
+    EXPECT_EQ(accepted[i], 1) << i;
+    EXPECT_EQ(b.current[i].confidence, 1.0f + 20.0f) << i;  // c_cur + min(c_prev, maxHistory)
+    // The selected sample is one of the two inputs.
+    EXPECT_TRUE(SameSample(b.current[i], before[i]) || SameSample(b.current[i], b.previous[i])) << i;
+    fromPrevious += SameSample(b.current[i], b.previous[i]);
+  }
+  // With 20 : 1 confidence, nearly every pixel keeps the previous sample.
+  EXPECT_GT(fromPrevious, (b.current.size() - 1) * 3 / 4);
+}
+
+TEST(TemporalReuse, WithoutAPreviousFrameChangesNothing) {
+  test::HandMadeFrame f(6, 4);
+  Buffers b = Initial(f, 5.0f);
+  const ReservoirBuffer before = b.current;
+  TemporalParams params;
+  params.enabled = true;
+  std::vector<uint8_t> accepted;
+  PassStats stats;
+  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 0, /*history=*/false), b.previous, b.current, accepted,
+                stats);
+  EXPECT_EQ(stats.combinations, 0u);
+  for (size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(accepted[i], 0);
+    EXPECT_TRUE(SameSample(b.current[i], before[i]));
+    EXPECT_EQ(b.current[i].W, before[i].W);
+  }
+}
+
+// Ray-traced bias correction traces the targets' visibility, in each input's own frame.
+TEST(TemporalReuse, RayTracedBiasCorrectionTracesVisibility) {
+  test::HandMadeFrame f(8, 4, /*occluder=*/true);
+  Buffers b = Initial(f, 3.0f);
+  TemporalParams params;
+  params.enabled = true;
+  params.mis = MisFamily::kPairwise;
+  params.bias = BiasCorrection::kRayTraced;
+  params.sampleChecks = false;
+  std::vector<uint8_t> accepted;
+  PassStats stats;
+  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+  EXPECT_GT(stats.rays, f.gbuffer.Size());
+  EXPECT_GT(stats.targets, 2 * f.gbuffer.Size() - 1);
+  for (size_t i = 0; i < b.current.size(); ++i)
+    if (f.gbuffer.posX[i] < -0.25f) {
+      EXPECT_FALSE(b.current[i].HasSample()) << "shadowed pixel " << i;
+    }
+}
+
+}  // namespace
+}  // namespace restir
