@@ -6,6 +6,8 @@
 #pragma once
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -15,6 +17,7 @@
 #include "core/gris.h"
 #include "core/gris_kernel.h"
 #include "core/target_kernel.h"
+#include "sim/clock.h"
 #include "sim/passes/frame_view.h"
 
 namespace restir {
@@ -226,5 +229,18 @@ struct BatchScratch {
   TargetEvaluator evaluator;
   CombineBatch combine;
 };
+
+// A reuse pass's statistics from its per-thread counters and scratch (Scratch: BatchScratch or a derived one).
+template <typename Scratch>
+void FinishReusePass(const char* name, Clock::time_point start, tbb::combinable<uint64_t>& rays,
+                     tbb::combinable<uint64_t>& guarded, const tbb::enumerable_thread_specific<Scratch>& scratch,
+                     PassStats& stats) {
+  stats.name = name;
+  stats.ms = MsSince(start);
+  stats.rays = rays.combine(std::plus<uint64_t>());
+  stats.guarded = guarded.combine(std::plus<uint64_t>());
+  for (const Scratch& sc : scratch)
+    stats.targets += sc.evaluator.Evaluated(), stats.combinations += sc.combine.Combined();
+}
 
 }  // namespace restir

@@ -114,12 +114,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
     });
     std::swap(reservoirs, spare);
   }
-  stats.name = "spatial";
-  stats.ms = MsSince(t0);
-  stats.rays = rays.combine(std::plus<uint64_t>());
-  stats.guarded = guarded.combine(std::plus<uint64_t>());
-  for (const BatchScratch& sc : scratch)
-    stats.targets += sc.evaluator.Evaluated(), stats.combinations += sc.combine.Combined();
+  FinishReusePass("spatial", t0, rays, guarded, scratch, stats);
 }
 
 }  // namespace restir

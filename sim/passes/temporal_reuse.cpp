@@ -117,12 +117,8 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       accepted[i] = 1;
     }
   });
-  stats.ms = MsSince(t0);
-  stats.rays = rays.combine(std::plus<uint64_t>());
-  stats.guarded = guarded.combine(std::plus<uint64_t>());
   stats.crossObjectReuse = crossObject.combine(std::plus<uint64_t>());
-  for (const BatchScratch& sc : scratch)
-    stats.targets += sc.evaluator.Evaluated(), stats.combinations += sc.combine.Combined();
+  FinishReusePass("temporal", t0, rays, guarded, scratch, stats);
 }
 
 }  // namespace restir
