@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Fuzzes the sequence parser (tests/fuzz/sequence_fuzz.cpp) for a bounded time with libFuzzer + ASan + UBSan.
-# Installs clang if missing, builds the `fuzz` preset (only the parser), seeds from the shipped sequences and
-# the malformed corpus, and fails on any finding (crash, uncaught exception, sanitizer report, timeout, leak,
-# out-of-memory), leaving the input that triggered it in build/fuzz/artifacts/.
+# Fuzzes the readers of untrusted files for a bounded time with libFuzzer + ASan + UBSan: the sequence parser
+# (tests/fuzz/sequence_fuzz.cpp) for SECONDS, then the reference cache reader (cache_fuzz.cpp) and the metrics.csv
+# reader of report and compare (metrics_csv_fuzz.cpp) for SECONDS/2 each. Installs clang if missing, builds the
+# `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any finding (crash, uncaught
+# exception, sanitizer report, timeout, leak, out-of-memory), leaving the input that triggered it in
+# build/fuzz/artifacts/<target>/.
 # Usage: scripts/fuzz.sh [SECONDS]   (default 60; also FUZZ_SECONDS)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,23 +14,32 @@ scripts/setup.sh --with-fuzz
 cmake --preset fuzz
 cmake --build --preset fuzz
 
-# libFuzzer adds what it finds to the first directory and only reads the others; the work corpus lives in the
+# libFuzzer adds what it finds to the first directory and only reads the others; the work corpora live in the
 # build tree, so the repository's files are never modified. libFuzzer reads seed directories recursively
 # (sequences/ includes sequences/hard/).
-work=build/fuzz/corpus
-artifacts=build/fuzz/artifacts
-mkdir -p "$work" "$artifacts"
-
 export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
-status=0
-build/fuzz/sequence_fuzz "$work" sequences tests/data/bad_sequences \
-  -dict=tests/fuzz/sequence.dict -max_total_time="$seconds" -max_len=8192 -timeout=10 -rss_limit_mb=2048 \
-  -malloc_limit_mb=1024 -artifact_prefix="$artifacts/" -print_final_stats=1 || status=$?
-if [ "$status" -ne 0 ]; then
-  echo "fuzz: FAILED (exit $status); reproduce with: build/fuzz/sequence_fuzz $artifacts/<file>" >&2
-  ls -l "$artifacts" >&2 || true
-  exit "$status"
-fi
-echo "fuzz: no findings in ${seconds} s"
+# fuzz TARGET SECONDS MAX_LEN SEEDS... [-- EXTRA LIBFUZZER FLAGS]
+fuzz() {
+  local target=$1 secs=$2 maxlen=$3
+  shift 3
+  local seeds=() extra=()
+  while [ $# -gt 0 ] && [ "$1" != "--" ]; do seeds+=("$1"); shift; done
+  [ $# -gt 0 ] && shift && extra=("$@")
+  local work=build/fuzz/corpus/$target artifacts=build/fuzz/artifacts/$target
+  mkdir -p "$work" "$artifacts"
+  local status=0
+  build/fuzz/"$target" "$work" "${seeds[@]}" "${extra[@]}" -max_total_time="$secs" -max_len="$maxlen" -timeout=10 \
+    -rss_limit_mb=2048 -malloc_limit_mb=1024 -artifact_prefix="$artifacts/" -print_final_stats=1 || status=$?
+  if [ "$status" -ne 0 ]; then
+    echo "fuzz: $target FAILED (exit $status); reproduce with: build/fuzz/$target $artifacts/<file>" >&2
+    ls -l "$artifacts" >&2 || true
+    exit "$status"
+  fi
+  echo "fuzz: $target: no findings in ${secs} s"
+}
+
+fuzz sequence_fuzz "$seconds" 8192 sequences tests/data/bad_sequences -- -dict=tests/fuzz/sequence.dict
+fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 tests/fuzz/cache_seeds
+fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 tests/fuzz/metrics_seeds

@@ -20,6 +20,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
   chromium               # headless browser: a test renders report.html and checks its plots and images
+  time                   # GNU time: the hostile-input cases measure each run's peak memory with it
 )
 
 for arg in "$@"; do

@@ -1,46 +1,219 @@
 #include "sim/atomic_file.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <stdexcept>
+#include <memory>
+#include <mutex>
+#include <vector>
 
 namespace restir {
 
+namespace fs = std::filesystem;
+
 namespace {
 
-std::string TemporaryName(const std::filesystem::path& target) {
-  // The pid keeps concurrent runs writing the same target from clobbering each other's temporaries.
-  return (target.parent_path() /
-          (target.stem().string() + ".tmp" + std::to_string(::getpid()) + target.extension().string()))
-      .string();
-}
+constexpr const char* kAreaDirectory = ".restir-sim-tmp";
+
+std::string Cause(int error) { return std::strerror(error); }
+
+// Why an area could not be made: the system's error and what was being created.
+struct AreaError {
+  int error;
+  std::string path;
+};
+
+// One process's private directory of temporaries under a root: <root>/.restir-sim-tmp/<owner>/, with the lock
+// <owner>.lock beside it held for as long as the directory is in use. The lock is taken before the directory
+// exists, so a cleaner that can take it knows the owner is gone.
+class Area {
+ public:
+  explicit Area(std::string root) : root_(std::move(root)) {}
+  ~Area() { Release(); }
+
+  // A fresh path in the area for a file that will become `finalName`; creates the area on first use, and again
+  // if someone removed it meanwhile (a test's remove_all, a user cleaning up). Throws AreaError.
+  std::string NewPath(const std::string& finalName) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::error_code ec;
+    if (!dir_.empty() && !fs::is_directory(dir_, ec)) Release();
+    if (dir_.empty()) Create();
+    return (fs::path(dir_) / (std::to_string(counter_++) + "-" + fs::path(finalName).filename().string())).string();
+  }
+
+  const std::string& Root() const { return root_; }
+
+  void Release() {
+    if (dir_.empty()) return;
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+    fs::remove(lockPath_, ec);
+    ::close(lockFd_);
+    fs::remove(fs::path(root_) / kAreaDirectory, ec);  // only when empty: other processes may have areas there
+    dir_.clear();
+  }
+
+ private:
+  void Create() {
+    const fs::path base = fs::path(root_) / kAreaDirectory;
+    std::error_code ec;
+    fs::create_directories(base, ec);
+    if (ec) throw AreaError{ec.value(), base.string()};
+    char host[128] = "host";
+    ::gethostname(host, sizeof(host) - 1);
+    const auto nonce = std::chrono::steady_clock::now().time_since_epoch().count();
+    const std::string owner = std::string(host) + "-" + std::to_string(::getpid()) + "-" + std::to_string(nonce);
+    lockPath_ = (base / (owner + ".lock")).string();
+    lockFd_ = ::open(lockPath_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (lockFd_ < 0 || ::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
+      const int error = errno;
+      if (lockFd_ >= 0) ::close(lockFd_);
+      throw AreaError{error, lockPath_};
+    }
+    dir_ = (base / owner).string();
+    if (::mkdir(dir_.c_str(), 0755) != 0) {
+      const AreaError e{errno, dir_};
+      ::close(lockFd_);
+      fs::remove(lockPath_, ec);
+      dir_.clear();
+      throw e;
+    }
+  }
+
+  std::string root_;
+  std::mutex mutex_;
+  std::string dir_;       // empty until first use
+  std::string lockPath_;
+  int lockFd_ = -1;
+  uint64_t counter_ = 0;
+};
+
+// The areas of this process: registered roots first (innermost last), then the fallback areas of directories
+// written to outside any registered root, which last until the process ends.
+struct Areas {
+  std::mutex mutex;
+  std::vector<std::unique_ptr<Area>> registered;
+  std::vector<std::unique_ptr<Area>> fallback;
+  static Areas& Get() {
+    static Areas areas;
+    return areas;
+  }
+  Area& For(const fs::path& file) {
+    std::lock_guard<std::mutex> lock(mutex);
+    const fs::path dir = fs::absolute(file).parent_path().lexically_normal();
+    Area* best = nullptr;
+    size_t bestLength = 0;
+    for (const auto& a : registered) {
+      const fs::path root = fs::absolute(a->Root()).lexically_normal();
+      const auto mismatch = std::mismatch(root.begin(), root.end(), dir.begin(), dir.end());
+      const size_t length = root.string().size();
+      if (mismatch.first == root.end() && length >= bestLength) best = a.get(), bestLength = length;
+    }
+    if (best) return *best;
+    for (const auto& a : fallback)
+      if (fs::path(a->Root()) == dir) return *a;
+    fallback.push_back(std::make_unique<Area>(dir.string()));
+    return *fallback.back();
+  }
+};
 
 }  // namespace
 
-void WriteViaTemporary(const std::string& path, const std::function<void(const std::string&)>& writer) {
-  const std::filesystem::path target(path);
-  if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path());
-  const std::string tmp = TemporaryName(target);
-  try {
-    writer(tmp);
-    std::filesystem::rename(tmp, target);
-  } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw;
+TemporaryRoot::TemporaryRoot(const std::string& root) : root_(root) {
+  RemoveStaleTemporaryAreas(root);
+  Areas& areas = Areas::Get();
+  std::lock_guard<std::mutex> lock(areas.mutex);
+  areas.registered.push_back(std::make_unique<Area>(root));
+}
+
+TemporaryRoot::~TemporaryRoot() {
+  Areas& areas = Areas::Get();
+  std::lock_guard<std::mutex> lock(areas.mutex);
+  for (auto it = areas.registered.rbegin(); it != areas.registered.rend(); ++it)
+    if ((*it)->Root() == root_) {
+      areas.registered.erase(std::next(it).base());
+      return;
+    }
+}
+
+void RemoveStaleTemporaryAreas(const std::string& root) {
+  const fs::path base = fs::path(root) / kAreaDirectory;
+  std::error_code ec;
+  if (!fs::is_directory(base, ec)) return;
+  std::vector<fs::path> locks;
+  for (auto it = fs::directory_iterator(base, ec); !ec && it != fs::directory_iterator(); it.increment(ec))
+    if (it->path().extension() == ".lock" && it->is_regular_file(ec)) locks.push_back(it->path());
+  for (const fs::path& lockPath : locks) {
+    const int fd = ::open(lockPath.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) continue;
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {  // its owner is gone
+      fs::path dir = lockPath;
+      dir.replace_extension();
+      fs::remove_all(dir, ec);
+      fs::remove(lockPath, ec);
+    }
+    ::close(fd);
   }
+  fs::remove(base, ec);  // only when empty
 }
 
 void WriteFileAtomic(const std::string& path, const std::string& bytes) {
-  WriteViaTemporary(path, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.close();
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-  });
+  const fs::path target(path);
+  std::error_code ec;
+  if (target.has_parent_path()) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw OutputError(path + ": error: cannot write (cannot create its directory: " + ec.message() + ")");
+  }
+  std::string tmp;
+  try {
+    tmp = Areas::Get().For(target).NewPath(path);
+  } catch (const AreaError& e) {
+    throw OutputError(path + ": error: cannot write (" + Cause(e.error) + ": cannot create " + e.path + ")");
+  }
+  auto fail = [&](int error) {
+    fs::remove(tmp, ec);
+    throw OutputError(path + ": error: cannot write (" + Cause(error) + ")");
+  };
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) fail(errno);
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int error = n < 0 ? errno : EIO;
+      ::close(fd);
+      fail(error);
+    }
+    done += static_cast<size_t>(n);
+  }
+  // A network file system may only report a failed write when the file is closed.
+  if (::close(fd) != 0) fail(errno);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) fail(errno);
+}
+
+void CheckWritableDirectory(const std::string& dir, const std::string& what) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir + ": error: " + what + " is not writable (" + ec.message() + ")");
+  // A file in the area the directory's outputs will be written through, removed again at once.
+  std::string probe;
+  try {
+    probe = Areas::Get().For(fs::path(dir) / "probe").NewPath(dir);
+  } catch (const AreaError& e) {
+    throw InputError(dir + ": error: " + what + " is not writable (" + Cause(e.error) + ")");
+  }
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(dir + ": error: " + what + " is not writable (" + Cause(errno) + ")");
+  ::close(fd);
+  fs::remove(probe, ec);
 }
 
 }  // namespace restir

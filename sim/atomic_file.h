@@ -1,17 +1,49 @@
-// Outputs are written to a temporary name beside the target and renamed, so a reader never sees a
-// half-written file and a crash leaves the previous version intact (DESIGN §10).
+// Every file the simulator writes goes through WriteFileAtomic (DESIGN §10): the whole content is written to a
+// temporary, checked to the last byte (every write and the close), and only then renamed onto its final name, so
+// a reader never sees a half-written file, and a failure (a full disk) leaves the previous version intact and
+// names the final file and the cause.
+//
+// Temporaries are ours by construction: they live in a private directory, <root>/.restir-sim-tmp/<owner>/, that
+// the process holds locked (flock on <owner>/lock) while it runs and removes when it ends. A process killed
+// mid-write leaves its directory behind; RemoveStaleTemporaryAreas(root) removes exactly those whose lock is
+// free, so nothing outside .restir-sim-tmp is ever removed and no running process loses a temporary.
 #pragma once
 
-#include <functional>
 #include <string>
+
+#include "sim/sequence.h"  // InputError
 
 namespace restir {
 
-// Writes `bytes` to `path` atomically (creating parent directories). Throws std::runtime_error on failure.
+// A write that failed (exit status 2 like bad input: the user can act on it). The message names the final file
+// and the cause, e.g. "out/metrics.csv: error: cannot write (No space left on device)".
+class OutputError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+// Temporaries of files under `root` go to <root>/.restir-sim-tmp/<owner>/ for the life of this object (the
+// deepest registered root containing a file wins); without one, a file's own directory is its root. Registering
+// a root also removes its stale areas. Not thread-safe against concurrent registration; writes may be concurrent.
+class TemporaryRoot {
+ public:
+  explicit TemporaryRoot(const std::string& root);
+  ~TemporaryRoot();
+  TemporaryRoot(const TemporaryRoot&) = delete;
+  TemporaryRoot& operator=(const TemporaryRoot&) = delete;
+
+ private:
+  std::string root_;
+};
+
+// Removes <root>/.restir-sim-tmp/<owner>/ directories whose owner is gone (its lock is free). Touches nothing else.
+void RemoveStaleTemporaryAreas(const std::string& root);
+
+// Writes `bytes` to `path` atomically, creating parent directories. Throws OutputError on any failure.
 void WriteFileAtomic(const std::string& path, const std::string& bytes);
 
-// Lets `writer` produce the file at a temporary path (for libraries that write files themselves), then renames
-// it onto `path`. The temporary keeps the target's extension so format-sniffing writers pick the right format.
-void WriteViaTemporary(const std::string& path, const std::function<void(const std::string& tmpPath)>& writer);
+// Throws InputError naming `dir` and `what` it is (e.g. "output directory") unless a file can be created in it
+// (creating it if needed).
+void CheckWritableDirectory(const std::string& dir, const std::string& what);
 
 }  // namespace restir

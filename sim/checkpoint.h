@@ -32,10 +32,32 @@ class BinaryWriter {
   }
   // The number of elements that follow (a reader checks it against the bytes left).
   void Count(const uint64_t& n) { Pod(n); }
+  // A ByteCounter's total: the writer then allocates once, not by doubling (a checkpoint holds whole G-buffers and
+  // reservoir buffers, so doubling would briefly take three times their size).
+  void Reserve(size_t n) { bytes_.reserve(n); }
   const std::string& Bytes() const { return bytes_; }
 
  private:
   std::string bytes_;
+};
+
+// The size a BinaryWriter would write, without writing it.
+class ByteCounter {
+ public:
+  template <typename T>
+  void Pod(const T&) {
+    bytes_ += sizeof(T);
+  }
+  template <typename T>
+  void Vector(const std::vector<T>& v) {
+    bytes_ += sizeof(uint64_t) + v.size() * sizeof(T);
+  }
+  void String(const std::string& s) { bytes_ += sizeof(uint64_t) + s.size(); }
+  void Count(const uint64_t&) { bytes_ += sizeof(uint64_t); }
+  size_t Bytes() const { return bytes_; }
+
+ private:
+  size_t bytes_ = 0;
 };
 
 class BinaryReader {

@@ -1,11 +1,17 @@
 #include "sim/cli.h"
 
 #include <CLI/CLI.hpp>
+#include <cctype>
+#include <charconv>
 #include <cstdio>
+#include <optional>
+#include <string_view>
 #include <iostream>
 
 #include "core/simd.h"
+#include "sim/atomic_file.h"
 #include "sim/compare.h"
+#include "sim/memory_estimate.h"
 #include "sim/presets.h"
 #include "sim/report.h"
 #include "sim/runner.h"
@@ -16,45 +22,61 @@ namespace restir {
 
 namespace {
 
-// "A:B" -> [A, B); "A:" -> [A, end); "A" -> [A, A+1).
+// A whole non-negative decimal integer no larger than `max`: no sign, no spaces, no suffix, no wrap-around
+// (std::from_chars reports overflow where sscanf("%d") would wrap 4294967328 to 32).
+std::optional<int64_t> ParseCount(std::string_view text, int64_t max) {
+  int64_t v = 0;
+  if (text.empty() || !std::isdigit(static_cast<unsigned char>(text.front()))) return std::nullopt;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || end != text.data() + text.size() || v > max) return std::nullopt;
+  return v;
+}
+
+// "A:B" -> [A, B); "A:" -> [A, end); "A" -> [A, A+1); A and B are frame numbers, B > A.
 void ParseFrameRange(const std::string& text, RunOptions& opt) {
-  const auto colon = text.find(':');
-  try {
-    size_t used = 0;
-    if (colon == std::string::npos) {
-      opt.frameBegin = std::stoi(text, &used);
-      if (used != text.size()) throw std::invalid_argument("trailing");
-      opt.frameEnd = opt.frameBegin + 1;
-      return;
-    }
-    const std::string a = text.substr(0, colon), b = text.substr(colon + 1);
-    opt.frameBegin = a.empty() ? 0 : std::stoi(a, &used);
-    if (!a.empty() && used != a.size()) throw std::invalid_argument("trailing");
-    opt.frameEnd = b.empty() ? -1 : std::stoi(b, &used);
-    if (!b.empty() && used != b.size()) throw std::invalid_argument("trailing");
-  } catch (const std::exception&) {
-    throw InputError("--frames: error: '" + text + "' is not a frame range A:B");
+  constexpr int64_t kMaxFrame = 100000;  // the sequence format's frame limit
+  const auto bad = [&](const std::string& why) {
+    return InputError("--frames: error: '" + text + "' " + why);
+  };
+  const size_t colon = text.find(':');
+  const std::string_view a = std::string_view(text).substr(0, colon);
+  const std::optional<int64_t> begin = a.empty() && colon != std::string::npos ? 0 : ParseCount(a, kMaxFrame);
+  if (!begin) throw bad("is not a frame range A:B of frame numbers 0 to 100000 (A to B-1; either side may be empty)");
+  opt.frameBegin = static_cast<int>(*begin);
+  if (colon == std::string::npos) {
+    opt.frameEnd = opt.frameBegin + 1;
+    return;
   }
+  const std::string_view b = std::string_view(text).substr(colon + 1);
+  if (b.empty()) {
+    opt.frameEnd = -1;
+    return;
+  }
+  const std::optional<int64_t> end = ParseCount(b, kMaxFrame);
+  if (!end) throw bad("is not a frame range A:B of frame numbers 0 to 100000 (A to B-1; either side may be empty)");
+  if (*end <= *begin) throw bad("is empty: B must be greater than A");
+  opt.frameEnd = static_cast<int>(*end);
 }
 
 void ParseResolution(const std::string& text, RunOptions& opt) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 ||
-      h < 1 || w > 16384 || h > 16384)
+  const size_t x = text.find_first_of("xX");
+  const std::optional<int64_t> w = x == std::string::npos ? std::nullopt : ParseCount(text.substr(0, x), 16384);
+  const std::optional<int64_t> h = x == std::string::npos ? std::nullopt : ParseCount(text.substr(x + 1), 16384);
+  if (!w || !h || *w < 1 || *h < 1)
     throw InputError("--resolution: error: '" + text + "' is not WxH with 1 <= W, H <= 16384");
-  opt.width = w;
-  opt.height = h;
+  opt.width = static_cast<int>(*w);
+  opt.height = static_cast<int>(*h);
 }
 
-// The file's render.presets are only names to the loader; check them here so the message can name the file and
-// the JSON path (validate and a plain run report the same line).
-void CheckFilePresets(const Sequence& seq) {
-  for (size_t i = 0; i < seq.defaults.presets.size(); ++i) {
-    if (FindPreset(seq.defaults.presets[i])) continue;
-    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": " +
-                     UnknownPresetMessage(seq.defaults.presets[i]));
+void ParseMaxMemory(const std::string& text, RunOptions& opt) {
+  if (text == "none") {
+    opt.maxMemoryBytes = -1.0;
+    return;
   }
+  const std::optional<double> bytes = ParseByteSize(text);
+  if (!bytes || *bytes < 1.0)
+    throw InputError("--max-memory: error: '" + text + "' is not a size such as 8G, 512M or 'none'");
+  opt.maxMemoryBytes = *bytes;
 }
 
 }  // namespace
@@ -107,6 +129,10 @@ int RunCommandLine(int argc, char** argv) {
                 "Continue an interrupted run from OUT/checkpoint.bin (same configuration); the outputs are "
                 "bit-identical to an uninterrupted run");
   std::string simdName = "auto";
+  std::string maxMemory;
+  run->add_option("--max-memory", maxMemory,
+                  "Refuse a run whose estimated memory exceeds SIZE (e.g. 8G, 512M) or, with 'none', never refuse "
+                  "(default: the machine's memory, its control group's limit or ulimit -v, whichever is least)");
   run->add_option("--simd", simdName,
                   "SIMD target of the kernels: scalar, sse4, avx2, avx512 or auto (the best this CPU supports); "
                   "every target gives the same bits")
@@ -137,7 +163,9 @@ int RunCommandLine(int argc, char** argv) {
                "of relmse against ms/frame) and sweep.md (equal-time and equal-sample tables)");
   sweep->add_option("sweep", sweepPath, "Sweep file (JSON)")->required();
   sweep->add_option("--out", sweepOut, "Output directory (runs go to OUT/runs/<config>)")->capture_default_str();
-  sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")->capture_default_str();
+  sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -148,6 +176,7 @@ int RunCommandLine(int argc, char** argv) {
 
   try {
     if (sweep->parsed()) {
+      const TemporaryRoot temporaries(sweepOut);
       SweepSpec spec = LoadSweep(sweepPath);
       spec.base.threads = sweepThreads;
       spec.base.progress = false;
@@ -157,6 +186,7 @@ int RunCommandLine(int argc, char** argv) {
       return 0;
     }
     if (reportCmd->parsed()) {
+      const TemporaryRoot temporaries(reportDir);
       WriteReport(reportDir);
       std::fprintf(stderr, "wrote %s/summary.json and %s/report.html\n", reportDir.c_str(), reportDir.c_str());
       return 0;
@@ -171,13 +201,12 @@ int RunCommandLine(int argc, char** argv) {
     }
     if (validate->parsed()) {
       const Sequence seq = LoadSequence(validatePath);
-      CheckFilePresets(seq);
+      CheckSequencePresets(seq);
       std::cout << SummarizeSequence(seq);
       return 0;
     }
     if (run->parsed()) {
       for (int i = 0; i < argc; ++i) opt.commandLine += (i ? " " : "") + std::string(argv[i]);
-      if (presetList.empty()) CheckFilePresets(LoadSequence(opt.sequencePath));
       if (presetList == "all") {
         for (const Preset& p : AllPresets()) opt.presets.push_back(p.name);
       } else if (!presetList.empty()) {
@@ -187,6 +216,7 @@ int RunCommandLine(int argc, char** argv) {
       }
       if (!frames.empty()) ParseFrameRange(frames, opt);
       if (!resolution.empty()) ParseResolution(resolution, opt);
+      if (!maxMemory.empty()) ParseMaxMemory(maxMemory, opt);
       if (seed >= 0) opt.seed = static_cast<uint32_t>(seed);
       opt.reference = !noReference;
       opt.writeImages = !noImages;
@@ -197,6 +227,10 @@ int RunCommandLine(int argc, char** argv) {
       if (!SetSimdTarget(*simd))
         throw InputError("--simd: error: this CPU (or this build) does not support '" + simdName + "'");
       const RunResult r = Run(opt);
+      if (r.alreadyComplete) {
+        std::fprintf(stderr, "%s: this run is already complete (run.json); nothing to do\n", opt.outDir.c_str());
+        return 0;
+      }
       std::fprintf(stderr, "wrote %zu metric rows to %s/metrics.csv in %.1f s\n", r.rows.size(),
                    opt.outDir.c_str(), r.wallSeconds);
       return 0;

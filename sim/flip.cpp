@@ -476,6 +476,10 @@ FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd, Fli
   return out;
 }
 
+size_t HdrFlipScratchBytesPerPixel() {
+  return 2 * kPlaneCount * sizeof(float) + sizeof(double);  // Workspace::planes, FlipExposures' luminances
+}
+
 double MeanFlip(const FlipMap& map, const std::vector<uint8_t>* mask) {
   double sum = 0.0;
   size_t n = 0;

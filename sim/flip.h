@@ -14,6 +14,7 @@
 // summed sequentially in pixel order in double.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -79,5 +80,9 @@ FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd = kF
 // Mean of a map over every pixel, or over the pixels where mask[i] != 0 (0 when the mask selects none); summed
 // in pixel order in double.
 double MeanFlip(const FlipMap& map, const std::vector<uint8_t>* mask = nullptr);
+
+// The bytes per pixel HdrFlip allocates while it runs (its filter planes and the luminances for the exposure
+// range), for the run's memory estimate (sim/memory_estimate.h).
+size_t HdrFlipScratchBytesPerPixel();
 
 }  // namespace restir

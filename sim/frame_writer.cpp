@@ -4,6 +4,8 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <ImfStdIO.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -71,11 +73,27 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   }
   if (layers.ensembleBias) AddRgbLayer(header, fb, "bias", *layers.ensembleBias);
   if (layers.ensembleVariance) AddRgbLayer(header, fb, "variance", *layers.ensembleVariance);
-  WriteViaTemporary(path, [&](const std::string& tmp) {
-    Imf::OutputFile file(tmp.c_str(), header);
+  // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes.
+  Imf::StdOSStream stream;
+  {
+    Imf::OutputFile file(stream, header);
     file.setFrameBuffer(fb);
     file.writePixels(h);
-  });
+  }
+  WriteFileAtomic(path, stream.str());
+}
+
+std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool srgb) {
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create("png");
+  if (!out) throw std::runtime_error(std::string("no PNG encoder: ") + OIIO::geterror());
+  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  if (srgb) spec.attribute("oiio:ColorSpace", "sRGB");
+  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) ||
+      !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
+    throw std::runtime_error("cannot encode a PNG: " + out->geterror());
+  return std::string(bytes.begin(), bytes.end());
 }
 
 void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference) {
@@ -106,14 +124,7 @@ void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const Im
           o[c] = static_cast<unsigned char>(std::lround(255.0f * SrgbEncode(std::isfinite(v[c]) ? v[c] : 0.0f)));
       }
   }
-  WriteViaTemporary(path, [&](const std::string& tmp) {
-    auto out = OIIO::ImageOutput::create(tmp);
-    if (!out) throw std::runtime_error("cannot create PNG writer for " + tmp + ": " + OIIO::geterror());
-    OIIO::ImageSpec spec(outW, h, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("oiio:ColorSpace", "sRGB");
-    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
-      throw std::runtime_error("cannot write " + tmp + ": " + out->geterror());
-  });
+  WriteFileAtomic(path, EncodePng(rgb, outW, h, true));
 }
 
 }  // namespace restir

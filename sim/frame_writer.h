@@ -29,4 +29,8 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers);
 // (or estimate) so that its 90th luminance percentile maps to 0.8 (emitters saturate), clamped, sRGB, 8 bits.
 void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference);
 
+// An 8-bit RGB image (w x h, rows top to bottom, 3 bytes a pixel) encoded as PNG, in memory, so that the bytes
+// reach their file through WriteFileAtomic's checked writes (sim/atomic_file.h) rather than the codec's own.
+std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool srgb);
+
 }  // namespace restir

@@ -120,9 +120,17 @@ double JsonReader::Number(const Json& v, const std::string& p) const {
   return v.get<double>();
 }
 
-float JsonReader::Float(const Json& v, const std::string& p) const {
+float JsonReader::Float(const Json& v, const std::string& p) const { return Float(v, p, magnitudeLimit_, magnitudeWhat_); }
+
+float JsonReader::Float(const Json& v, const std::string& p, double limit, const std::string& what) const {
   const float f = static_cast<float>(Number(v, p));
   if (!std::isfinite(f)) Fail(p, "number " + v.dump() + " is out of single-precision range");
+  if (std::fabs(double(f)) > limit) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%g", limit);
+    Fail(p, "number " + v.dump() + " is beyond the limit of " + text + " for " + what +
+                " (products of such numbers must stay finite in single precision)");
+  }
   return f;
 }
 

@@ -4,6 +4,7 @@
 // accessors that check the value and name its position when it is wrong.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -45,7 +46,16 @@ class JsonReader {
   const Json* Find(const Json& obj, const std::string& key) const;
   const Json& Need(const Json& obj, const std::string& p, const std::string& key) const;
   double Number(const Json& v, const std::string& p) const;
-  float Float(const Json& v, const std::string& p) const;  // a number that fits a float
+  // A number that fits a float, within the magnitude limit (SetMagnitudeLimit).
+  float Float(const Json& v, const std::string& p) const;
+  // A number that fits a float, at most `limit` in magnitude (`what` names it in the message).
+  float Float(const Json& v, const std::string& p, double limit, const std::string& what) const;
+  // Every Float (hence every Vector) read from now on must be at most `limit` in magnitude; `what` names the
+  // numbers in the message ("coordinates, sizes, angles and colours").
+  void SetMagnitudeLimit(double limit, std::string what) {
+    magnitudeLimit_ = limit;
+    magnitudeWhat_ = std::move(what);
+  }
   int64_t Integer(const Json& v, const std::string& p, int64_t lo, int64_t hi, const std::string& what) const;
   std::string String(const Json& v, const std::string& p) const;
   std::string Name(const Json& v, const std::string& p) const;  // a non-empty string
@@ -59,6 +69,8 @@ class JsonReader {
 
   std::string file_;
   std::string text_;  // the locator keeps a reference to it
+  double magnitudeLimit_ = INFINITY;
+  std::string magnitudeWhat_;
   Json root_;
   JsonLocator locator_;
 };

@@ -52,6 +52,9 @@ Mesh ParseObjMesh(const std::string& bytes, const std::string& objPath, const st
       if (ec != std::errc() || ptr != s.data() + s.size() || !std::isfinite(v)) {
         fail(lineNo, tokens[t].second, "expected a number, got '" + std::string(s) + "'");
       }
+      if (std::fabs(double(v)) > kMaxSequenceNumber)
+        fail(lineNo, tokens[t].second, "number " + std::string(s) + " is beyond the limit of 1e+07 for a sequence's "
+                                       "numbers (products of such numbers must stay finite in single precision)");
       return v;
     };
     if (cmd == "v" || cmd == "vn") {

@@ -157,4 +157,12 @@ std::string DescribePresets() {
   return o.str();
 }
 
+void CheckSequencePresets(const Sequence& seq) {
+  for (size_t i = 0; i < seq.defaults.presets.size(); ++i) {
+    if (FindPreset(seq.defaults.presets[i])) continue;
+    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": " +
+                     UnknownPresetMessage(seq.defaults.presets[i]));
+  }
+}
+
 }  // namespace restir

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim/pipeline.h"
+#include "sim/sequence.h"
 
 namespace restir {
 
@@ -20,6 +21,9 @@ const std::vector<Preset>& AllPresets();
 const Preset* FindPreset(const std::string& name);
 // "unknown preset 'x'" with the nearest name or the list of them: the body of every message about one.
 std::string UnknownPresetMessage(const std::string& name);
+// Throws InputError naming the file and the JSON path (/render/presets/i) of the first unknown preset the
+// sequence's render.presets names: validate and run report the same line.
+void CheckSequencePresets(const Sequence& seq);
 // Human-readable listing for `restir-sim presets`.
 std::string DescribePresets();
 

@@ -9,7 +9,6 @@
 #include <cstring>
 #include <limits>
 #include <filesystem>
-#include <fstream>
 
 #include "core/light_sampler.h"
 #include "core/polygon_irradiance.h"
@@ -19,6 +18,8 @@
 #include "sim/atomic_file.h"
 #include "sim/clock.h"
 #include "sim/hash.h"
+#include "sim/input_file.h"
+#include "sim/reference_cache.h"
 #include "sim/shading_point.h"
 
 namespace restir {
@@ -29,7 +30,6 @@ namespace {
 constexpr uint32_t kReferenceVersion = 5;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
-constexpr char kCacheMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '1'};
 
 // Randomised quasi-Monte Carlo: each pixel's samples are kReplicates independent randomly shifted copies of
 // the additive-recurrence (Roberts "R_d") low-discrepancy sequence in kSampleDims dimensions. Each sample is
@@ -155,30 +155,19 @@ Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::v
   return sum;
 }
 
-bool ReadCache(const std::string& path, int w, int h, ReferenceImage& out) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  char magic[8];
-  int32_t dims[2];
-  f.read(magic, 8);
-  f.read(reinterpret_cast<char*>(dims), sizeof(dims));
-  if (!f || std::memcmp(magic, kCacheMagic, 8) != 0 || dims[0] != w || dims[1] != h) return false;
-  out.mean = ImageRgb(w, h);
-  out.standardError = ImageRgb(w, h);
-  f.read(reinterpret_cast<char*>(out.mean.pixels.data()), out.mean.pixels.size() * sizeof(Vec3));
-  f.read(reinterpret_cast<char*>(out.standardError.pixels.data()),
-         out.standardError.pixels.size() * sizeof(Vec3));
-  return static_cast<bool>(f);
-}
-
-void WriteCache(const std::string& path, const ReferenceImage& ref) {
-  std::string bytes(kCacheMagic, 8);
-  const int32_t dims[2] = {ref.mean.width, ref.mean.height};
-  bytes.append(reinterpret_cast<const char*>(dims), sizeof(dims));
-  bytes.append(reinterpret_cast<const char*>(ref.mean.pixels.data()), ref.mean.pixels.size() * sizeof(Vec3));
-  bytes.append(reinterpret_cast<const char*>(ref.standardError.pixels.data()),
-               ref.standardError.pixels.size() * sizeof(Vec3));
-  WriteFileAtomic(path, bytes);
+// A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
+// (damaged, truncated, another frame's, not a regular file) is reported in one line and rendered again; the new
+// entry then replaces it.
+bool ReadCache(const std::string& path, const std::string& key, int w, int h, ReferenceImage& out) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, ReferenceCacheEntrySize(key, w, h), bytes, problem)) {
+    if (problem == "no such file") return false;
+  } else if (DecodeReferenceCacheEntry(bytes, key, w, h, out.mean, out.standardError, problem)) {
+    return true;
+  }
+  std::fprintf(stderr, "restir-sim: warning: %s: unusable reference cache entry (%s); rendering it again\n",
+               path.c_str(), problem.c_str());
+  return false;
 }
 
 }  // namespace
@@ -207,13 +196,12 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
                                const GBuffer& g, const ReferenceParams& params) {
   const auto t0 = Clock::now();
   const int w = g.width, h = g.height;
-  std::string cachePath;
+  std::string cachePath, cacheKey;
   if (!params.cacheDir.empty()) {
-    cachePath = (std::filesystem::path(params.cacheDir) /
-                 ("ref-" + ReferenceCacheKey(sequence, state, params.samplesPerPixel) + ".bin"))
-                    .string();
+    cacheKey = ReferenceCacheKey(sequence, state, params.samplesPerPixel);
+    cachePath = (std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".bin")).string();
     ReferenceImage cached;
-    if (ReadCache(cachePath, w, h, cached)) {
+    if (ReadCache(cachePath, cacheKey, w, h, cached)) {
       cached.fromCache = true;
       cached.ms = MsSince(t0);
       return cached;
@@ -269,7 +257,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     }
   });
   ref.rays = rays.combine(std::plus<uint64_t>());
-  if (!cachePath.empty()) WriteCache(cachePath, ref);
+  if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError));
   ref.ms = MsSince(t0);
   return ref;
 }

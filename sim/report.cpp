@@ -6,12 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "sim/atomic_file.h"
+#include "sim/frame_writer.h"
+#include "sim/input_file.h"
 #include "sim/summary.h"
 #include "sim/svg_plot.h"
 #include "sim/text.h"
@@ -20,136 +20,6 @@
 namespace restir {
 
 namespace fs = std::filesystem;
-
-int MetricsTable::Column(const std::string& name) const {
-  for (size_t i = 0; i < columns.size(); ++i)
-    if (columns[i] == name) return static_cast<int>(i);
-  return -1;
-}
-
-const PresetSeries* MetricsTable::Preset(const std::string& name) const {
-  for (const PresetSeries& p : presets)
-    if (p.name == name) return &p;
-  return nullptr;
-}
-
-namespace {
-
-std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
-
-bool ParseDouble(const std::string& s, double& v) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  v = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size();
-}
-
-}  // namespace
-
-MetricsTable ReadMetricsCsv(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw InputError(path + ": error: cannot open (no metrics.csv: is this a run's output directory?)");
-  MetricsTable t;
-  t.path = path;
-  std::string line;
-  int lineNo = 0;
-  std::vector<std::string> header;
-  int frameCol = -1, presetCol = -1, hashCol = -1;
-  std::vector<int> numericOf;  // file column -> numeric column index, -1 for frame/preset/image_hash
-  std::map<std::string, size_t> presetIndex;
-  std::vector<std::vector<int>> rowLines;  // per preset, the line of each row (for duplicate messages)
-  auto fail = [&](const std::string& what) { throw InputError(path + ":" + std::to_string(lineNo) + ": error: " + what); };
-  while (std::getline(f, line)) {
-    ++lineNo;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (header.empty()) {
-      if (line.empty()) fail("empty header line");
-      header = SplitCsvLine(line);
-      for (size_t i = 0; i < header.size(); ++i) {
-        const std::string& h = header[i];
-        if (h.empty()) fail("empty column name in column " + std::to_string(i + 1));
-        for (size_t j = 0; j < i; ++j)
-          if (header[j] == h) fail("column '" + h + "' appears twice");
-        if (h == "frame") frameCol = static_cast<int>(i);
-        if (h == "preset") presetCol = static_cast<int>(i);
-        if (h == "image_hash") hashCol = static_cast<int>(i);
-        if (h == "frame" || h == "preset" || h == "image_hash") {
-          numericOf.push_back(-1);
-        } else {
-          numericOf.push_back(static_cast<int>(t.columns.size()));
-          t.columns.push_back(h);
-        }
-      }
-      if (frameCol < 0 || presetCol < 0) fail("the header has no 'frame' or no 'preset' column");
-      t.hasImageHash = hashCol >= 0;
-      continue;
-    }
-    if (line.empty()) continue;
-    const std::vector<std::string> fields = SplitCsvLine(line);
-    if (fields.size() != header.size())
-      fail(std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
-    double frameValue = 0.0;
-    if (!ParseDouble(fields[frameCol], frameValue) || frameValue != std::floor(frameValue) || frameValue < 0 ||
-        frameValue > 1e9)
-      fail("column 'frame': '" + fields[frameCol] + "' is not a frame number");
-    const std::string& name = fields[presetCol];
-    if (name.empty()) fail("empty preset name");
-    auto it = presetIndex.find(name);
-    if (it == presetIndex.end()) {
-      it = presetIndex.emplace(name, t.presets.size()).first;
-      PresetSeries s;
-      s.name = name;
-      s.values.resize(t.columns.size());
-      t.presets.push_back(std::move(s));
-      rowLines.emplace_back();
-    }
-    PresetSeries& s = t.presets[it->second];
-    const int frame = static_cast<int>(frameValue);
-    for (size_t r = 0; r < s.frames.size(); ++r)
-      if (s.frames[r] == frame)
-        fail("frame " + std::to_string(frame) + " of preset '" + name + "' already appears on line " +
-             std::to_string(rowLines[it->second][r]));
-    s.frames.push_back(frame);
-    rowLines[it->second].push_back(lineNo);
-    s.imageHashes.push_back(hashCol >= 0 ? fields[hashCol] : std::string());
-    for (size_t i = 0; i < fields.size(); ++i) {
-      if (numericOf[i] < 0) continue;
-      double v = 0.0;
-      if (!ParseDouble(fields[i], v)) fail("column '" + header[i] + "': '" + fields[i] + "' is not a number");
-      s.values[numericOf[i]].push_back(v);
-    }
-  }
-  if (header.empty()) throw InputError(path + ":1: error: empty file (no header)");
-  // Rows in frame order within each preset (the runner writes them so; a hand-made file need not).
-  for (PresetSeries& s : t.presets) {
-    std::vector<size_t> order(s.frames.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return s.frames[a] < s.frames[b]; });
-    PresetSeries sorted;
-    sorted.name = s.name;
-    sorted.values.resize(s.values.size());
-    for (size_t i : order) {
-      sorted.frames.push_back(s.frames[i]);
-      sorted.imageHashes.push_back(s.imageHashes[i]);
-      for (size_t c = 0; c < s.values.size(); ++c) sorted.values[c].push_back(s.values[c][i]);
-    }
-    s = std::move(sorted);
-  }
-  return t;
-}
 
 namespace {
 
@@ -427,13 +297,7 @@ std::string CssGradient(const double c[7][3]) {
 }
 
 void WritePng(const std::string& path, int w, int h, const std::vector<unsigned char>& rgb) {
-  WriteViaTemporary(path, [&](const std::string& tmp) {
-    auto out = OIIO::ImageOutput::create(tmp);
-    if (!out) throw std::runtime_error("cannot create " + tmp + ": " + OIIO::geterror());
-    OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
-    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())
-      throw std::runtime_error("cannot write " + tmp + ": " + out->geterror());
-  });
+  WriteFileAtomic(path, EncodePng(rgb, w, h, false));
 }
 
 // The heat maps generated from one frame's EXR (empty paths when the EXR lacks the layers).
@@ -442,17 +306,63 @@ struct FrameMaps {
   std::string flip;   // relative path of the FLIP map, or ""
 };
 
+// A frame file the report links or reads: absent is fine (the run wrote none, or --no-images), but one that is
+// there must be a whole regular file the image library reads, or the report would link a broken image.
+bool FrameFileUsable(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || st.type() == fs::file_type::not_found) return false;
+  if (st.type() != fs::file_type::regular) throw InputError(path + ": error: not a regular file");
+  return true;
+}
+
+[[noreturn]] void Unreadable(const std::string& path, const std::string& why) {
+  throw InputError(OneLine(path + ": error: cannot read frame (" + why + ")"));
+}
+
+// Reads a whole image file (every channel as float) or throws naming it: a truncated EXR or PNG fails here.
+std::vector<float> ReadWholeImage(const std::string& path, OIIO::ImageSpec& spec) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) Unreadable(path, OIIO::geterror());
+  spec = in->spec();
+  if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 || spec.width > 16384 || spec.height > 16384 ||
+      spec.nchannels > 64)
+    Unreadable(path, "unexpected size");
+  std::vector<float> px(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) Unreadable(path, in->geterror());
+  in->close();
+  return px;
+}
+
+// A preview the report links must be a whole PNG: the signature, then chunks whose lengths lead exactly to IEND
+// at the end of the file (a cut file fails). Checked without decoding, so libpng prints nothing of its own.
+void CheckPngStructure(const std::string& path) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, size_t(1) << 30, bytes, problem)) Unreadable(path, problem);
+  static const char kSignature[8] = {'\x89', 'P', 'N', 'G', '\r', '\n', '\x1a', '\n'};
+  if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0) Unreadable(path, "not a PNG");
+  size_t pos = 8;
+  while (bytes.size() - pos >= 12) {
+    const auto byte = [&](size_t i) { return static_cast<uint32_t>(static_cast<unsigned char>(bytes[pos + i])); };
+    const uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
+    const std::string type = bytes.substr(pos + 4, 4);
+    if (length > bytes.size() - pos - 12) break;
+    pos += 12 + size_t(length);
+    if (type == "IEND") {
+      if (pos == bytes.size()) return;
+      break;
+    }
+  }
+  Unreadable(path, "cut short or damaged: no IEND chunk at its end");
+}
+
 FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, int frame) {
   FrameMaps maps;
   const std::string exr = (fs::path(outDir) / "frames" / preset / (FrameName(frame) + ".exr")).string();
-  if (!fs::exists(exr)) return maps;
-  auto in = OIIO::ImageInput::open(exr);
-  if (!in) return maps;  // unreadable frame: the strip shows the preview only
-  const OIIO::ImageSpec spec = in->spec();
+  if (!FrameFileUsable(exr)) return maps;
+  OIIO::ImageSpec spec;
+  const std::vector<float> px = ReadWholeImage(exr, spec);
   const int w = spec.width, h = spec.height, nc = spec.nchannels;
-  std::vector<float> px(static_cast<size_t>(w) * h * nc);
-  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data())) return maps;
-  in->close();
   auto channel = [&](const char* name) {
     for (int i = 0; i < nc; ++i)
       if (spec.channelnames[i] == name) return i;
@@ -515,11 +425,11 @@ struct RunInfo {
 
 RunInfo ReadRunJson(const std::string& path) {
   RunInfo info;
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return info;
-  std::stringstream ss;
-  ss << f.rdbuf();
-  info.text = ss.str();
+  std::string problem;
+  if (!TryReadRegularFile(path, size_t(16) << 20, info.text, problem)) {
+    if (problem == "no such file") return info;
+    throw InputError(path + ": error: cannot read (" + problem + ")");
+  }
   info.present = true;
   try {
     info.json = Json::parse(info.text);
@@ -675,7 +585,9 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
       for (const PresetSeries& p : t.presets) {
         if (std::find(p.frames.begin(), p.frames.end(), frame) == p.frames.end()) continue;
         const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
-        const bool hasPreview = fs::exists(fs::path(outDir) / preview);
+        const std::string previewPath = (fs::path(outDir) / preview).string();
+        const bool hasPreview = FrameFileUsable(previewPath);
+        if (hasPreview) CheckPngStructure(previewPath);
         const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame);
         auto img = [&](const std::string& rel, const std::string& alt) {
           if (rel.empty()) {

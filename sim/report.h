@@ -5,30 +5,9 @@
 #include <string>
 #include <vector>
 
+#include "sim/metrics_csv.h"
+
 namespace restir {
-
-// The per-frame series of one preset in metrics.csv, rows in file order.
-struct PresetSeries {
-  std::string name;                         // preset name
-  std::vector<int> frames;                  // frame of each row
-  std::vector<std::vector<double>> values;  // [numeric column][row], columns as MetricsTable::columns
-  std::vector<std::string> imageHashes;     // image_hash of each row ("" when the column is absent)
-};
-
-// metrics.csv parsed generically: every column other than frame, preset and image_hash is numeric, so columns
-// added later (e.g. flip) need no change here.
-struct MetricsTable {
-  std::string path;                   // the file read
-  std::vector<std::string> columns;   // numeric columns in file order
-  std::vector<PresetSeries> presets;  // in order of first appearance
-  bool hasImageHash = false;          // the file has an image_hash column
-
-  int Column(const std::string& name) const;  // index into columns, -1 when absent
-  const PresetSeries* Preset(const std::string& name) const;  // null when absent
-};
-
-// Reads metrics.csv. Throws InputError naming the file (and line) when it is missing or malformed.
-MetricsTable ReadMetricsCsv(const std::string& path);
 
 // Recovery after each reveal (docs/metrics.md "summary.json"). A post-reveal window is a maximal run of
 // consecutive rows with disocc_recent_fraction > 0. The steady level is the median relmse over rows with

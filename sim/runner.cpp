@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <regex>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -18,6 +18,8 @@
 #include "sim/checkpoint.h"
 #include "sim/clock.h"
 #include "sim/flip.h"
+#include "sim/input_file.h"
+#include "sim/memory_estimate.h"
 #include "sim/frame_loop.h"
 #include "sim/frame_writer.h"
 #include "sim/metrics.h"
@@ -65,15 +67,6 @@ bool SameSceneState(const FrameState& a, const FrameState& b) {
          ca.vfovDegrees == cb.vfovDegrees && a.objectToWorld == b.objectToWorld && a.lightOn == b.lightOn;
 }
 
-void CheckWritableDirectory(const std::string& dir) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  const std::string probe = (std::filesystem::path(dir) / ".write-test").string();
-  FILE* f = ec ? nullptr : std::fopen(probe.c_str(), "wb");
-  if (!f) throw InputError(dir + ": error: output directory is not writable");
-  std::fclose(f);
-  std::filesystem::remove(probe, ec);
-}
 
 template <typename Io>
 void TransferImage(Io& io, ImageRgb& img) {
@@ -99,19 +92,6 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
       io.Pod(value);
     }
   }
-}
-
-// A run killed while writing leaves its temporary (name.tmpPID.ext, see atomic_file.cpp) behind; the next run in
-// the same directory removes them so that only whole files remain.
-void RemoveStaleTemporaries(const std::string& dir) {
-  static const std::regex temporary(R"(.*\.tmp[0-9]+(\..*)?)");
-  std::error_code ec;
-  std::vector<std::filesystem::path> stale;
-  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
-       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
-    if (it->is_regular_file() && std::regex_match(it->path().filename().string(), temporary))
-      stale.push_back(it->path());
-  for (const auto& p : stale) std::filesystem::remove(p, ec);
 }
 
 constexpr uint64_t kCheckpointMagic = 0x34544B43'52545352ull;  // "RSTRCKT4"
@@ -147,8 +127,21 @@ struct RunState {
   }
 };
 
+// The checkpoint (--resume) is keyed by the configuration: run.json without the fields that do not change the
+// results, so a different run never resumes from it.
+std::string ConfigurationKey(nlohmann::json runJson) {
+  for (const char* volatileField : {"commandLine", "status", "threads", "simd", "wallSeconds"})
+    runJson.erase(volatileField);
+  return runJson.dump();
+}
+
 void SaveCheckpoint(const std::string& path, const std::string& configKey, RunState& state, int nextFrame) {
+  ByteCounter size;
+  size.Pod(kCheckpointMagic);
+  size.String(configKey);
+  state.Transfer(size, nextFrame);
   BinaryWriter w;
+  w.Reserve(size.Bytes());
   w.Pod(kCheckpointMagic);
   w.String(configKey);
   state.Transfer(w, nextFrame);
@@ -157,8 +150,11 @@ void SaveCheckpoint(const std::string& path, const std::string& configKey, RunSt
 
 // The frame to start from: frameBegin, or the checkpoint's next frame with the run's state restored.
 int LoadCheckpoint(const std::string& path, const std::string& configKey, RunState& state, int frameBegin) {
-  std::ifstream f(path, std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, std::numeric_limits<size_t>::max(), bytes, problem)) {
+    if (problem != "no such file") throw InputError(path + ": error: cannot read checkpoint (" + problem + ")");
+    bytes.clear();
+  }
   try {
     BinaryReader r(bytes);
     uint64_t magic = 0;
@@ -182,16 +178,52 @@ int LoadCheckpoint(const std::string& path, const std::string& configKey, RunSta
   return frameBegin;
 }
 
-// The presets a run replays, with every --set applied.
+// The presets a run replays, with every --set applied. Names from the file are reported with their JSON path
+// (validate reports the same line); a name given twice would write two sets of rows under one name.
 std::vector<Preset> ResolvePresets(const RunOptions& opt, const Sequence& seq) {
+  if (opt.presets.empty()) CheckSequencePresets(seq);
   std::vector<Preset> presets;
   for (const std::string& name : opt.presets.empty() ? seq.defaults.presets : opt.presets) {
     const Preset* p = FindPreset(name);
     if (!p) throw InputError("--preset: error: " + UnknownPresetMessage(name));
+    for (const Preset& earlier : presets)
+      if (earlier.name == p->name) throw InputError("--preset: error: preset '" + name + "' is given twice");
     presets.push_back(*p);
     for (const std::string& assignment : opt.settings) ApplySettingAssignment(presets.back().settings, assignment);
   }
   return presets;
+}
+
+// The run's memory against what it may take (--max-memory; DESIGN §10), before anything is allocated or written.
+void CheckRunMemory(const RunOptions& opt, const Sequence& seq, int width, int height, int frames, size_t presets,
+                    int members) {
+  if (opt.maxMemoryBytes < 0.0) return;
+  RunShape shape;
+  shape.width = width;
+  shape.height = height;
+  shape.frames = frames;
+  shape.presets = static_cast<int64_t>(presets);
+  shape.members = members;
+  shape.reference = opt.reference;
+  shape.writeImages = opt.writeImages;
+  for (const Object& o : seq.objects) shape.sceneTriangles += static_cast<int64_t>(o.mesh.triangles.size());
+  for (const Light& l : seq.lights) shape.lightTriangles += static_cast<int64_t>(l.vertices.size() / 3);
+  shape.processBytes = CurrentResidentBytes();
+  const MemoryEstimate estimate = EstimateRunMemory(shape);
+  if (opt.maxMemoryBytes > 0.0) {
+    CheckMemory(estimate, opt.maxMemoryBytes, "--max-memory", opt.sequencePath);
+  } else if (const std::optional<MemoryLimit> limit = MachineMemoryLimit()) {
+    CheckMemory(estimate, limit->bytes, limit->source, opt.sequencePath);
+  }
+}
+
+// A completed run of this configuration in the output directory (run.json says "complete" under the same key).
+bool CompleteRunExists(const std::string& runJsonPath, const std::string& configKey) {
+  std::string text, problem;
+  if (!TryReadRegularFile(runJsonPath, size_t(16) << 20, text, problem)) return false;
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object() || j.value("status", "") != "complete") return false;
+  return ConfigurationKey(j) == configKey;
 }
 
 }  // namespace
@@ -210,20 +242,12 @@ RunResult Run(const RunOptions& opt) {
   // Per preset, K pipelines (--ensemble K): member k runs with seed + k; member 0 is the run's own estimate.
   // The split needs a reference, so without one the other members would be rendered for nothing.
   const int members = opt.reference ? std::max(1, opt.ensemble) : 1;
-  std::vector<PresetState> presets;
-  for (const Preset& p : ResolvePresets(opt, seq)) {
-    PresetState& ps = presets.emplace_back();
-    ps.preset = p;
-    for (int k = 0; k < members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
-  }
+  const std::vector<Preset> resolved = ResolvePresets(opt, seq);
+  CheckRunMemory(opt, seq, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
   ReferenceParams refParams;
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
   refParams.cacheDir = opt.cacheDir;
-  CheckWritableDirectory(opt.outDir);
-  RemoveStaleTemporaries(opt.outDir);
-
   const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
-  tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
 
   // run.json first, so an interrupted run still says what it was.
   nlohmann::json runJson = {
@@ -241,23 +265,39 @@ RunResult Run(const RunOptions& opt) {
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
-  for (const PresetState& p : presets)
-    runJson["presets"][p.preset.name] = {{"source", p.preset.source}, {"settings", SettingsJson(p.preset.settings)}};
+  for (const Preset& p : resolved)
+    runJson["presets"][p.name] = {{"source", p.source}, {"settings", SettingsJson(p.settings)}};
   runJson["overrides"] = opt.settings;
   const std::string runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
   const std::string csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
+  const std::string configKey = ConfigurationKey(runJson);
+  RunResult result;
+  // Resuming a finished run has nothing to do, and must not start it again beside its own summary.
+  if (opt.resume && CompleteRunExists(runJsonPath, configKey)) {
+    result.alreadyComplete = true;
+    return result;
+  }
+
+  const TemporaryRoot outputTemporaries(opt.outDir);
+  CheckWritableDirectory(opt.outDir, "output directory");
+  std::optional<TemporaryRoot> cacheTemporaries;
+  if (opt.reference && !opt.cacheDir.empty()) {
+    cacheTemporaries.emplace(opt.cacheDir);
+    CheckWritableDirectory(opt.cacheDir, "reference cache directory");
+  }
+  tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
 
+  std::vector<PresetState> presets;
+  for (const Preset& p : resolved) {
+    PresetState& ps = presets.emplace_back();
+    ps.preset = p;
+    for (int k = 0; k < members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
+  }
   FrameLoop loop(seq, width, height);
   ImageRgb previousReference;
   int accumFrames = 0;
-  RunResult result;
   RunState state{loop, presets, previousReference, accumFrames, result.rows};
-  // The checkpoint (--resume) is keyed by the configuration (run.json without the volatile fields), so a
-  // different run never resumes from it.
-  nlohmann::json keyJson = runJson;
-  for (const char* volatileField : {"commandLine", "status", "threads", "simd"}) keyJson.erase(volatileField);
-  const std::string configKey = keyJson.dump();
   const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
   const int firstFrame = opt.resume ? LoadCheckpoint(checkpointPath, configKey, state, opt.frameBegin) : opt.frameBegin;
   if (firstFrame > opt.frameBegin) result.resumedAtFrame = firstFrame;

@@ -30,6 +30,8 @@ struct RunOptions {
   bool report = true;                    // summary.json and report.html when the run completes
   int ensemble = 1;                      // K runs per preset with seeds seed..seed+K-1: bias²/variance split
   std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
+  // The memory the run may take (--max-memory): 0, the machine's (sim/memory_estimate.h); < 0, no check.
+  double maxMemoryBytes = 0.0;
   std::string commandLine;               // recorded in run.json
 };
 
@@ -37,9 +39,11 @@ struct RunResult {
   std::vector<FrameMetricsRow> rows;
   double wallSeconds = 0.0;
   int resumedAtFrame = -1;  // the first frame rendered after resuming from a checkpoint; -1: not resumed
+  bool alreadyComplete = false;  // --resume found this configuration complete in the output directory: nothing done
 };
 
-// Throws InputError for bad input (unknown preset, frame range, unreadable sequence, unwritable output).
+// Throws InputError for bad input (unknown or repeated preset, frame range, unreadable sequence, unwritable output,
+// a run larger than the memory it may take).
 RunResult Run(const RunOptions& options);
 
 }  // namespace restir

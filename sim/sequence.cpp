@@ -18,6 +18,7 @@
 
 #include "sim/animation.h"
 #include "sim/hash.h"
+#include "sim/input_file.h"
 #include "sim/json_reader.h"
 #include "sim/obj_reader.h"
 #include "sim/shapes.h"
@@ -38,15 +39,6 @@ std::string FormatVec(const Vec3& v) {
   return buf;
 }
 
-bool ReadFileBytes(const std::string& path, std::string& out) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return false;
-  out = ss.str();
-  return true;
-}
 
 // Whole-scene budgets. Every shape and grid has its own bound, but a few kilobytes of JSON repeating the
 // largest ones (1024-segment spheres, 10000 window bars, 65536-light grids) would otherwise take gigabytes and
@@ -55,13 +47,28 @@ bool ReadFileBytes(const std::string& path, std::string& out) {
 constexpr size_t kMaxSceneTriangles = size_t(1) << 22;  // 4,194,304 object triangles
 constexpr size_t kMaxLights = size_t(1) << 18;          // 262,144 lights (524,288 emitter triangles for quads)
 
+// Finite float arithmetic (issue 14): every world-space point of an object under any of its keyframes is at most
+// kMaxWorldExtent from the origin and every light's radiance (colour x intensity) at most kMaxRadiance, besides
+// kMaxSequenceNumber (sequence.h) on every number. Then squared distances (<= 1e17), triangle areas and Embree's
+// ray-triangle products (<= 1e25), light powers (<= 1e30) and the integrand L f G (L <= 1e12, G <= 1e12 above
+// the 1e-6 m guard) all stay far below FLT_MAX = 3.4e38, so `validate` and `run` agree and Embree never sees an
+// invalid ray. Far beyond any scene: 100,000 km.
+constexpr double kMaxWorldExtent = 1e8;
+constexpr double kMaxRadiance = 1e12;
+// A sequence file is text of a few kilobytes; the cap keeps a hostile one (/dev/zero, a million keyframes) from
+// taking the machine's memory before it can be refused.
+constexpr size_t kMaxSequenceBytes = size_t(16) << 20;
+constexpr size_t kMaxMeshBytes = size_t(1) << 30;
+
 // --- the reader
 // ---------------------------------------------------------------------------------------------
 
 class Reader : public JsonReader {
  public:
   Reader(const std::string& file, std::string text, const std::string& baseDir)
-      : JsonReader(file, std::move(text)), baseDir_(baseDir), hash_(Fnv1a(Text().data(), Text().size())) {}
+      : JsonReader(file, std::move(text)), baseDir_(baseDir), hash_(Fnv1a(Text().data(), Text().size())) {
+    SetMagnitudeLimit(kMaxSequenceNumber, "a sequence's numbers");
+  }
 
   Sequence Read(const Json& root);
   std::string Hash() const { return HexHash(hash_); }
@@ -77,6 +84,13 @@ class Reader : public JsonReader {
   float Positive(const Json& v, const std::string& p, const std::string& what) const {
     const float f = Float(v, p);
     if (!(f > 0.0f)) Fail(p, what + " must be > 0, got " + FormatNumber(f));
+    return f;
+  }
+  // A light's intensity scales only its colour, and their product has its own bound (kMaxRadiance), so a sun's
+  // radiance can be given as an intensity past the bound on other numbers.
+  float Intensity(const Json& v, const std::string& p) const {
+    const float f = Float(v, p, kMaxRadiance, "an intensity");
+    if (!(f > 0.0f)) Fail(p, "intensity must be > 0, got " + FormatNumber(f));
     return f;
   }
   // One of a closed set of strings; suggests the nearest on a typo.
@@ -245,11 +259,20 @@ void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) 
     } else {
       obj.keys.push_back(TransformKey{});
     }
-    for (const TransformKey& k : obj.keys) {
-      if (k.translate != obj.keys[0].translate || k.rotateDegrees != obj.keys[0].rotateDegrees ||
-          k.scale != obj.keys[0].scale) {
+    double radius = 0.0;  // the mesh's extent from the object-space origin
+    for (const Vec3& v : obj.mesh.positions) radius = std::max(radius, double(glm::length(v)));
+    for (size_t k = 0; k < obj.keys.size(); ++k) {
+      const TransformKey& key = obj.keys[k];
+      if (key.translate != obj.keys[0].translate || key.rotateDegrees != obj.keys[0].rotateDegrees ||
+          key.scale != obj.keys[0].scale) {
         obj.animated = true;
       }
+      // Interpolation stays within the keys' translations and scales, so the keys bound every frame.
+      const double scale = std::max({std::fabs(key.scale.x), std::fabs(key.scale.y), std::fabs(key.scale.z)});
+      if (double(glm::length(key.translate)) + scale * radius > kMaxWorldExtent)
+        Fail(PointerChild(op + "/keyframes", k), "the object reaches " + FormatNumber(glm::length(key.translate) +
+                                                                                  scale * radius) +
+                                                     " m from the origin under this key, beyond the limit of 1e8 m");
     }
     seq.objects.push_back(std::move(obj));
   }
@@ -324,12 +347,9 @@ Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
   const std::string objPath = resolved.lexically_normal().string();
   if (auto it = meshCache_.find(objPath); it != meshCache_.end()) return it->second;
 
-  std::string bytes;
-  // Regular files only: a device such as /dev/zero would never end, and status errors must not throw.
-  std::error_code ec;
-  if (!fs::is_regular_file(resolved, ec) || !ReadFileBytes(objPath, bytes)) {
-    Fail(p, "cannot read mesh file '" + objPath + "'");
-  }
+  std::string bytes, problem;
+  if (!TryReadRegularFile(objPath, kMaxMeshBytes, bytes, problem))
+    Fail(p, "cannot read mesh file '" + objPath + "' (" + problem + ")");
   // Only the bytes: the name as written is already in the sequence text, and the resolved path depends on the
   // working directory, which must not change the hash (it keys the reference cache).
   hash_ = Fnv1a(bytes.data(), bytes.size(), hash_);
@@ -393,6 +413,12 @@ void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& 
   if (seq.lights.size() >= kMaxLights) {
     Fail(p, "more than the scene limit of " + std::to_string(kMaxLights) + " lights");
   }
+  if (std::max({radiance.x, radiance.y, radiance.z}) > kMaxRadiance)
+    Fail(p, "light '" + name + "' has radiance (colour x intensity) " + FormatVec(radiance) +
+                ", beyond the limit of 1e12 (products with it must stay finite in single precision)");
+  for (const Vec3& q : vertices)
+    if (std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z)}) > kMaxWorldExtent)
+      Fail(p, "light '" + name + "' reaches " + FormatVec(q) + ", beyond the limit of 1e8 m from the origin");
   for (size_t t = 0; t + 2 < vertices.size(); t += 3) {
     const Vec3 e1 = vertices[t + 1] - vertices[t];
     const Vec3 e2 = vertices[t + 2] - vertices[t];
@@ -428,7 +454,7 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
         color = Color(*c, lp + "/color", "color", false);
       }
       if (const Json* k = optional ? Find(l, "intensity") : &Need(l, lp, "intensity")) {
-        intensity = Positive(*k, lp + "/intensity", "intensity");
+        intensity = Intensity(*k, lp + "/intensity");
       }
       return color * intensity;
     };
@@ -497,7 +523,7 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       if (const Json* ks = Find(l, "intensities")) {
         AsArray(*ks, lp + "/intensities", true);
         for (size_t k = 0; k < ks->size(); ++k) {
-          intensities.push_back(Positive((*ks)[k], PointerChild(lp + "/intensities", k), "intensity"));
+          intensities.push_back(Intensity((*ks)[k], PointerChild(lp + "/intensities", k)));
         }
       }
       for (int j = 0; j < ny; ++j) {
@@ -590,11 +616,7 @@ Sequence ParseSequence(const std::string& text, const std::string& path, const s
 
 Sequence LoadSequence(const std::string& path) {
   namespace fs = std::filesystem;
-  std::string text;
-  std::error_code ec;
-  if (fs::is_directory(path, ec) || !ReadFileBytes(path, text)) {
-    throw InputError(OneLine(path + ": error: cannot read sequence file"));
-  }
+  const std::string text = ReadInputFile(path, kMaxSequenceBytes, "sequence file");
   std::string baseDir = fs::path(path).parent_path().string();
   if (baseDir.empty()) baseDir = ".";
   return ParseSequence(text, path, baseDir);

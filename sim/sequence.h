@@ -28,6 +28,10 @@ struct Material {
 };
 
 // Triangle mesh in object space. Normals are optional per-vertex shading normals (empty: flat shading).
+// Every number a sequence or its meshes give (coordinates, sizes, angles, scales, colours, intensities) is at most
+// this in magnitude, so products of a few of them stay finite in single precision (sequence.cpp has the argument).
+inline constexpr double kMaxSequenceNumber = 1e7;
+
 struct Mesh {
   std::vector<Vec3> positions;
   std::vector<glm::uvec3> triangles;

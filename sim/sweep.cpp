@@ -4,13 +4,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
 #include "sim/atomic_file.h"
+#include "sim/input_file.h"
 #include "sim/json_reader.h"
 #include "sim/pipeline.h"
 #include "sim/presets.h"
@@ -87,12 +87,8 @@ std::string Num(double v, const char* format = "%.6g") {
 }  // namespace
 
 SweepSpec LoadSweep(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::error_code ec;
-  if (!f || fs::is_directory(path, ec)) throw InputError(path + ": error: cannot read sweep file");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const SweepReader r(path, ss.str());
+  // A FIFO or /dev/zero given as the sweep file is refused, not read forever (DESIGN §10).
+  const SweepReader r(path, ReadInputFile(path, size_t(16) << 20, "sweep file"));
   const Json& root = r.AsObject(r.Root(), "");
   r.CheckKeys(root, "", {"sequence", "resolution", "frames", "seed", "referenceSpp", "presets", "grid", "configs"});
 
@@ -102,6 +98,7 @@ SweepSpec LoadSweep(const std::string& path) {
   // Relative to the sweep file, as mesh paths are relative to their sequence file.
   const fs::path seqPath(r.Name(r.Need(root, "", "sequence"), "/sequence"));
   b.sequencePath = seqPath.is_absolute() ? seqPath.string() : (fs::path(path).parent_path() / seqPath).string();
+  std::error_code ec;
   if (!fs::is_regular_file(b.sequencePath, ec)) r.Fail("/sequence", "no sequence file '" + b.sequencePath + "'");
   if (root.contains("resolution")) {
     const Json& v = root["resolution"];

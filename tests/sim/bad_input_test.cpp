@@ -12,6 +12,7 @@
 #include <fstream>
 #include <string>
 #include <vector>
+#include "sim_binary.h"
 
 namespace {
 
@@ -19,27 +20,8 @@ namespace fs = std::filesystem;
 
 const char* kCorpus = "tests/data/bad_sequences";
 
-struct Outcome {
-  bool exited = false;  // false: killed by a signal (a crash)
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-std::string SimBinary() {
-  if (const char* bin = std::getenv("RESTIR_SIM_BIN")) return bin;
-  return (fs::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-}
-
-Outcome RunSim(const std::string& args) {
-  Outcome r;
-  FILE* p = popen((SimBinary() + " " + args + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int st = pclose(p);
-  r.exited = WIFEXITED(st);
-  r.status = r.exited ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using Outcome = restir::test::ShellResult;
+using restir::test::RunSim;
 
 struct Case {
   std::string file;    // corpus file name

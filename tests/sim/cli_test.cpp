@@ -7,29 +7,13 @@
 #include <filesystem>
 #include <string>
 
+#include "sim_binary.h"
+
 namespace {
 
-struct Result {
-  int status = -1;
-  std::string output;
-};
+using Result = restir::test::ShellResult;
 
-// ctest passes the binary's path; run by hand, the binary sits beside the test executable.
-std::string SimBinary() {
-  if (const char* bin = std::getenv("RESTIR_SIM_BIN")) return bin;
-  return (std::filesystem::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-}
-
-Result RunCli(const std::string& args) {
-  Result r;
-  const std::string cmd = SimBinary() + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+Result RunCli(const std::string& args) { return restir::test::RunSim(args); }
 
 class Cli : public ::testing::Test {};
 

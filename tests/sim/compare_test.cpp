@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "sim/sequence.h"
+#include "sim_binary.h"
 
 namespace restir {
 namespace {
@@ -108,17 +109,10 @@ TEST(Compare, RunsWithAShiftedMetricFlagOnlyThatColumn) {
   EXPECT_THROW(CompareRuns(a.string(), (a / "missing").string()), InputError);
 }
 
-std::string SimBinary() {
-  if (const char* bin = std::getenv("RESTIR_SIM_BIN")) return bin;
-  return (fs::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-}
-
 int RunCli(const std::string& args, std::string& output) {
-  FILE* p = popen((SimBinary() + " " + args + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) output += buf.data();
-  const int st = pclose(p);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  const restir::test::ShellResult r = restir::test::RunSim(args);
+  output += r.output;
+  return r.status;
 }
 
 TEST(CompareCli, PrintsTableAndExitsZeroOrTwoOnBadInput) {

@@ -22,6 +22,7 @@
 #include <string>
 
 #include "sim/sequence.h"
+#include "sim_binary.h"
 
 namespace restir {
 namespace {
@@ -211,26 +212,9 @@ TEST(Report, MalformedMetricsThrowsNamingFileAndLine) {
 
 // ---- the binary, and the browser ----
 
-struct Result {
-  int status = -1;
-  std::string output;
-};
-
-std::string SimBinary() {
-  if (const char* bin = std::getenv("RESTIR_SIM_BIN")) return bin;
-  return (fs::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-}
-
-Result Shell(const std::string& cmd) {
-  Result r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using Result = restir::test::ShellResult;
+using restir::test::Shell;
+using restir::test::SimBinary;
 
 TEST(ReportCli, BadOrMissingRunDirectoryExitsTwoNamingFileAndLine) {
   const fs::path dir = FreshDir("restir-report-cli-bad");

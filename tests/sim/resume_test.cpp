@@ -15,6 +15,7 @@
 #include <string>
 #include <thread>
 #include <vector>
+#include "sim_binary.h"
 
 extern char** environ;
 
@@ -22,10 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string SimBinary() {
-  if (const char* bin = std::getenv("RESTIR_SIM_BIN")) return bin;
-  return (fs::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-}
+using restir::test::SimBinary;
 
 pid_t Spawn(const std::vector<std::string>& args) {
   std::vector<char*> argv;

@@ -158,20 +158,23 @@ TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   EXPECT_NE(t.str().find("normal.Z"), std::string::npos) << t.str();
 }
 
-// A temporary left by a killed run (name.tmpPID.ext) is removed by the next run in that directory; other files
-// are left alone.
-TEST(Run, RemovesStaleTemporaries) {
+// The run removes only what it made: a killed run's private area of temporaries (its lock free) goes, a user's
+// files go nowhere, whatever they are called (the old cleanup matched *.tmp<digits>* and took thesis.tmp2024.tex).
+TEST(Run, RemovesItsOwnStaleTemporariesAndNothingOfTheUsers) {
   const std::string out = TempOut("restir-run-stale");
   std::filesystem::create_directories(out + "/frames/ris");
-  std::ofstream(out + "/frames/ris/0003.tmp4242.exr") << "partial";
-  std::ofstream(out + "/notes.txt") << "mine";
+  std::filesystem::create_directories(out + "/.restir-sim-tmp/deadhost-1-2");
+  std::ofstream(out + "/.restir-sim-tmp/deadhost-1-2.lock");
+  std::ofstream(out + "/.restir-sim-tmp/deadhost-1-2/0-metrics.csv") << "partial";
+  const char* mine[] = {"/frames/ris/0003.tmp4242.exr", "/thesis.tmp2024.tex", "/notes.txt", "/.restir-sim-tmp.txt"};
+  for (const char* f : mine) std::ofstream(out + f) << "mine";
   RunOptions o = SmokeOptions(out);
   o.frameEnd = 1;
   o.reference = false;
   o.writeImages = false;
   restir::Run(o);
-  EXPECT_FALSE(std::filesystem::exists(out + "/frames/ris/0003.tmp4242.exr"));
-  EXPECT_TRUE(std::filesystem::exists(out + "/notes.txt"));
+  EXPECT_FALSE(std::filesystem::exists(out + "/.restir-sim-tmp"));
+  for (const char* f : mine) EXPECT_TRUE(std::filesystem::exists(out + f)) << f;
 }
 
 TEST(Run, BadInputThrowsInputError) {

@@ -118,6 +118,34 @@ TEST(SequenceParse, NumberOverflowIsAnErrorWithPosition) {
             0u);
 }
 
+// Finite float arithmetic (issue 14): numbers, object reach and light radiance have bounds whose products stay
+// finite; each bound is tested on both sides, so a limit that moved would show here.
+TEST(SequenceParse, NumbersBeyondFloatSafeBoundsAreErrorsAtTheirPath) {
+  auto error = [](const std::string& from, const std::string& to) { return ErrorOf(Replace(kBase, from, to)); };
+  EXPECT_EQ(error("\"position\": [0, 0, 5]", "\"position\": [0, 0, 1e7]"), "");
+  EXPECT_NE(error("\"position\": [0, 0, 5]", "\"position\": [0, 0, 1.0001e7]").find("/camera/keyframes/0/position/2"),
+            std::string::npos);
+  EXPECT_NE(error("\"lookAt\": [0, 0, 0]", "\"lookAt\": [-3e38, 0, 0]").find("/camera/keyframes/0/lookAt/0"),
+            std::string::npos);
+  EXPECT_NE(error("\"radius\": 1", "\"radius\": 2e7").find("/objects/0/shape/radius"), std::string::npos);
+  // A sun-like intensity is fine: only colour x intensity is bounded (1e12).
+  EXPECT_EQ(error("\"intensity\": 1", "\"intensity\": 1.5e9"), "");
+  EXPECT_EQ(error("\"intensity\": 1", "\"intensity\": 1e12"), "");
+  EXPECT_NE(error("\"intensity\": 1", "\"intensity\": 1.1e12").find("/lights/0/intensity"), std::string::npos);
+  EXPECT_NE(error("\"color\": [1, 1, 1], \"intensity\": 1", "\"color\": [2, 1, 1], \"intensity\": 1e12")
+                .find("error at /lights/0: light 'l' has radiance"),
+            std::string::npos);
+  // Object reach: translation plus scale times the mesh's extent, per keyframe.
+  const std::string far = ", \"keyframes\": [{\"frame\": 0, \"translate\": [0, 0, 0], \"scale\": [S, S, S]}]}]";
+  auto withScale = [&](const std::string& scale) {
+    std::string k = far;
+    for (size_t at; (at = k.find('S')) != std::string::npos;) k.replace(at, 1, scale);
+    return error("\"radius\": 1}}]", "\"radius\": 1e6}" + k);
+  };
+  EXPECT_EQ(withScale("99"), "");
+  EXPECT_NE(withScale("101").find("/objects/0/keyframes/0"), std::string::npos) << withScale("101");
+}
+
 TEST(SequenceParse, WrongTypeReportsPathAndLine) {
   EXPECT_EQ(ErrorOf(Replace(kBase, "\"radius\": 1", "\"radius\": \"1\"")),
             "seq.json:6:105: error at /objects/0/shape/radius: expected a number, got string");
@@ -388,7 +416,7 @@ TEST(SequenceParse, MissingMeshFileNamesTheFile) {
   const std::string mesh = Replace(kBase, R"({"type": "sphere", "center": [0, 0, 0], "radius": 1})",
                                    R"({"type": "mesh", "file": "nope/missing.obj"})");
   EXPECT_EQ(ErrorOf(mesh, "base"),
-            "seq.json:6:80: error at /objects/0/shape/file: cannot read mesh file 'base/nope/missing.obj'");
+            "seq.json:6:80: error at /objects/0/shape/file: cannot read mesh file 'base/nope/missing.obj' (no such file)");
 }
 
 TEST(SequenceParse, MalformedMeshReportsObjFileAndLine) {
@@ -445,7 +473,7 @@ TEST(SequenceParse, LoadReportsUnreadableFile) {
     LoadSequence("/nonexistent/dir/x.json");
     FAIL() << "no error";
   } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/dir/x.json: error: cannot read sequence file");
+    EXPECT_STREQ(e.what(), "/nonexistent/dir/x.json: error: cannot read sequence file (no such file)");
   }
 }
 

@@ -17,6 +17,7 @@
 #include "sim/embree_scene.h"
 #include "sim/presets.h"
 #include "sim/runner.h"
+#include "sim_binary.h"
 
 namespace restir {
 namespace {
@@ -217,15 +218,9 @@ TEST_F(SimdDeterminism, UnsupportedOrUnknownTargetsAreRefused) {
 // `restir-sim run --simd NAME`: an unknown name, or a target this CPU lacks, is bad input (exit status 2, one
 // message naming the option); a supported one runs.
 int RunCliStatus(const std::string& args, std::string& output) {
-  const char* env = std::getenv("RESTIR_SIM_BIN");
-  const std::string bin =
-      env ? env : (std::filesystem::read_symlink("/proc/self/exe").parent_path() / "restir-sim").string();
-  FILE* p = popen((bin + " " + args + " 2>&1").c_str(), "r");
-  std::array<char, 4096> buf{};
-  output.clear();
-  while (fgets(buf.data(), buf.size(), p)) output += buf.data();
-  const int st = pclose(p);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  const restir::test::ShellResult r = restir::test::RunSim(args);
+  output = r.output;
+  return r.status;
 }
 
 TEST_F(SimdDeterminism, CliSimdOption) {

@@ -1,0 +1,82 @@
+#include "sim/input_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+#include "sim/sequence.h"  // InputError
+
+namespace restir {
+
+bool TryReadRegularFile(const std::string& path, size_t maxBytes, std::string& bytes, std::string& problem) {
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below as not a regular file.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    problem = errno == ENOENT ? "no such file" : std::strerror(errno);
+    return false;
+  }
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    problem = S_ISDIR(st.st_mode) ? "a directory, not a file" : "not a regular file";
+    ::close(fd);
+    return false;
+  }
+  if (static_cast<unsigned long long>(st.st_size) > maxBytes) {
+    problem = "larger than " + FormatBytes(double(maxBytes));
+    ::close(fd);
+    return false;
+  }
+  bytes.resize(static_cast<size_t>(st.st_size));
+  size_t done = 0;
+  for (;;) {
+    if (done == bytes.size()) {
+      // The file may have grown since fstat: read on, within the limit.
+      if (bytes.size() >= maxBytes) {
+        char probe;
+        const ssize_t n = ::read(fd, &probe, 1);
+        if (n > 0) {
+          problem = "larger than " + FormatBytes(double(maxBytes));
+          ::close(fd);
+          return false;
+        }
+        break;
+      }
+      bytes.resize(std::min(maxBytes, bytes.size() * 2 + 4096));
+    }
+    const ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      problem = std::strerror(errno);
+      ::close(fd);
+      return false;
+    }
+    if (n == 0) break;
+    done += static_cast<size_t>(n);
+  }
+  ::close(fd);
+  bytes.resize(done);
+  return true;
+}
+
+std::string ReadInputFile(const std::string& path, size_t maxBytes, const std::string& what) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, maxBytes, bytes, problem))
+    throw InputError(path + ": error: cannot read " + what + " (" + problem + ")");
+  return bytes;
+}
+
+std::string FormatBytes(double bytes) {
+  char buf[64];
+  if (bytes >= 1024.0 * 1024.0 * 1024.0) std::snprintf(buf, sizeof(buf), "%.3g GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  else if (bytes >= 1024.0 * 1024.0) std::snprintf(buf, sizeof(buf), "%.3g MiB", bytes / (1024.0 * 1024.0));
+  else if (bytes >= 1024.0) std::snprintf(buf, sizeof(buf), "%.3g KiB", bytes / 1024.0);
+  else std::snprintf(buf, sizeof(buf), "%.0f bytes", bytes);
+  return buf;
+}
+
+}  // namespace restir

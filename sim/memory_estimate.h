@@ -1,0 +1,59 @@
+// How much memory a run will take, decided before it starts (DESIGN §10, issue 14): a sequence at 16384² over
+// 100000 frames is valid by the sequence format's limits but would take the machine's memory long before anyone
+// stopped it. `run` refuses such a run with exit status 2 and the figure, unless --max-memory says otherwise.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace restir {
+
+// What decides a run's memory.
+struct RunShape {
+  int64_t width = 0;             // image width, pixels
+  int64_t height = 0;            // image height, pixels
+  int64_t frames = 0;            // frames rendered (metrics rows per preset)
+  int64_t presets = 0;           // presets run side by side
+  int64_t members = 1;           // pipelines per preset (--ensemble K)
+  bool reference = true;         // a reference per frame, FLIP and the error metrics
+  bool writeImages = true;       // EXR and PNG per frame
+  int64_t sceneTriangles = 0;    // object triangles, for Embree's BVH
+  int64_t lightTriangles = 0;    // emitter triangles
+  double processBytes = 0.0;     // what the process holds already (libraries, the parsed sequence)
+};
+
+struct MemoryEstimate {
+  double bytes = 0.0;                                     // the peak, all parts together
+  std::vector<std::pair<std::string, double>> parts;      // named parts, largest first, for the message
+};
+
+// An upper estimate of the run's peak resident memory: the long-lived per-pixel arrays (G-buffers, reservoirs,
+// images, references) plus the largest transient (checkpoint serialisation, FLIP, EXR encoding), the metrics rows
+// and the scene. Each part is computed from the sizes of the structures that hold it; tests/sim/memory_estimate_test
+// checks the sum against the measured peak of real runs.
+MemoryEstimate EstimateRunMemory(const RunShape& shape);
+
+// The memory this process may use: the smallest of the machine's RAM (MemTotal), its control group's limit
+// (cgroup v2 memory.max or v1 memory.limit_in_bytes) and RLIMIT_AS, with the name of the one that decides.
+struct MemoryLimit {
+  double bytes = 0.0;
+  std::string source;  // "MemTotal", "cgroup memory.max", "RLIMIT_AS"
+};
+std::optional<MemoryLimit> MachineMemoryLimit();
+
+// This process's resident set now (/proc/self/statm), bytes; 0 when unknown.
+double CurrentResidentBytes();
+
+// "512M", "24G", "1.5GiB", "100000000" (bytes): a size for --max-memory; nullopt if it is not one.
+std::optional<double> ParseByteSize(const std::string& text);
+
+// Throws InputError "<what>: error: the run needs about X (parts) but Y is available (source); ..." when
+// `estimate` exceeds `limitBytes`.
+void CheckMemory(const MemoryEstimate& estimate, double limitBytes, const std::string& limitSource,
+                 const std::string& what);
+
+}  // namespace restir

@@ -1,0 +1,124 @@
+// The run's memory estimate against what real runs take: measured by the kernel (wait4's peak resident set of a
+// restir-sim child), not by the estimator's own arithmetic.
+#include "sim/memory_estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "sim/input_file.h"
+#include "sim/sequence.h"
+#include "sim_binary.h"
+
+namespace restir {
+namespace {
+
+namespace fs = std::filesystem;
+using test::RunSimMeasured;
+
+TEST(ParseByteSize, AcceptsUnitsAndRejectsTheRest) {
+  EXPECT_EQ(*ParseByteSize("512M"), 512.0 * 1048576.0);
+  EXPECT_EQ(*ParseByteSize("8G"), 8.0 * 1073741824.0);
+  EXPECT_EQ(*ParseByteSize("1.5GiB"), 1.5 * 1073741824.0);
+  EXPECT_EQ(*ParseByteSize("2gb"), 2.0 * 1073741824.0);
+  EXPECT_EQ(*ParseByteSize("100000"), 100000.0);
+  EXPECT_EQ(*ParseByteSize("64K"), 65536.0);
+  for (const char* bad : {"", "G", "-1G", "0", "1e400", "nan", "inf", "12Q", "8 G", " 8G", "8GG", "0x10"})
+    EXPECT_FALSE(ParseByteSize(bad).has_value()) << bad;
+}
+
+TEST(MachineMemoryLimit, IsPositiveAndAtMostTheMachinesMemory) {
+  const std::optional<MemoryLimit> limit = MachineMemoryLimit();
+  ASSERT_TRUE(limit.has_value());
+  EXPECT_GT(limit->bytes, 64.0 * 1048576.0);
+  EXPECT_LE(limit->bytes, double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE)) * 1.0001);
+  EXPECT_FALSE(limit->source.empty());
+}
+
+TEST(EstimateRunMemory, GrowsWithEveryDimension) {
+  RunShape base;
+  base.width = 640;
+  base.height = 360;
+  base.frames = 10;
+  base.presets = 1;
+  const double b = EstimateRunMemory(base).bytes;
+  auto with = [&](auto change) {
+    RunShape s = base;
+    change(s);
+    return EstimateRunMemory(s).bytes;
+  };
+  EXPECT_GT(with([](RunShape& s) { s.width *= 2; }), b);
+  EXPECT_GT(with([](RunShape& s) { s.presets = 3; }), b);
+  EXPECT_GT(with([](RunShape& s) { s.members = 4; }), b);
+  EXPECT_GT(with([](RunShape& s) { s.frames = 100000; }), b);
+  EXPECT_GT(with([](RunShape& s) { s.sceneTriangles = 1 << 20; }), b);
+  EXPECT_LT(with([](RunShape& s) { s.reference = false; }), b);
+  // The case: 16384² is valid by the format's limits; it needs far more than any ordinary machine.
+  EXPECT_GT(with([](RunShape& s) { s.width = s.height = 16384; s.frames = 100000; }), 64.0 * 1073741824.0);
+}
+
+// The estimate bounds the measured peak from above, and not by so much that a run the machine could hold is
+// refused: measured <= estimate <= 1.6 x measured over a grid of resolutions, preset counts, ensembles, with and
+// without reference and images. The process's own part is what `restir-sim presets` takes (the same libraries).
+TEST(EstimateRunMemory, BoundsTheMeasuredPeakOfRealRuns) {
+  const std::string out = (fs::path(::testing::TempDir()) / "restir-memory-estimate").string();
+  const test::ShellResult idle = RunSimMeasured({"presets"});
+  ASSERT_TRUE(idle.exited && idle.status == 0);
+  const Sequence seq = LoadSequence("sequences/smoke.json");
+  int64_t sceneTriangles = 0, lightTriangles = 0;
+  for (const Object& o : seq.objects) sceneTriangles += int64_t(o.mesh.triangles.size());
+  for (const Light& l : seq.lights) lightTriangles += int64_t(l.vertices.size() / 3);
+
+  struct Config {
+    int width, height, frames;
+    std::vector<std::string> presets;
+    int ensemble;
+    bool reference, images;
+  };
+  const Config configs[] = {
+      {256, 144, 2, {"ris"}, 1, true, true},
+      {640, 640, 2, {"ris"}, 1, true, true},
+      {1024, 1024, 2, {"ris"}, 1, false, false},
+      {512, 512, 2, {"ris", "restir-unbiased", "restir-spmis"}, 1, true, true},
+      {512, 512, 2, {"ris"}, 3, true, false},
+      {960, 540, 2, {"restir-biased"}, 1, true, true},
+  };
+  for (const Config& c : configs) {
+    std::string presetList;
+    for (const std::string& p : c.presets) presetList += (presetList.empty() ? "" : ",") + p;
+    std::vector<std::string> args = {"run", "sequences/smoke.json", "--preset", presetList, "--resolution",
+                                     std::to_string(c.width) + "x" + std::to_string(c.height), "--frames",
+                                     "0:" + std::to_string(c.frames), "--reference-spp", "1", "--cache-dir", "",
+                                     "--ensemble", std::to_string(c.ensemble), "--no-progress", "--no-report",
+                                     "--max-memory", "none", "--out", out};
+    if (!c.reference) args.push_back("--no-reference");
+    if (!c.images) args.push_back("--no-images");
+    const test::ShellResult r = RunSimMeasured(args);
+    ASSERT_TRUE(r.exited && r.status == 0) << presetList;
+    RunShape s;
+    s.width = c.width;
+    s.height = c.height;
+    s.frames = c.frames;
+    s.presets = int64_t(c.presets.size());
+    s.members = c.reference ? c.ensemble : 1;
+    s.reference = c.reference;
+    s.writeImages = c.images;
+    s.sceneTriangles = sceneTriangles;
+    s.lightTriangles = lightTriangles;
+    s.processBytes = idle.peakBytes;
+    const double estimate = EstimateRunMemory(s).bytes;
+    const std::string what = std::to_string(c.width) + "x" + std::to_string(c.height) + " " + presetList +
+                             " ensemble " + std::to_string(c.ensemble) + (c.reference ? "" : " no-reference") +
+                             (c.images ? "" : " no-images") + ": measured " + FormatBytes(r.peakBytes) +
+                             ", estimate " + FormatBytes(estimate);
+    std::printf("%s\n", what.c_str());
+    EXPECT_GE(estimate, r.peakBytes) << what;
+    EXPECT_LE(estimate, 1.6 * r.peakBytes) << what;
+  }
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace restir

@@ -1,0 +1,105 @@
+// The reference cache's entries: any change to an entry's bytes (a flipped bit anywhere, a cut, an appended byte,
+// another frame's entry under this name) is refused, and only a whole, finite, non-negative entry for this key
+// and size is accepted.
+#include "sim/reference_cache.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <limits>
+
+namespace restir {
+namespace {
+
+const std::string kKey = "0123456789abcdef";
+
+ImageRgb Ramp(int w, int h, float scale) {
+  ImageRgb img(w, h);
+  for (size_t i = 0; i < img.Size(); ++i)
+    img.pixels[i] = Vec3(scale * float(i), scale * float(i) + 0.5f, scale * 0.25f * float(i * i));
+  return img;
+}
+
+bool Decodes(const std::string& bytes, const std::string& key, int w, int h, std::string* why = nullptr) {
+  ImageRgb mean, se;
+  std::string problem;
+  const bool ok = DecodeReferenceCacheEntry(bytes, key, w, h, mean, se, problem);
+  if (why) *why = problem;
+  return ok;
+}
+
+TEST(ReferenceCacheEntry, RoundTripsBitForBit) {
+  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{7, 3}, std::pair{64, 36}}) {
+    const ImageRgb mean = Ramp(w, h, 0.125f), se = Ramp(w, h, 1e-3f);
+    const std::string bytes = EncodeReferenceCacheEntry(kKey, mean, se);
+    EXPECT_EQ(bytes.size(), ReferenceCacheEntrySize(kKey, w, h));
+    ImageRgb m, s;
+    std::string problem;
+    ASSERT_TRUE(DecodeReferenceCacheEntry(bytes, kKey, w, h, m, s, problem)) << problem;
+    EXPECT_EQ(HashImage(m), HashImage(mean));
+    EXPECT_EQ(HashImage(s), HashImage(se));
+  }
+}
+
+// Exhaustive over a small entry: every bit of every byte, header, key, payload and checksum alike.
+TEST(ReferenceCacheEntry, EverySingleBitFlipIsRefused) {
+  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(3, 2, 0.5f), Ramp(3, 2, 0.01f));
+  for (size_t i = 0; i < good.size(); ++i)
+    for (int bit = 0; bit < 8; ++bit) {
+      std::string bad = good;
+      bad[i] = static_cast<char>(bad[i] ^ (1 << bit));
+      EXPECT_FALSE(Decodes(bad, kKey, 3, 2)) << "byte " << i << " bit " << bit;
+    }
+}
+
+TEST(ReferenceCacheEntry, EveryCutAndAnyAppendedByteIsRefused) {
+  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
+  for (size_t n = 0; n < good.size(); ++n) EXPECT_FALSE(Decodes(good.substr(0, n), kKey, 4, 3)) << n;
+  EXPECT_FALSE(Decodes(good + '\0', kKey, 4, 3));
+  EXPECT_FALSE(Decodes(good + good, kKey, 4, 3));
+}
+
+TEST(ReferenceCacheEntry, AnotherKeyOrSizeIsRefusedAndSaysWhy) {
+  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
+  std::string why;
+  EXPECT_FALSE(Decodes(good, "fedcba9876543210", 4, 3, &why));
+  EXPECT_NE(why.find("another frame"), std::string::npos) << why;
+  EXPECT_FALSE(Decodes(good, kKey, 3, 4, &why));
+  EXPECT_NE(why.find("4x3"), std::string::npos) << why;
+  EXPECT_FALSE(Decodes(good, kKey, 4, 4));
+  EXPECT_FALSE(Decodes("", kKey, 4, 3));
+  EXPECT_FALSE(Decodes(std::string(100, '\0'), kKey, 1, 1));
+}
+
+// A valid checksum over invalid values (written by a broken renderer, or forged) is refused too.
+TEST(ReferenceCacheEntry, NonFiniteOrNegativeValuesAreRefusedEvenWithAValidChecksum) {
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                       -std::numeric_limits<float>::infinity(), -1e-30f, -5.0f};
+  for (float v : bad)
+    for (int image = 0; image < 2; ++image) {
+      ImageRgb mean = Ramp(3, 3, 0.5f), se = Ramp(3, 3, 0.01f);
+      (image ? se : mean).pixels[4].y = v;
+      std::string why;
+      EXPECT_FALSE(Decodes(EncodeReferenceCacheEntry(kKey, mean, se), kKey, 3, 3, &why)) << v;
+      EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
+    }
+  ImageRgb zero(2, 2), negativeZero(2, 2);
+  negativeZero.pixels[0] = Vec3(-0.0f);
+  EXPECT_TRUE(Decodes(EncodeReferenceCacheEntry(kKey, zero, zero), kKey, 2, 2));
+  EXPECT_TRUE(Decodes(EncodeReferenceCacheEntry(kKey, negativeZero, zero), kKey, 2, 2));
+}
+
+// The fuzz target's seed (tests/fuzz/cache_seeds/) stays a valid entry for the key and size the target asks for,
+// so the fuzzer starts from the accepting path.
+TEST(ReferenceCacheEntry, FuzzSeedIsAValidEntry) {
+  std::ifstream f("tests/fuzz/cache_seeds/entry.bin", std::ios::binary);
+  ASSERT_TRUE(f) << "tests/fuzz/cache_seeds/entry.bin";
+  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string why;
+  EXPECT_TRUE(Decodes(bytes, "fuzz0000fuzz0000", 3, 2, &why)) << why;
+}
+
+}  // namespace
+}  // namespace restir
