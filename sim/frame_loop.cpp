@@ -27,8 +27,10 @@ double FrameLoop::Primary() {
 
 double FrameLoop::Reprojection() {
   const auto t0 = Clock::now();
-  Reproject(state_, previousState_, hasPrevious_ ? previous_ : GBuffer(), scene_.LightObjectId(),
-            ReprojectionParams{}, current_);
+  // A reference either way: `hasPrevious_ ? previous_ : GBuffer()` would copy the whole previous G-buffer.
+  static const GBuffer kNoPrevious;
+  const GBuffer& previous = hasPrevious_ ? previous_ : kNoPrevious;
+  Reproject(state_, previousState_, previous, scene_.LightObjectId(), ReprojectionParams{}, current_);
   return MsSince(t0);
 }
 

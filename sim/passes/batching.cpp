@@ -35,23 +35,10 @@ bool SimilarSurface(const GBuffer& a, size_t i, const GBuffer& b, size_t j, floa
 
 // ---- TargetPairBuffer
 
-void TargetPairBuffer::Clear() {
-  for (auto& f : field_) f.clear();
-  material_.clear();
-}
-
-void TargetPairBuffer::Add(const Vec3& eye, const GBuffer& g, size_t p, const Vec3& lightPosition,
-                           const Vec3& lightNormal, const Vec3& radiance) {
-  for (int c = 0; c < 3; ++c) {
-    field_[c].push_back(eye[c]);
-    field_[12 + c].push_back(lightPosition[c]);
-    field_[15 + c].push_back(lightNormal[c]);
-    field_[18 + c].push_back(radiance[c]);
-  }
-  field_[3].push_back(g.posX[p]), field_[4].push_back(g.posY[p]), field_[5].push_back(g.posZ[p]);
-  field_[6].push_back(g.ngX[p]), field_[7].push_back(g.ngY[p]), field_[8].push_back(g.ngZ[p]);
-  field_[9].push_back(g.nsX[p]), field_[10].push_back(g.nsY[p]), field_[11].push_back(g.nsZ[p]);
-  material_.push_back(g.materialId[p]);
+void TargetPairBuffer::Grow() {
+  const size_t n = std::max<size_t>(256, 2 * material_.size());
+  for (auto& f : field_) f.resize(n);
+  material_.resize(n);
 }
 
 void TargetPairBuffer::Evaluate(const BsdfSoa& materials, float* target, float* const* contribution) const {
@@ -116,18 +103,6 @@ void TargetEvaluator::Bind(const DomainFrame* views, const BsdfSoa& materials, c
   visibility_ = visibility;
   pending_.clear();
   visibilityPending_.clear();
-}
-
-void TargetEvaluator::Request(Combination& c, int j, int i) {
-  if (c.state[j][i] != Entry::kUnknown) return;
-  c.state[j][i] = Entry::kQueued;
-  const DomainFrame& v = views_[c.view[j]];
-  if (c.samples[i].lightId >= v.lights->size()) {  // a light removed in that frame
-    c.target[j][i] = 0.0f;
-    c.state[j][i] = Entry::kKnown;
-    return;
-  }
-  pending_.push_back({&c, static_cast<uint8_t>(j), static_cast<uint8_t>(i)});
 }
 
 void TargetEvaluator::Resolve(uint64_t& rays) {

@@ -59,17 +59,35 @@ struct DomainFrame {
 // (receiver, light point) pairs gathered structure-of-arrays for the target kernel (core/target_kernel.h).
 class TargetPairBuffer {
  public:
-  void Clear();
-  // The receiver at G-buffer pixel `pixel`, seen from `eye`, and a light point with the radiance it has there.
-  void Add(const Vec3& eye, const GBuffer& g, size_t pixel, const Vec3& lightPosition, const Vec3& lightNormal,
-           const Vec3& radiance);
-  size_t Size() const { return material_.size(); }
+  void Clear() { size_ = 0; }
+  // The receiver at G-buffer pixel `p`, seen from `eye`, and a light point with the radiance it has there. Inline
+  // and into arrays that keep their size from batch to batch: it runs once per target entry, the passes' most
+  // frequent operation.
+  void Add(const Vec3& eye, const GBuffer& g, size_t p, const Vec3& lightPosition, const Vec3& lightNormal,
+           const Vec3& radiance) {
+    if (size_ == material_.size()) Grow();
+    const size_t k = size_;
+    for (int c = 0; c < 3; ++c) {
+      field_[c][k] = eye[c];
+      field_[12 + c][k] = lightPosition[c];
+      field_[15 + c][k] = lightNormal[c];
+      field_[18 + c][k] = radiance[c];
+    }
+    field_[3][k] = g.posX[p], field_[4][k] = g.posY[p], field_[5][k] = g.posZ[p];
+    field_[6][k] = g.ngX[p], field_[7][k] = g.ngY[p], field_[8][k] = g.ngZ[p];
+    field_[9][k] = g.nsX[p], field_[10][k] = g.nsY[p], field_[11][k] = g.nsZ[p];
+    material_[k] = g.materialId[p];
+    ++size_;
+  }
+  size_t Size() const { return size_; }
   // p̂ of every pair into target[0, Size()), and L_e f_r G into contribution[c] when not null.
   void Evaluate(const BsdfSoa& materials, float* target, float* const* contribution = nullptr) const;
 
  private:
+  void Grow();
   std::vector<float> field_[kTargetPairFields];  // MakeTargetPairs' order
   std::vector<int32_t> material_;
+  size_t size_ = 0;  // pairs added since Clear (the arrays may be longer)
 };
 
 // Shadow rays of a batch of pixels, all in one scene frame: the queries gathered structure-of-arrays, set up by
@@ -141,8 +159,18 @@ class TargetEvaluator {
  public:
   // Sets what the next batches evaluate against (the buffers are kept from batch to batch).
   void Bind(const DomainFrame* views, const BsdfSoa& materials, const EmbreeScene& scene, bool visibility);
-  // Queues p̂_j(Y_i) of `c` unless it is known or queued.
-  void Request(Combination& c, int j, int i);
+  // Queues p̂_j(Y_i) of `c` unless it is known or queued (inline: called for every entry a combination reads).
+  void Request(Combination& c, int j, int i) {
+    if (c.state[j][i] != Entry::kUnknown) return;
+    c.state[j][i] = Entry::kQueued;
+    const DomainFrame& v = views_[c.view[j]];
+    if (c.samples[i].lightId >= v.lights->size()) {  // a light removed in that frame
+      c.target[j][i] = 0.0f;
+      c.state[j][i] = Entry::kKnown;
+      return;
+    }
+    pending_.push_back({&c, static_cast<uint8_t>(j), static_cast<uint8_t>(i)});
+  }
   // Queues a shadow ray from input 0's surface to Y_i; Resolve sets input i's visibility from it.
   void RequestVisibility(Combination& c, int i) { visibilityPending_.push_back({&c, 0, static_cast<uint8_t>(i)}); }
   // Evaluates everything queued. `rays` counts the shadow rays traced.
