@@ -782,6 +782,15 @@ void RegisterAll() {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  // RESTIR_BENCH_EMBREE_ISA=sse4.2|avx2|avx512: Embree's ISA for every scene (default: restir-sim's default).
+  if (const char* isa = std::getenv("RESTIR_BENCH_EMBREE_ISA")) {
+    const std::optional<restir::EmbreeIsa> parsed = restir::ParseEmbreeIsa(isa);
+    if (!parsed || !restir::SetEmbreeIsa(*parsed)) {
+      std::fprintf(stderr, "frame_bench: RESTIR_BENCH_EMBREE_ISA=%s is not an ISA this CPU supports\n", isa);
+      return 2;
+    }
+  }
+  benchmark::AddCustomContext("embree_isa", restir::EmbreeIsaName(restir::ActiveEmbreeIsa()));
   restir::RegisterAll();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

@@ -640,7 +640,15 @@ const char* EmbreeIsaName(EmbreeIsa isa) {
   return "sse4.2";
 }
 
-bool SetEmbreeIsa(EmbreeIsa isa) {
+std::optional<EmbreeIsa> ParseEmbreeIsa(const std::string& name) {
+  for (EmbreeIsa isa : {EmbreeIsa::kSse42, EmbreeIsa::kAvx2, EmbreeIsa::kAvx512})
+    if (name == EmbreeIsaName(isa)) return isa;
+  return std::nullopt;
+}
+
+namespace {
+
+bool EmbreeIsaSupported(EmbreeIsa isa) {
   // Embree silently falls back to a lesser ISA when the CPU lacks the one asked for, so ask the CPU.
   __builtin_cpu_init();
   const bool supported = isa == EmbreeIsa::kSse42   ? __builtin_cpu_supports("sse4.2")
@@ -653,8 +661,21 @@ bool SetEmbreeIsa(EmbreeIsa isa) {
   RTCDevice device = rtcNewDevice(DeviceConfig(isa).c_str());
   if (!device) return false;
   rtcReleaseDevice(device);
+  return true;
+}
+
+}  // namespace
+
+bool SetEmbreeIsa(EmbreeIsa isa) {
+  if (!EmbreeIsaSupported(isa)) return false;
   gEmbreeIsa.store(isa);
   return true;
+}
+
+EmbreeIsa BestEmbreeIsa() {
+  for (EmbreeIsa isa : {EmbreeIsa::kAvx512, EmbreeIsa::kAvx2})
+    if (EmbreeIsaSupported(isa)) return isa;
+  return EmbreeIsa::kSse42;
 }
 
 EmbreeIsa ActiveEmbreeIsa() { return gEmbreeIsa.load(); }

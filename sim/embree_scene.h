@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <memory>
 #include <vector>
 
@@ -23,6 +24,9 @@ enum class EmbreeIsa : uint8_t { kSse42, kAvx2, kAvx512 };
 bool SetEmbreeIsa(EmbreeIsa isa);
 EmbreeIsa ActiveEmbreeIsa();
 const char* EmbreeIsaName(EmbreeIsa isa);  // "sse4.2", "avx2", "avx512": Embree's own names
+std::optional<EmbreeIsa> ParseEmbreeIsa(const std::string& name);  // the inverse of EmbreeIsaName
+// The widest ISA both this CPU and this Embree build support.
+EmbreeIsa BestEmbreeIsa();
 
 // Closest hit of a ray. Normals face the ray origin (every surface is two-sided except emitters, which emit
 // from their front only). Embree decides which triangle the ray hits; where on it, and its normal, are then

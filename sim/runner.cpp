@@ -260,6 +260,7 @@ RunResult Run(const RunOptions& opt) {
       {"seed", seed},
       {"ensemble", members},
       {"simd", ActiveSimdTargetName()},
+      {"embreeIsa", EmbreeIsaName(ActiveEmbreeIsa())},
       {"threads", threads},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"cacheDir", refParams.cacheDir}}
