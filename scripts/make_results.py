@@ -38,6 +38,8 @@ def summarize(run_dir):
             "preset": p,
             "frames": len(pr),
             "relmse": mean([float(r["relmse"]) for r in pr]),
+            # With the reference's own noise taken out (docs/metrics.md, "Reference noise").
+            "relmse_c": mean([float(r.get("relmse_corrected", "nan")) for r in pr]),
             "luma_rmse": mean([float(r["luma_rmse"]) for r in pr]),
             "rmspe": mean([float(r["rmspe"]) for r in pr]),
             "stability": mean([float(r["stability_luma_rmse"]) for r in later]),
@@ -46,6 +48,7 @@ def summarize(run_dir):
             # every frame, so the sequence-level ratio of luminance sums is the accumulated bias indicator.
             "accum_luma_ratio": float(last["accum_luma_ratio"]) if static else luma_sum / ref_sum,
             "accum_rmse": float(last["accum_rmse"]) if static else float("nan"),
+            "accum_rmse_c": float(last.get("accum_rmse_corrected", "nan")) if static else float("nan"),
             "accum_rmspe": float(last["accum_rmspe"]) if static and "accum_rmspe" in last else float("nan"),
             # Median: robust to passing load on a shared machine.
             "ms": statistics.median([float(r["ms_frame"]) for r in later or pr]),
@@ -94,13 +97,15 @@ def main(argv):
             print(f"Reference: {run['reference']['samplesPerPixel']} spp, mean relative standard error over lit "
                   f"pixels {100 * rows[0]['ref_stderr']:.2f}%. Disoccluded fraction per frame: "
                   f"{100 * min(rows[0]['disocc']):.2f}%–{100 * max(rows[0]['disocc']):.2f}%.\n")
-        head = ("| preset | relmse | luma_rmse | rmspe | stability_luma_rmse | flicker | accumulated luma ratio | "
-                + ("accum_rmse | accum_rmspe | " if static else "") + "temporal acceptance | rays/px | ms/frame |")
+        head = ("| preset | relmse | relmse_corrected | luma_rmse | rmspe | stability_luma_rmse | flicker | "
+                "accumulated luma ratio | "
+                + ("accum_rmse | accum_rmse_corrected | accum_rmspe | " if static else "")
+                + "temporal acceptance | rays/px | ms/frame |")
         print(head)
         print("|" + " --- |" * (head.count("|") - 1))
         for r in rows:
-            acc = f"{r['accum_rmse']:.4f} | {r['accum_rmspe']:.4f} | " if static else ""
-            print(f"| `{r['preset']}` | {r['relmse']:.4f} | {r['luma_rmse']:.4f} | {r['rmspe']:.4f} | "
+            acc = f"{r['accum_rmse']:.4f} | {r['accum_rmse_c']:.4f} | {r['accum_rmspe']:.4f} | " if static else ""
+            print(f"| `{r['preset']}` | {r['relmse']:.4f} | {r['relmse_c']:.4f} | {r['luma_rmse']:.4f} | {r['rmspe']:.4f} | "
                   f"{r['stability']:.4f} | {r['flicker']:.4f} | {r['accum_luma_ratio']:.4f} | {acc}"
                   f"{r['acceptance']:.3f} | {r['rays']:.2f} | {r['ms']:.0f} |")
         print()

@@ -1,13 +1,16 @@
 #include "sim/metrics.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace restir {
 
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
-                                const std::vector<uint8_t>* mask) {
+                                const std::vector<uint8_t>* mask, const ReferenceNoise* noise) {
   AccuracyMetrics m;
   double se = 0.0, seLuma = 0.0, rel = 0.0, sumY = 0.0, sumYRef = 0.0, spe = 0.0;
+  double noiseVar = 0.0, noiseVarLuma = 0.0, noiseRel = 0.0;  // Σ se², Σ se_Y², Σ se² / (R² + 0.01)
+  const bool corrected = noise && noise->standardError && noise->lumaStandardError;
   size_t count = 0, litCount = 0;
   for (size_t i = 0; i < estimate.Size(); ++i) {
     if (mask && !(*mask)[i]) continue;
@@ -17,9 +20,17 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
       const double d = double(a[c]) - double(r[c]);
       se += d * d;
       rel += d * d / (double(r[c]) * double(r[c]) + 0.01);
+      if (corrected) {
+        const double v = double(noise->standardError->pixels[i][c]) * double(noise->standardError->pixels[i][c]);
+        noiseVar += v;
+        // Only the numerator's share: the terms from the denominator's own noise (−2 d g' v + d² g'' v / 2 with
+        // g = 1 / (R² + 0.01)) would need derivatives of 1/R̂², which explode where R̂ is noisy and near 0.
+        noiseRel += v / (double(r[c]) * double(r[c]) + 0.01);
+      }
     }
     const double ya = Luminance(a), yr = Luminance(r);
     seLuma += (ya - yr) * (ya - yr);
+    if (corrected) noiseVarLuma += double((*noise->lumaStandardError)[i]) * double((*noise->lumaStandardError)[i]);
     if (yr > 1e-4) {
       spe += ((ya - yr) / yr) * ((ya - yr) / yr);
       ++litCount;
@@ -37,6 +48,11 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
   m.rmspe = litCount ? std::sqrt(spe / double(litCount)) : 0.0;
   m.lumaSum = sumY;
   m.referenceLumaSum = sumYRef;
+  m.mseCorrected = (se - noiseVar) / (3.0 * count);
+  m.lumaMseCorrected = (seLuma - noiseVarLuma) / count;
+  m.rmseCorrected = std::sqrt(std::max(0.0, m.mseCorrected));
+  m.lumaRmseCorrected = std::sqrt(std::max(0.0, m.lumaMseCorrected));
+  m.relmseCorrected = (rel - noiseRel) / (3.0 * count);
   return m;
 }
 
@@ -159,7 +175,15 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
   }
   if (m.reference) {
     const ImageRgb& ref = *m.reference;
-    const AccuracyMetrics a = MeasureAccuracy(*m.image, ref);
+    const ReferenceNoise* noise = m.referenceNoise.standardError ? &m.referenceNoise : nullptr;
+    // The corrected forms sit after the raw group so the raw columns keep their places.
+    auto corrected = [&](const AccuracyMetrics& x, const std::string& suffix) {
+      if (!noise) return;
+      v.emplace_back("rmse_corrected" + suffix, x.rmseCorrected);
+      v.emplace_back("luma_rmse_corrected" + suffix, x.lumaRmseCorrected);
+      v.emplace_back("relmse_corrected" + suffix, x.relmseCorrected);
+    };
+    const AccuracyMetrics a = MeasureAccuracy(*m.image, ref, nullptr, noise);
     v.emplace_back("rmse", a.rmse);
     v.emplace_back("luma_rmse", a.lumaRmse);
     v.emplace_back("relmse", a.relmse);
@@ -169,25 +193,29 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
     v.emplace_back("luma_sum", a.lumaSum);
     v.emplace_back("reference_luma_sum", a.referenceLumaSum);
     v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
-    const AccuracyMetrics d = MeasureAccuracy(*m.image, ref, m.recentMask);
+    corrected(a, "");
+    const AccuracyMetrics d = MeasureAccuracy(*m.image, ref, m.recentMask, noise);
     v.emplace_back("rmse_disocc", d.rmse);
     v.emplace_back("luma_rmse_disocc", d.lumaRmse);
     v.emplace_back("relmse_disocc", d.relmse);
     v.emplace_back("rmspe_disocc", d.rmspe);
     v.emplace_back("luma_ratio_disocc", d.pixels ? d.lumaRatio : 1.0);
     v.emplace_back("flip_disocc", MeanFlip(*m.flip, m.recentMask));
-    const AccuracyMetrics r = MeasureAccuracy(*m.image, ref, m.restMask);
+    corrected(d, "_disocc");
+    const AccuracyMetrics r = MeasureAccuracy(*m.image, ref, m.restMask, noise);
     v.emplace_back("rmse_rest", r.rmse);
     v.emplace_back("luma_rmse_rest", r.lumaRmse);
     v.emplace_back("relmse_rest", r.relmse);
     v.emplace_back("rmspe_rest", r.rmspe);
     v.emplace_back("luma_ratio_rest", r.pixels ? r.lumaRatio : 1.0);
     v.emplace_back("flip_rest", MeanFlip(*m.flip, m.restMask));
-    const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref);
+    corrected(r, "_rest");
+    const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref, nullptr, noise);
     v.emplace_back("accum_frames", m.accumFrames);
     v.emplace_back("accum_rmse", acc.rmse);
     v.emplace_back("accum_luma_ratio", acc.lumaRatio);
     v.emplace_back("accum_rmspe", acc.rmspe);
+    if (noise) v.emplace_back("accum_rmse_corrected", acc.rmseCorrected);
     if (m.ensemble) {
       v.emplace_back("ensemble_mse", m.ensemble->mse);
       v.emplace_back("ensemble_bias2", m.ensemble->bias2);

@@ -13,6 +13,14 @@
 
 namespace restir {
 
+// The reference R is itself an estimate: E[(I − R)²] = (I − R_true)² + Var(R) when I and R use independent random
+// numbers. Its replicates give an unbiased per-pixel estimate of Var(R) (ReferenceImage), so subtracting it
+// charges the estimate only for its own error (docs/metrics.md, "Reference noise").
+struct ReferenceNoise {
+  const ImageRgb* standardError = nullptr;                // per pixel and channel
+  const std::vector<float>* lumaStandardError = nullptr;  // per pixel, of the luminance Y
+};
+
 struct AccuracyMetrics {
   double rmse = 0.0;        // sqrt(mean over pixels and RGB of (I - R)^2)
   double lumaRmse = 0.0;    // sqrt(mean (Y(I) - Y(R))^2), seed 003 "LumaRMSE"
@@ -22,11 +30,19 @@ struct AccuracyMetrics {
   double lumaSum = 0.0;     // sum Y(I), so ratios can be formed over many frames
   double referenceLumaSum = 0.0;  // sum Y(R)
   size_t pixels = 0;        // pixels the averages ran over
+  // With a ReferenceNoise (else equal to the raw values): the same means with the reference's variance taken out
+  // of every squared term, (I − R)² − se², so the mean squares are unbiased for the error against the true image.
+  // The rmse forms are sqrt(max(0, ·)); relmseCorrected is left signed (a near-perfect estimate can go below 0).
+  double mseCorrected = 0.0;       // mean over pixels and RGB of (I − R)² − se²
+  double lumaMseCorrected = 0.0;   // mean of (Y(I) − Y(R))² − se_Y²
+  double rmseCorrected = 0.0;      // sqrt(max(0, mseCorrected))
+  double lumaRmseCorrected = 0.0;  // sqrt(max(0, lumaMseCorrected))
+  double relmseCorrected = 0.0;    // mean of ((I − R)² − se²) / (R² + 0.01): unbiased to first order in se²
 };
 
 // Over every pixel, or over the pixels where mask[i] != 0 when a mask is given.
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
-                                const std::vector<uint8_t>* mask = nullptr);
+                                const std::vector<uint8_t>* mask = nullptr, const ReferenceNoise* noise = nullptr);
 
 // Per-frame stability (seed 003): sqrt(mean (Y(I_t) - Y(I_{t-1}))^2).
 double StabilityLumaRmse(const ImageRgb& current, const ImageRgb& previous);
@@ -88,6 +104,7 @@ struct FrameMeasurement {
   double msReference = 0.0;                        // its wall time
   bool referenceCached = false;                    // it was read from the cache
   double referenceRelStdError = 0.0;               // MeanRelativeStandardError
+  ReferenceNoise referenceNoise;                   // its per-pixel noise: the *_corrected columns (when set)
   const ImageRgb* previousReference = nullptr;     // the previous frame's (flicker)
   const FlipMap* flip = nullptr;                   // per-pixel HDR-FLIP of the estimate against the reference
   const std::vector<uint8_t>* recentMask = nullptr;  // pixels revealed in the last 4 frames

@@ -27,7 +27,7 @@ namespace restir {
 namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching.
-constexpr uint32_t kReferenceVersion = 5;
+constexpr uint32_t kReferenceVersion = 6;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -39,6 +39,8 @@ constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 // examples", ch. 17: randomized QMC).
 constexpr int kSampleDims = 5;  // light selection, two area coordinates, two BSDF coordinates
 constexpr int kReplicates = 16;
+
+double LuminanceD(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
 // Light selection for one receiver. Power alone spends most samples on lights that barely reach the pixel
 // (the flagship's facade is lit through a window by a few of 72 lights), so the reference mixes, per pixel,
@@ -162,7 +164,8 @@ bool ReadCache(const std::string& path, const std::string& key, int w, int h, Re
   std::string bytes, problem;
   if (!TryReadRegularFile(path, ReferenceCacheEntrySize(key, w, h), bytes, problem)) {
     if (problem == "no such file") return false;
-  } else if (DecodeReferenceCacheEntry(bytes, key, w, h, out.mean, out.standardError, problem)) {
+  } else if (DecodeReferenceCacheEntry(bytes, key, w, h, out.mean, out.standardError, out.lumaStandardError,
+                                       problem)) {
     return true;
   }
   std::fprintf(stderr, "restir-sim: warning: %s: unusable reference cache entry (%s); rendering it again\n",
@@ -211,6 +214,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ReferenceImage ref;
   ref.mean = ImageRgb(w, h);
   ref.standardError = ImageRgb(w, h);
+  ref.lumaStandardError.assign(static_cast<size_t>(w) * h, 0.0f);
   const std::vector<LightTriangle>& lightList = scene.LightTriangles();
   const LightSampler lights(lightList, LightSelection::kPower);
   const std::vector<Bsdf> bsdfs = MaterialBsdfs(sequence);
@@ -251,13 +255,19 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
         mean /= double(kReplicates);
         for (const glm::dvec3& m : replicateMean) var += (m - mean) * (m - mean);
         var /= double(kReplicates - 1);
+        const double meanY = LuminanceD(mean);
+        double varY = 0.0;
+        for (const glm::dvec3& m : replicateMean) varY += (LuminanceD(m) - meanY) * (LuminanceD(m) - meanY);
+        varY /= double(kReplicates - 1);
         ref.mean.pixels[i] += Vec3(mean);
         ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
+        ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
       }
     }
   });
   ref.rays = rays.combine(std::plus<uint64_t>());
-  if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError));
+  if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError,
+                                                                    ref.lumaStandardError));
   ref.ms = MsSince(t0);
   return ref;
 }
@@ -268,7 +278,7 @@ double MeanRelativeStandardError(const ReferenceImage& ref) {
   for (size_t i = 0; i < ref.mean.Size(); ++i) {
     const double y = Luminance(ref.mean.pixels[i]);
     if (y > 1e-4) {
-      sum += Luminance(ref.standardError.pixels[i]) / y;
+      sum += (ref.lumaStandardError.empty() ? Luminance(ref.standardError.pixels[i]) : ref.lumaStandardError[i]) / y;
       ++count;
     }
   }

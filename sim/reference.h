@@ -22,6 +22,9 @@ struct ReferenceParams {
 struct ReferenceImage {
   ImageRgb mean;            // the reference radiance
   ImageRgb standardError;   // per pixel and channel: spread of 16 independent replicate means / sqrt(16)
+  // Per pixel, the same for the luminance Y of the replicate means. Not Y(standardError): the channels' errors are
+  // correlated (one light sample feeds all three), so only the replicates know Y's variance.
+  std::vector<float> lumaStandardError;
   bool fromCache = false;   // read from the cache rather than rendered
   double ms = 0.0;          // wall time (render or cache read)
   uint64_t rays = 0;        // rays traced (0 when cached)

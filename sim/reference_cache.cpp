@@ -10,7 +10,7 @@ namespace restir {
 
 namespace {
 
-constexpr char kMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '2'};
+constexpr char kMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '3'};
 
 template <typename T>
 void Put(std::string& out, const T& v) {
@@ -42,7 +42,7 @@ class Cursor {
 };
 
 size_t PayloadSize(int width, int height) {
-  return 2 * static_cast<size_t>(width) * static_cast<size_t>(height) * sizeof(Vec3);
+  return static_cast<size_t>(width) * static_cast<size_t>(height) * (2 * sizeof(Vec3) + sizeof(float));
 }
 
 }  // namespace
@@ -52,7 +52,8 @@ size_t ReferenceCacheEntrySize(const std::string& key, int width, int height) {
          PayloadSize(width, height) + sizeof(uint64_t);
 }
 
-std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& mean, const ImageRgb& standardError) {
+std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& mean, const ImageRgb& standardError,
+                                      const std::vector<float>& lumaStandardError) {
   std::string out;
   out.reserve(ReferenceCacheEntrySize(key, mean.width, mean.height));
   out.append(kMagic, sizeof(kMagic));
@@ -63,12 +64,14 @@ std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& me
   Put(out, static_cast<uint64_t>(PayloadSize(mean.width, mean.height)));
   out.append(reinterpret_cast<const char*>(mean.pixels.data()), mean.pixels.size() * sizeof(Vec3));
   out.append(reinterpret_cast<const char*>(standardError.pixels.data()), standardError.pixels.size() * sizeof(Vec3));
+  out.append(reinterpret_cast<const char*>(lumaStandardError.data()), lumaStandardError.size() * sizeof(float));
   Put(out, Fnv1a(out.data(), out.size()));
   return out;
 }
 
 bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key, int width, int height,
-                               ImageRgb& mean, ImageRgb& standardError, std::string& problem) {
+                               ImageRgb& mean, ImageRgb& standardError, std::vector<float>& lumaStandardError,
+                               std::string& problem) {
   Cursor c(bytes);
   const char* magic = nullptr;
   if (!c.Bytes(sizeof(kMagic), magic) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) {
@@ -118,14 +121,15 @@ bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key,
   standardError = ImageRgb(width, height);
   std::memcpy(mean.pixels.data(), data, n * sizeof(Vec3));
   std::memcpy(standardError.pixels.data(), data + n * sizeof(Vec3), n * sizeof(Vec3));
+  lumaStandardError.resize(n);
+  std::memcpy(lumaStandardError.data(), data + 2 * n * sizeof(Vec3), n * sizeof(float));
+  auto valid = [](float v) { return std::isfinite(v) && v >= 0.0f; };
+  bool ok = true;
   for (const ImageRgb* img : {&mean, &standardError})
-    for (const Vec3& p : img->pixels)
-      for (int k = 0; k < 3; ++k)
-        if (!(std::isfinite(p[k]) && p[k] >= 0.0f)) {
-          problem = "a negative or non-finite value";
-          return false;
-        }
-  return true;
+    for (const Vec3& p : img->pixels) ok = ok && valid(p.x) && valid(p.y) && valid(p.z);
+  for (float v : lumaStandardError) ok = ok && valid(v);
+  if (!ok) problem = "a negative or non-finite value";
+  return ok;
 }
 
 }  // namespace restir

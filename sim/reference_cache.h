@@ -6,21 +6,24 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "sim/image.h"
 
 namespace restir {
 
-// Layout, little-endian: "RSREF002" | key length (u32) | key bytes | width (i32) | height (i32) |
-// payload length (u64) | mean RGB floats, width x height | standard error RGB floats | FNV-1a 64 of every byte
-// before it (u64).
-std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& mean, const ImageRgb& standardError);
+// Layout, little-endian: "RSREF003" | key length (u32) | key bytes | width (i32) | height (i32) |
+// payload length (u64) | mean RGB floats, width x height | standard error RGB floats | luminance standard error
+// floats | FNV-1a 64 of every byte before it (u64).
+std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& mean, const ImageRgb& standardError,
+                                      const std::vector<float>& lumaStandardError);
 
 // Decodes an entry expected to answer `key` at width x height. False with `problem` ("checksum mismatch",
 // "written for another frame", "a non-finite value" ...) when the bytes are anything but such an entry; the images
 // are then unspecified. Every value must be finite and non-negative (radiance and its standard error).
 bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key, int width, int height,
-                               ImageRgb& mean, ImageRgb& standardError, std::string& problem);
+                               ImageRgb& mean, ImageRgb& standardError, std::vector<float>& lumaStandardError,
+                               std::string& problem);
 
 // The exact size of an entry for `key` at width x height: the reader's size cap.
 size_t ReferenceCacheEntrySize(const std::string& key, int width, int height);

@@ -516,7 +516,10 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   if (hasFlip) o << "<th>flip</th>";
   o << "<th>luma ratio Σ</th><th>flicker</th><th>stability</th><th>accum_rmse</th>"
        "<th>relmse_disocc (post-reveal)</th><th>recovery (frames)</th><th>ms/frame</th>"
-       "<th>efficiency 1/(relmse·s)</th></tr>\n";
+       "<th>efficiency 1/(relmse·s)</th>";
+  const bool hasCorrected = t.Column("relmse_corrected") >= 0;
+  if (hasCorrected) o << "<th>reference noise share of relmse / luma_rmse² / rmse²</th>";
+  o << "</tr>\n";
   for (const PresetSummary& s : sums) {
     auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
     o << "<tr class=\"summary-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name) << "</td>";
@@ -549,6 +552,17 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
     o << "<td class=\"num\">" << XmlEscape(rec) << "</td>";
     cell(SummaryMean(t, s, "ms_frame"));
     cell(s.efficiency);
+    if (hasCorrected) {
+      // The share of each mean square that the reference's own variance accounts for (docs/metrics.md).
+      auto share = [&](const char* raw, const char* corrected, bool squared) {
+        double a = SummaryMean(t, s, raw), b = SummaryMean(t, s, corrected);
+        if (squared) a *= a, b *= b;
+        return a > 0.0 ? Fmt(100.0 * (a - b) / a, "%.2g") + "%" : std::string("n/a");
+      };
+      o << "<td class=\"num\">" << share("relmse", "relmse_corrected", false) << " / "
+        << share("luma_rmse", "luma_rmse_corrected", true) << " / " << share("rmse", "rmse_corrected", true)
+        << "</td>";
+    }
     o << "</tr>\n";
   }
   o << "</table>\n";
@@ -561,6 +575,9 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
     const double rs = sums.front().means[refc];
     o << " The reference's own mean relative standard error is " << Fmt(rs)
       << ": a relmse below about its square (" << Fmt(rs * rs) << ") is within the reference's noise.";
+    if (hasCorrected)
+      o << " The noise share is how much of each mean (over frames) the reference's own variance explains: "
+           "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";
   }
   o << "</p>\n";
 

@@ -364,6 +364,7 @@ RunResult Run(const RunOptions& opt) {
         m.msReference = ref.ms;
         m.referenceCached = ref.fromCache;
         m.referenceRelStdError = MeanRelativeStandardError(ref);
+        m.referenceNoise = ReferenceNoise{&ref.standardError, &ref.lumaStandardError};
         m.previousReference = &previousReference;
         m.flip = &flipMap;
         m.recentMask = &recentMask;

@@ -6,14 +6,17 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "sim/reference_cache.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);
   restir::ImageRgb mean, standardError;
+  std::vector<float> lumaStandardError;
   std::string problem;
-  if (!restir::DecodeReferenceCacheEntry(bytes, "fuzz0000fuzz0000", 3, 2, mean, standardError, problem)) {
+  if (!restir::DecodeReferenceCacheEntry(bytes, "fuzz0000fuzz0000", 3, 2, mean, standardError, lumaStandardError,
+                                         problem)) {
     if (problem.empty() || problem.find('\n') != std::string::npos) __builtin_trap();
     return 0;
   }
@@ -21,6 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (const restir::Vec3& p : img->pixels)
       for (int k = 0; k < 3; ++k)
         if (!std::isfinite(p[k]) || p[k] < 0.0f) __builtin_trap();
-  if (restir::EncodeReferenceCacheEntry("fuzz0000fuzz0000", mean, standardError) != bytes) __builtin_trap();
+  for (float v : lumaStandardError)
+    if (!std::isfinite(v) || v < 0.0f) __builtin_trap();
+  if (restir::EncodeReferenceCacheEntry("fuzz0000fuzz0000", mean, standardError, lumaStandardError) != bytes) __builtin_trap();
   return 0;
 }

@@ -22,10 +22,21 @@ ImageRgb Ramp(int w, int h, float scale) {
   return img;
 }
 
+std::vector<float> LumaRamp(int w, int h, float scale) {
+  std::vector<float> v(static_cast<size_t>(w) * h);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = scale * float(i + 1);
+  return v;
+}
+
+std::string Encode(const ImageRgb& mean, const ImageRgb& se) {
+  return EncodeReferenceCacheEntry(kKey, mean, se, LumaRamp(mean.width, mean.height, 0.003f));
+}
+
 bool Decodes(const std::string& bytes, const std::string& key, int w, int h, std::string* why = nullptr) {
   ImageRgb mean, se;
+  std::vector<float> lumaSe;
   std::string problem;
-  const bool ok = DecodeReferenceCacheEntry(bytes, key, w, h, mean, se, problem);
+  const bool ok = DecodeReferenceCacheEntry(bytes, key, w, h, mean, se, lumaSe, problem);
   if (why) *why = problem;
   return ok;
 }
@@ -33,19 +44,22 @@ bool Decodes(const std::string& bytes, const std::string& key, int w, int h, std
 TEST(ReferenceCacheEntry, RoundTripsBitForBit) {
   for (const auto& [w, h] : {std::pair{1, 1}, std::pair{7, 3}, std::pair{64, 36}}) {
     const ImageRgb mean = Ramp(w, h, 0.125f), se = Ramp(w, h, 1e-3f);
-    const std::string bytes = EncodeReferenceCacheEntry(kKey, mean, se);
+    const std::vector<float> lumaSe = LumaRamp(w, h, 7e-4f);
+    const std::string bytes = EncodeReferenceCacheEntry(kKey, mean, se, lumaSe);
     EXPECT_EQ(bytes.size(), ReferenceCacheEntrySize(kKey, w, h));
     ImageRgb m, s;
+    std::vector<float> l;
     std::string problem;
-    ASSERT_TRUE(DecodeReferenceCacheEntry(bytes, kKey, w, h, m, s, problem)) << problem;
+    ASSERT_TRUE(DecodeReferenceCacheEntry(bytes, kKey, w, h, m, s, l, problem)) << problem;
     EXPECT_EQ(HashImage(m), HashImage(mean));
     EXPECT_EQ(HashImage(s), HashImage(se));
+    EXPECT_EQ(l, lumaSe);
   }
 }
 
 // Exhaustive over a small entry: every bit of every byte, header, key, payload and checksum alike.
 TEST(ReferenceCacheEntry, EverySingleBitFlipIsRefused) {
-  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(3, 2, 0.5f), Ramp(3, 2, 0.01f));
+  const std::string good = Encode(Ramp(3, 2, 0.5f), Ramp(3, 2, 0.01f));
   for (size_t i = 0; i < good.size(); ++i)
     for (int bit = 0; bit < 8; ++bit) {
       std::string bad = good;
@@ -55,14 +69,14 @@ TEST(ReferenceCacheEntry, EverySingleBitFlipIsRefused) {
 }
 
 TEST(ReferenceCacheEntry, EveryCutAndAnyAppendedByteIsRefused) {
-  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
+  const std::string good = Encode(Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
   for (size_t n = 0; n < good.size(); ++n) EXPECT_FALSE(Decodes(good.substr(0, n), kKey, 4, 3)) << n;
   EXPECT_FALSE(Decodes(good + '\0', kKey, 4, 3));
   EXPECT_FALSE(Decodes(good + good, kKey, 4, 3));
 }
 
 TEST(ReferenceCacheEntry, AnotherKeyOrSizeIsRefusedAndSaysWhy) {
-  const std::string good = EncodeReferenceCacheEntry(kKey, Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
+  const std::string good = Encode(Ramp(4, 3, 0.5f), Ramp(4, 3, 0.01f));
   std::string why;
   EXPECT_FALSE(Decodes(good, "fedcba9876543210", 4, 3, &why));
   EXPECT_NE(why.find("another frame"), std::string::npos) << why;
@@ -78,17 +92,19 @@ TEST(ReferenceCacheEntry, NonFiniteOrNegativeValuesAreRefusedEvenWithAValidCheck
   const float bad[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
                        -std::numeric_limits<float>::infinity(), -1e-30f, -5.0f};
   for (float v : bad)
-    for (int image = 0; image < 2; ++image) {
+    for (int image = 0; image < 3; ++image) {
       ImageRgb mean = Ramp(3, 3, 0.5f), se = Ramp(3, 3, 0.01f);
-      (image ? se : mean).pixels[4].y = v;
+      std::vector<float> lumaSe = LumaRamp(3, 3, 0.01f);
+      if (image < 2) (image ? se : mean).pixels[4].y = v;
+      else lumaSe[4] = v;
       std::string why;
-      EXPECT_FALSE(Decodes(EncodeReferenceCacheEntry(kKey, mean, se), kKey, 3, 3, &why)) << v;
+      EXPECT_FALSE(Decodes(EncodeReferenceCacheEntry(kKey, mean, se, lumaSe), kKey, 3, 3, &why)) << v;
       EXPECT_NE(why.find("non-finite"), std::string::npos) << why;
     }
   ImageRgb zero(2, 2), negativeZero(2, 2);
   negativeZero.pixels[0] = Vec3(-0.0f);
-  EXPECT_TRUE(Decodes(EncodeReferenceCacheEntry(kKey, zero, zero), kKey, 2, 2));
-  EXPECT_TRUE(Decodes(EncodeReferenceCacheEntry(kKey, negativeZero, zero), kKey, 2, 2));
+  EXPECT_TRUE(Decodes(Encode(zero, zero), kKey, 2, 2));
+  EXPECT_TRUE(Decodes(Encode(negativeZero, zero), kKey, 2, 2));
 }
 
 // The fuzz target's seed (tests/fuzz/cache_seeds/) stays a valid entry for the key and size the target asks for,
