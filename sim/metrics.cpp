@@ -194,22 +194,18 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
     v.emplace_back("reference_luma_sum", a.referenceLumaSum);
     v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
     corrected(a, "");
-    const AccuracyMetrics d = MeasureAccuracy(*m.image, ref, m.recentMask, noise);
-    v.emplace_back("rmse_disocc", d.rmse);
-    v.emplace_back("luma_rmse_disocc", d.lumaRmse);
-    v.emplace_back("relmse_disocc", d.relmse);
-    v.emplace_back("rmspe_disocc", d.rmspe);
-    v.emplace_back("luma_ratio_disocc", d.pixels ? d.lumaRatio : 1.0);
-    v.emplace_back("flip_disocc", MeanFlip(*m.flip, m.recentMask));
-    corrected(d, "_disocc");
-    const AccuracyMetrics r = MeasureAccuracy(*m.image, ref, m.restMask, noise);
-    v.emplace_back("rmse_rest", r.rmse);
-    v.emplace_back("luma_rmse_rest", r.lumaRmse);
-    v.emplace_back("relmse_rest", r.relmse);
-    v.emplace_back("rmspe_rest", r.rmspe);
-    v.emplace_back("luma_ratio_rest", r.pixels ? r.lumaRatio : 1.0);
-    v.emplace_back("flip_rest", MeanFlip(*m.flip, m.restMask));
-    corrected(r, "_rest");
+    // The same errors over the recently revealed pixels and over the others.
+    for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {
+      const std::string sfx = suffix;
+      const AccuracyMetrics x = MeasureAccuracy(*m.image, ref, mask, noise);
+      v.emplace_back("rmse" + sfx, x.rmse);
+      v.emplace_back("luma_rmse" + sfx, x.lumaRmse);
+      v.emplace_back("relmse" + sfx, x.relmse);
+      v.emplace_back("rmspe" + sfx, x.rmspe);
+      v.emplace_back("luma_ratio" + sfx, x.pixels ? x.lumaRatio : 1.0);
+      v.emplace_back("flip" + sfx, MeanFlip(*m.flip, mask));
+      corrected(x, sfx);
+    }
     const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref, nullptr, noise);
     v.emplace_back("accum_frames", m.accumFrames);
     v.emplace_back("accum_rmse", acc.rmse);

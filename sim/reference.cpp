@@ -278,7 +278,7 @@ double MeanRelativeStandardError(const ReferenceImage& ref) {
   for (size_t i = 0; i < ref.mean.Size(); ++i) {
     const double y = Luminance(ref.mean.pixels[i]);
     if (y > 1e-4) {
-      sum += (ref.lumaStandardError.empty() ? Luminance(ref.standardError.pixels[i]) : ref.lumaStandardError[i]) / y;
+      sum += ref.lumaStandardError[i] / y;
       ++count;
     }
   }

@@ -42,8 +42,8 @@ uint64_t HashFrameState(const FrameState& state);
 // renderer version). Not the frame index: identical states share one reference.
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, int spp);
 
-// Mean over lit pixels (reference luminance > 1e-4) of standard error / value, by luminance: the reference's
-// own relative noise.
+// Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
+// reference's own relative noise.
 double MeanRelativeStandardError(const ReferenceImage& ref);
 
 }  // namespace restir

@@ -2,7 +2,7 @@
 // (emitters tilted from facing the receiver to edge-on, receivers from 1 mm to 30 m away, scenes from the origin
 // to 10 km from it): the segment leaves the receiver on the light's side, stops on the front of the emitter, runs
 // from the offset origin to the offset end, never crosses the emitter's plane inside the emitter, and is offset
-// by a float-error bound, not a length. The rule it replaces (kept below as OldShadowRaySetup) crosses the
+// by a float-error bound, not a length. The rule it replaces (tests/old_shadow_ray.h) crosses the
 // emitter inside it at grazing emission: the counter-example. tests/sim/spawned_ray_test.cpp checks the same
 // rule against Embree's intersector.
 #include "core/shadow_ray.h"
@@ -13,22 +13,10 @@
 #include <random>
 
 #include "core/light.h"
+#include "old_shadow_ray.h"
 
 namespace restir {
 namespace {
-
-// The rule before issue 13: origin offset 1e-4 (1 + max|x|) along the receiver's normal, direction kept from x
-// to y, tmax 1e-3 short of y.
-ShadowRaySegment OldShadowRaySetup(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition) {
-  const Vec3 toLight = lightPosition - position;
-  ShadowRaySegment ray;
-  ray.dir = toLight / glm::length(toLight);
-  const float scale = std::max(std::fabs(position.x), std::max(std::fabs(position.y), std::fabs(position.z)));
-  const float side = glm::dot(geometricNormal, ray.dir) >= 0.0f ? 1.0f : -1.0f;
-  ray.org = position + (side * 1e-4f * (1.0f + scale)) * geometricNormal;
-  ray.tmax = glm::length(lightPosition - ray.org) * (1.0f - 1e-3f);
-  return ray;
-}
 
 using DVec3 = glm::dvec3;
 

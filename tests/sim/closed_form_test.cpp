@@ -30,6 +30,7 @@
 #include "core/light_sampler.h"
 #include "core/polygon_irradiance.h"
 #include "core/shadow_ray.h"
+#include "old_shadow_ray.h"
 #include "scene_fixtures.h"
 #include "sim/frame_loop.h"
 #include "sim/presets.h"
@@ -242,19 +243,6 @@ TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
     // The 0.1% claim must be a claim: the reference's own noise is well below it (3 standard errors).
     EXPECT_LT(v.relativeStdError, 1e-3 / 3.0) << c.name;
   }
-}
-
-// The rule before issue 13 (origin offset 1e-4 (1 + max|x|) along the receiver's normal, direction kept from x
-// to y, tmax 1e-3 short of y): the counter-example.
-ShadowRaySegment OldShadowRaySetup(const Vec3& position, const Vec3& geometricNormal, const Vec3& lightPosition) {
-  const Vec3 toLight = lightPosition - position;
-  ShadowRaySegment ray;
-  ray.dir = toLight / glm::length(toLight);
-  const float scale = std::max(std::fabs(position.x), std::max(std::fabs(position.y), std::fabs(position.z)));
-  const float side = glm::dot(geometricNormal, ray.dir) >= 0.0f ? 1.0f : -1.0f;
-  ray.org = position + (side * 1e-4f * (1.0f + scale)) * geometricNormal;
-  ray.tmax = glm::length(lightPosition - ray.org) * (1.0f - 1e-3f);
-  return ray;
 }
 
 // Outgoing radiance at G-buffer pixel i by a deterministic quadrature over the lights (each triangle cut into n²
