@@ -13,6 +13,7 @@ enum class RngPass : uint32_t {
   kSpatial = 3,
   kShade = 4,
   kReference = 5,
+  kReferencePilot = 6,
   kTest = 100,
 };
 

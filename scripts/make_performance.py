@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
 """Writes docs/performance.md (to stdout) from Google Benchmark JSON output.
 
-    scripts/make_performance.py FRAME_BENCH.json [KERNELS_BENCH.json] > docs/performance.md
+    scripts/make_performance.py FRAME_BENCH.json [KERNELS_BENCH.json [EXTRA.json ...]] > docs/performance.md
 
 FRAME_BENCH.json comes from bench/frame_bench.cpp (BM_Memory, BM_Frame/<preset>, BM_ShadowRayApi/<api>),
 KERNELS_BENCH.json from bench/kernels_bench.cpp. scripts/run_performance.sh runs both and this script. The issue's
 targets (issue 6) are compared as ratios measured in one run; absolute times are context, not targets.
+EXTRA files (issue 16), recognised by content: bench/reference_bench.cpp's output (BM_Reference: the reference
+against its ray floor), bench/flip_bench.cpp's (BM_Flip*: HDR-FLIP per preset and frame) and the README command 1
+timing that scripts/run_performance.sh writes ({"readme_command": ..., "wall_seconds": ..., "run": run.json}).
 If bench/performance_notes.md exists it is appended (hand-written profile notes).
 """
 import json
@@ -103,6 +106,16 @@ def main(argv):
     memory = [b for b in benches if b["name"].startswith("BM_Memory/")]
     frames = [b for b in benches if b["name"].startswith("BM_Frame/")]
     apis = [b for b in benches if b["name"].startswith("BM_ShadowRayApi/")]
+    reference, flips, readme = [], [], None
+    for path in argv[3:]:
+        extra = load(path)
+        if "readme_command" in extra:
+            readme = extra
+        for b in extra.get("benchmarks", []):
+            if b["name"].startswith("BM_Reference"):
+                reference.append(b)
+            elif b["name"].startswith("BM_Flip"):
+                flips.append(b)
 
     out = []
     w = out.append
@@ -136,6 +149,49 @@ def main(argv):
         w(f"- Frame benchmark: `sequences/window_bars_pan.json` at {int(f0['width'])}x{int(f0['height'])}, "
           f"{int(f0['threads'])} threads (TBB default) unless noted")
     w("")
+
+    if readme or reference or flips:
+        w("## README command 1, the reference and FLIP (issue 16)")
+        w("")
+    if readme:
+        run = readme.get("run", {})
+        thr = run.get("referenceThroughput", {})
+        secs = readme["wall_seconds"]
+        w(f"README command 1 from an empty reference cache, build done: `{readme['readme_command']}` took "
+          f"**{secs / 60.0:.2f} min** of wall time ({secs:.0f} s; target ≤ 5 min: "
+          f"{'met' if secs <= 300.0 else 'not met'}), {len(run.get('presets', {}))} presets × "
+          f"{run.get('frames', [0, 0])[1] - run.get('frames', [0, 0])[0]} frames at "
+          f"{run.get('resolution', ['?', '?'])[0]}x{run.get('resolution', ['?', '?'])[1]}, report written. "
+          f"Its references: {thr.get('framesRendered', 0)} rendered, {thr.get('framesFromCache', 0)} from the "
+          f"cache, {fmt(thr.get('samplesPerPixel', 0))} samples per pixel on average, "
+          f"{fmt(thr.get('seconds', 0))} s, {fmt(thr.get('raysPerSecond', 0) / 1e6, 2)} Mrays/s.")
+        w("")
+    if reference:
+        b = reference[0]
+        w(f"The reference of one flagship frame at the same size from an empty cache (`bench/reference_bench.cpp`, "
+          f"budget {int(b['spp_budget'])} spp, {fmt(b['samples_per_pixel'])} samples per pixel taken over all "
+          f"pixels), against its ray floor measured in the same run: the {int(b['captured_rays']):,} rays it traced, "
+          "recorded and traced alone by Embree in the reference's own batching (each thread's shadow rays in "
+          "order through `OccludedBatch`, BSDF rays `rtcIntersect1`).")
+        w("")
+        w("| | ms | Mrays/s |")
+        w("|---|---:|---:|")
+        w(f"| reference | {fmt(b['ms_reference'])} | {fmt(b['mrays_per_s'], 2)} |")
+        w(f"| ray floor | {fmt(b['ms_ray_floor'])} | {fmt(b['floor_mrays_per_s'], 2)} |")
+        w("")
+        w(f"Ray floor / reference: **{b['floor_ratio']:.2f}×** (issue 16's target ≥ 0.8×: "
+          f"{'met' if b['floor_ratio'] >= 0.8 else 'not met'}). The rest of the reference's time is its "
+          "per-pixel light distribution, the pilot, sample generation and MIS: see bench/performance_notes.md.")
+        w("")
+    if flips:
+        w("HDR-FLIP (`bench/flip_bench.cpp`), per call at the benchmark's size:")
+        w("")
+        w("| benchmark | ms |")
+        w("|---|---:|")
+        for b in flips:
+            unit = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}.get(b.get("time_unit", "ns"), 1e-6)
+            w(f"| {b['name']} | {fmt(b['real_time'] * unit, 2)} |")
+        w("")
 
     if frames:
         w("## Targets")

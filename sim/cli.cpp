@@ -121,6 +121,16 @@ int RunCommandLine(int argc, char** argv) {
   run->add_option("--seed", seed, "Override the sequence's seed")->check(CLI::Range(int64_t{0}, int64_t{4294967295}));
   run->add_option("--reference-spp", opt.referenceSpp, "Reference samples per pixel (default: the sequence's)")
       ->check(CLI::Range(1, 1 << 24));
+  run->add_option("--reference-error", opt.referenceError,
+                  "Instead of a sample budget: sample each reference pixel until its estimated relative standard "
+                  "error is this (e.g. 0.01), from a pilot pass; 16 to 65536 samples per pixel")
+      ->check(CLI::Range(1e-4, 1.0))
+      ->excludes("--reference-spp");
+  run->add_option("--checkpoint-seconds", opt.checkpointSeconds,
+                  "Seconds of work between checkpoints for --resume (the first frame's is always written; 0: every "
+                  "frame)")
+      ->check(CLI::Range(0.0, 1e9))
+      ->capture_default_str();
   run->add_option("--set", opt.settings,
                   "Override a preset setting for every preset, KEY=VALUE (repeatable), e.g. "
                   "--set temporal.maxHistory=8; keys: `restir-sim presets`");

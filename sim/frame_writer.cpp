@@ -7,6 +7,7 @@
 #include <ImfStdIO.h>
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -76,7 +77,9 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes.
   Imf::StdOSStream stream;
   {
-    Imf::OutputFile file(stream, header);
+    // ZIP compresses 16-line chunks independently; OpenEXR's own pool compresses them in parallel, with the
+    // same bytes whatever the thread count.
+    Imf::OutputFile file(stream, header, std::max(1, tbb::this_task_arena::max_concurrency()));
     file.setFrameBuffer(fb);
     file.writePixels(h);
   }

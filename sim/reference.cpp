@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/shading.h"
+#include "core/shadow_ray.h"
 #include "sim/atomic_file.h"
 #include "sim/clock.h"
 #include "sim/hash.h"
@@ -27,7 +29,7 @@ namespace restir {
 namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching.
-constexpr uint32_t kReferenceVersion = 6;
+constexpr uint32_t kReferenceVersion = 7;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -52,82 +54,176 @@ double LuminanceD(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.
 // than the rays they save).
 constexpr float kDefensivePowerShare = 0.1f;
 constexpr size_t kMaxPerPixelLights = 4096;
+// Memory the pilot's per-pixel light distributions may take to be reused by the main pass.
+constexpr size_t kKeptDistributionBytes = size_t{512} << 20;
+// Squared distance, in squared triangle sizes (longest edge), beyond which a light's u_l is taken as a point's.
+constexpr float kPointLightDistance2 = 36.0f;
+
+// What PixelLightDistribution needs of each light, structure-of-arrays so that the per-pixel point estimate runs
+// as one vectorisable loop over the lights.
+struct LightProxies {
+  std::vector<float> cx, cy, cz;        // centroid
+  std::vector<float> nx, ny, nz;        // emitting normal
+  std::vector<float> offset;            // n · p0: the light faces x when n · x > offset
+  std::vector<float> size2;             // squared longest edge
+  std::vector<float> lumArea;           // luminance of the radiance × area
+  explicit LightProxies(const std::vector<LightTriangle>& lights) {
+    for (const LightTriangle& t : lights) {
+      const Vec3 c = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
+      cx.push_back(c.x), cy.push_back(c.y), cz.push_back(c.z);
+      nx.push_back(t.normal.x), ny.push_back(t.normal.y), nz.push_back(t.normal.z);
+      offset.push_back(glm::dot(t.normal, t.p0));
+      size2.push_back(std::max({glm::dot(t.e1, t.e1), glm::dot(t.e2, t.e2), glm::dot(t.e1 - t.e2, t.e1 - t.e2)}));
+      const float lum = Luminance(t.radiance);
+      lumArea.push_back(lum > 0.0f ? lum * t.area : 0.0f);
+    }
+  }
+};
 
 class PixelLightDistribution {
  public:
-  void Build(const ShadingPoint& sp, const LightSampler& power) {
+  // Builds the distribution into pmf[0, n) and cdf[0, n) (n lights), storage the caller owns, and views it.
+  void Build(const ShadingPoint& sp, const LightSampler& power, const LightProxies& proxies, float* pmf,
+             float* cdf) {
     const std::vector<LightTriangle>& lights = power.Lights();
     const size_t n = lights.size();
-    pmf_.resize(n);
-    cdf_.resize(n);
+    work_.resize(n);
+    point_.resize(n);
     double total = 0.0;
-    perPixel_ = n <= kMaxPerPixelLights;
-    if (perPixel_) {
-      std::vector<Vec3>& tri = scratch_;
-      for (size_t l = 0; l < n; ++l) {
-        const LightTriangle& t = lights[l];
-        double u = 0.0;
-        const float lum = Luminance(t.radiance);
-        if (lum > 0.0f && glm::dot(t.normal, sp.position - t.p0) > 0.0f) {
-          tri.assign({t.p0, t.p0 + t.e1, t.p0 + t.e2});
-          const std::vector<Vec3> clipped = ClipPolygonToHemisphere(sp.position, sp.shadingNormal, tri);
-          const double e = clipped.size() >= 3 ? PolygonIrradiance(sp.position, sp.shadingNormal, clipped, lum) : 0.0;
-          u = e * Luminance(sp.bsdf.albedo) * kInvPi;
-          if (sp.bsdf.type == BsdfType::kGgx) {
-            LightSample c;
-            c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
-            c.normal = t.normal;
-            c.radiance = t.radiance;
-            u = 0.1 * u + double(TargetFunction(UnshadowedContribution(sp, c))) * t.area;
-          }
+    if (n <= kMaxPerPixelLights) {
+      PointEstimates(sp, proxies, point_.data());
+      const float albedo = Luminance(sp.bsdf.albedo) * kInvPi;
+      for (size_t l = 0; l < n; ++l) work_[l] = point_[l] >= 0.0f ? double(point_[l]) * albedo
+                                                                   : Exact(sp, lights[l], albedo);
+      if (sp.bsdf.type == BsdfType::kGgx) {
+        for (size_t l = 0; l < n; ++l) {
+          if (work_[l] <= 0.0 && point_[l] == 0.0f) continue;  // facing away, dark or below the horizon
+          const LightTriangle& t = lights[l];
+          LightSample c;
+          c.position = Vec3(proxies.cx[l], proxies.cy[l], proxies.cz[l]);
+          c.normal = t.normal;
+          c.radiance = t.radiance;
+          work_[l] = 0.1 * work_[l] + double(TargetFunction(UnshadowedContribution(sp, c))) * t.area;
         }
-        pmf_[l] = u;
-        total += u;
+      }
+      for (size_t l = 0; l < n; ++l) {
+        if (!std::isfinite(work_[l])) work_[l] = 0.0;
+        total += work_[l];
       }
     }
     const double mix = total > 0.0 ? kDefensivePowerShare : 1.0;
     double c = 0.0;
     for (size_t l = 0; l < n; ++l) {
-      const double p = (total > 0.0 ? (1.0 - mix) * pmf_[l] / total : 0.0) + mix * power.SelectionPmf(uint32_t(l));
-      pmf_[l] = p;
-      c += p;
-      cdf_[l] = c;
+      work_[l] = (total > 0.0 ? (1.0 - mix) * work_[l] / total : 0.0) + mix * power.SelectionPmf(uint32_t(l));
+      c += work_[l];
     }
+    double running = 0.0;
+    for (size_t l = 0; l < n; ++l) {
+      pmf[l] = static_cast<float>(work_[l] / c);
+      running += work_[l];
+      cdf[l] = static_cast<float>(running / c);
+    }
+    View(pmf, cdf, n);
+  }
+  // Views a distribution Build wrote earlier.
+  void View(const float* pmf, const float* cdf, size_t n) {
+    pmf_ = pmf;
+    cdf_ = cdf;
+    n_ = n;
   }
   // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified).
   uint32_t Sample(float u) const {
-    const double target = double(u) * cdf_.back();
-    auto it = std::upper_bound(cdf_.begin(), cdf_.end(), target);
-    size_t l = std::min(static_cast<size_t>(it - cdf_.begin()), cdf_.size() - 1);
-    while (pmf_[l] <= 0.0 && l + 1 < cdf_.size()) ++l;  // never return a zero-probability light
+    const float target = u * cdf_[n_ - 1];
+    // std::upper_bound without its branches (they mispredict on random u): the count of cdf entries <= target,
+    // kept in [lo, lo + len] while len halves.
+    size_t lo = 0, len = n_;
+    while (len > 1) {
+      const size_t half = len / 2;
+      lo = cdf_[lo + half - 1] <= target ? lo + half : lo;
+      len -= half;
+    }
+    size_t l = std::min(lo + (cdf_[lo] <= target ? 1 : 0), n_ - 1);
+    while (pmf_[l] <= 0.0f && l + 1 < n_) ++l;  // never return a zero-probability light
     return static_cast<uint32_t>(l);
   }
-  float Pmf(uint32_t l) const { return static_cast<float>(pmf_[l] / cdf_.back()); }
+  // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
+  float Pmf(uint32_t l) const { return (cdf_[l] - (l ? cdf_[l - 1] : 0.0f)) / cdf_[n_ - 1]; }
 
  private:
-  std::vector<double> pmf_, cdf_;
-  std::vector<Vec3> scratch_;
-  bool perPixel_ = true;
+  // u_l, the light's unshadowed contribution at the receiver without the albedo, for every light at once. It
+  // only shapes the distribution (any positive pmf keeps the estimate unbiased), so a light far from the receiver
+  // compared with its size is taken as a point at its centroid: E = L A cos θx cos θy / d², off by
+  // O((size / d)²). out[l] = 0 for lights facing away or dark, -1 where the point is not accurate enough (near,
+  // large, or the centroid close to the horizon: Exact then clips and integrates).
+  static void PointEstimates(const ShadingPoint& sp, const LightProxies& p, float* out) {
+    const float x = sp.position.x, y = sp.position.y, z = sp.position.z;
+    const float sx = sp.shadingNormal.x, sy = sp.shadingNormal.y, sz = sp.shadingNormal.z;
+    const size_t n = p.cx.size();
+    for (size_t l = 0; l < n; ++l) {
+      const float dx = p.cx[l] - x, dy = p.cy[l] - y, dz = p.cz[l] - z;
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      const float facing = p.nx[l] * x + p.ny[l] * y + p.nz[l] * z - p.offset[l];
+      const float cosXd = sx * dx + sy * dy + sz * dz;          // cos θx · d
+      const float cosYd = -(p.nx[l] * dx + p.ny[l] * dy + p.nz[l] * dz);  // cos θy · d
+      // Far: beyond kPointLightDistance2 sizes, and the centroid at least one size above the horizon, so the
+      // whole triangle is above it (no clipping needed).
+      const bool far = d2 > kPointLightDistance2 * p.size2[l] && cosXd * cosXd > p.size2[l] && cosXd > 0.0f;
+      const float point = p.lumArea[l] * std::max(cosXd, 0.0f) * std::max(cosYd, 0.0f) / (d2 * d2);
+      out[l] = !(facing > 0.0f) || !(p.lumArea[l] > 0.0f) ? 0.0f : (far ? point : -1.0f);
+    }
+  }
+
+  // Lambert's formula, in double, on the triangle clipped to the receiver's hemisphere.
+  static double Exact(const ShadingPoint& sp, const LightTriangle& t, float albedo) {
+    const Vec3 tri[3] = {t.p0, t.p0 + t.e1, t.p0 + t.e2};
+    const Vec3& n = sp.shadingNormal;
+    if (glm::dot(n, tri[0] - sp.position) <= 0.0f && glm::dot(n, tri[1] - sp.position) <= 0.0f &&
+        glm::dot(n, tri[2] - sp.position) <= 0.0f)
+      return 0.0;
+    Vec3 clipped[4];
+    const size_t k = ClipPolygonToHemisphere(sp.position, n, tri, 3, clipped);
+    return k >= 3 ? PolygonIrradianceOf<double>(sp.position, n, clipped, k, Luminance(t.radiance)) * albedo : 0.0;
+  }
+
+  std::vector<double> work_;
+  std::vector<float> point_;
+  const float* pmf_ = nullptr;
+  const float* cdf_ = nullptr;
+  size_t n_ = 0;
 };
 
-// One direct-lighting sample at a receiver: light sampling, plus BSDF sampling with the power heuristic on
-// glossy surfaces (pbrt-v4 PathIntegrator::SampleLd style, restricted to direct light).
-Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-                  const PixelLightDistribution& dist, const float (&u)[kSampleDims], uint64_t& rays) {
-  Vec3 sum(0.0f);
+// Per-thread scratch of one pixel's samples: the light-sampling terms wait for their shadow rays, which go to
+// Embree as one batch (packets, EmbreeScene::OccludedBatch) instead of one rtcOccluded1 per sample.
+struct SampleBatch {
+  std::vector<Vec3> lightTerm;   // per sample: the light-sampling term if its shadow ray is unoccluded
+  std::vector<Vec3> bsdfTerm;    // per sample: the BSDF-sampling term, visibility already resolved
+  std::vector<ShadowRay> rays;   // the shadow rays of the samples whose light term is nonzero
+  std::vector<uint32_t> rayOf;   // the sample each ray belongs to
+  std::vector<uint8_t> occluded;
+};
+
+// `count` direct-lighting samples at a receiver from the points u[k * kSampleDims ...]: light sampling, plus
+// BSDF sampling with the power heuristic on glossy surfaces (pbrt-v4 PathIntegrator::SampleLd style, restricted
+// to direct light). out[k] is sample k's value.
+void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+                   const PixelLightDistribution& dist, const float* u, size_t count, SampleBatch& b, Vec3* out,
+                   uint64_t& rays) {
   const bool glossy = sp.bsdf.type == BsdfType::kGgx;
-  LightSample y;
-  y.lightId = dist.Sample(u[0]);
-  const LightTriangle& lt = lights[y.lightId];
-  y.position = SampleTrianglePoint(lt, u[1], u[2]);
-  y.normal = lt.normal;
-  y.radiance = lt.radiance;
-  y.pdfArea = dist.Pmf(y.lightId) / lt.area;
-  const float b0 = u[3], b1 = u[4];
-  const Vec3 f = UnshadowedContribution(sp, y);
-  if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
-    ++rays;
-    if (!ShadowRayOccluded(scene, sp, y.position, y.normal, lt.errorScale)) {
+  b.lightTerm.assign(count, Vec3(0.0f));
+  b.bsdfTerm.assign(count, Vec3(0.0f));
+  b.rays.clear();
+  b.rayOf.clear();
+  for (size_t k = 0; k < count; ++k) {
+    const float* uk = u + k * kSampleDims;
+    LightSample y;
+    y.lightId = dist.Sample(uk[0]);
+    const LightTriangle& lt = lights[y.lightId];
+    y.position = SampleTrianglePoint(lt, uk[1], uk[2]);
+    y.normal = lt.normal;
+    y.radiance = lt.radiance;
+    y.pdfArea = dist.Pmf(y.lightId) / lt.area;
+    const Vec3 f = UnshadowedContribution(sp, y);
+    if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
       float weight = 1.0f;
       if (glossy) {
         const LightPath path = ConnectToLight(sp, y.position, y.normal);
@@ -135,26 +231,84 @@ Vec3 DirectSample(const ShadingPoint& sp, const EmbreeScene& scene, const std::v
         const float pLight = y.pdfArea * path.distance * path.distance / cosY;
         weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
       }
-      sum += f * (weight / y.pdfArea);
+      b.lightTerm[k] = f * (weight / y.pdfArea);
+      const ShadowRaySegment s =
+          ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
+      b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+      b.rayOf.push_back(static_cast<uint32_t>(k));
     }
-  }
-  if (glossy) {
-    const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, b0, b1);
-    if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
-      ++rays;
-      const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
-                                             bs.wi, std::numeric_limits<float>::infinity());
-      if (hit.hit && hit.lightId >= 0 && hit.frontFace) {
-        const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
-        const float cosY = -glm::dot(t.normal, bs.wi);
-        const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) / t.area * hit.t * hit.t / cosY;
-        const float cosX = glm::dot(sp.shadingNormal, bs.wi);
-        const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-        if (cosY > 0.0f) sum += t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+    if (glossy) {
+      const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, uk[3], uk[4]);
+      if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
+        ++rays;
+        const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
+                                               bs.wi, std::numeric_limits<float>::infinity());
+        if (hit.hit && hit.lightId >= 0 && hit.frontFace) {
+          const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
+          const float cosY = -glm::dot(t.normal, bs.wi);
+          const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) / t.area * hit.t * hit.t / cosY;
+          const float cosX = glm::dot(sp.shadingNormal, bs.wi);
+          const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+          if (cosY > 0.0f) b.bsdfTerm[k] = t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+        }
       }
     }
   }
-  return sum;
+  b.occluded.resize(b.rays.size());
+  scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
+  rays += b.rays.size();
+  for (size_t k = 0; k < count; ++k) out[k] = b.bsdfTerm[k];
+  for (size_t r = 0; r < b.rays.size(); ++r)
+    if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
+}
+
+// Two-stage allocation (DESIGN §7): kPilotSamples independent uniform
+// samples per pixel estimate the per-sample relative variance v = Var[f] / E[f]²; the main pass then spends
+// samples in proportion to v (every pixel reaching about the same relative standard error), with samples
+// independent of the pilot's. The pilot's samples are not part of the estimate: the allocation is then a
+// function of independent randomness only, so each pixel's estimate and its replicate standard error stay
+// unbiased given its sample count (no stopping on the sample's own values).
+constexpr int kPilotSamples = 16;
+// In budget mode, this share of the main budget goes to every pixel uniformly: the pilot's 16 samples can miss
+// a rare light (v estimated 0), and a floor keeps such pixels from being starved.
+constexpr double kUniformShare = 0.25;
+// No pixel gets more than this multiple of the mean per-replicate count (budget mode), or more than
+// kMaxSamplesPerPixel (error mode).
+constexpr int kMaxAllocationScale = 16;
+constexpr int kMaxSamplesPerPixel = 1 << 16;
+
+// Per-replicate sample counts from the pilot's relative variances (negative: the pilot saw no light).
+std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
+                                      const ReferenceParams& params) {
+  std::vector<uint32_t> m(relVar.size(), 0);
+  if (params.targetRelativeError > 0.0) {
+    // Relative standard error of a mean of n samples: sqrt(v / n) = E  =>  n = v / E².
+    const double e2 = params.targetRelativeError * params.targetRelativeError;
+    for (size_t i = 0; i < relVar.size(); ++i) {
+      if (!active[i]) continue;
+      const double n = relVar[i] > 0.0f ? std::ceil(double(relVar[i]) / e2) : 0.0;
+      const double perReplicate = std::ceil(std::min(n, double(kMaxSamplesPerPixel)) / kReplicates);
+      m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
+    }
+    return m;
+  }
+  const int budget = std::max(1, params.samplesPerPixel);
+  const double meanPerReplicate = std::max(1.0, std::ceil(double(budget - kPilotSamples) / kReplicates));
+  double sum = 0.0;
+  for (size_t i = 0; i < relVar.size(); ++i)
+    if (active[i] && relVar[i] > 0.0f) sum += relVar[i];
+  // Mean over every active pixel (those with v = 0 included), so the allocation averages meanPerReplicate.
+  size_t activeCount = 0;
+  for (uint8_t a : active) activeCount += a;
+  const double meanV = activeCount ? sum / double(activeCount) : 0.0;
+  for (size_t i = 0; i < relVar.size(); ++i) {
+    if (!active[i]) continue;
+    const double share = meanV > 0.0 ? kUniformShare + (1.0 - kUniformShare) * std::max(0.0f, relVar[i]) / meanV
+                                     : 1.0;
+    const double perReplicate = std::min(std::round(meanPerReplicate * share), meanPerReplicate * kMaxAllocationScale);
+    m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
+  }
+  return m;
 }
 
 // A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
@@ -187,10 +341,15 @@ uint64_t HashFrameState(const FrameState& state) {
   return Fnv1a(state.lightOn.data(), state.lightOn.size(), h);
 }
 
-std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, int spp) {
-  const int32_t fields[3] = {spp, static_cast<int32_t>(kReferenceVersion), static_cast<int32_t>(kReferenceSeed)};
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params) {
+  // The error target, when set, replaces the budget: two runs with different spp share its entry.
+  const bool target = params.targetRelativeError > 0.0;
+  const int32_t fields[3] = {target ? 0 : params.samplesPerPixel, static_cast<int32_t>(kReferenceVersion),
+                             static_cast<int32_t>(kReferenceSeed)};
+  const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
   h = Fnv1a(fields, sizeof(fields), h);
+  h = Fnv1a(&error, sizeof(error), h);
   const uint64_t s = HashFrameState(state);
   return HexHash(Fnv1a(&s, sizeof(s), h));
 }
@@ -201,7 +360,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const int w = g.width, h = g.height;
   std::string cachePath, cacheKey;
   if (!params.cacheDir.empty()) {
-    cacheKey = ReferenceCacheKey(sequence, state, params.samplesPerPixel);
+    cacheKey = ReferenceCacheKey(sequence, state, params);
     cachePath = (std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".bin")).string();
     ReferenceImage cached;
     if (ReadCache(cachePath, cacheKey, w, h, cached)) {
@@ -223,49 +382,106 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // get the same reference, bit for bit, and share one cache entry.
   const uint64_t stateHash = HashFrameState(state);
   const uint32_t stateKey = static_cast<uint32_t>(stateHash ^ (stateHash >> 32));
-  const int perReplicate = (std::max(1, params.samplesPerPixel) + kReplicates - 1) / kReplicates;
+  const size_t pixels = static_cast<size_t>(w) * h;
+  std::vector<uint8_t> active(pixels, 0);
+  for (size_t i = 0; i < pixels; ++i) {
+    ref.mean.pixels[i] = DirectEmission(g, i, lightList);
+    active[i] = g.IsSurface(i) && !lights.Empty();
+  }
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
-    uint64_t& localRays = rays.local();
-    PixelLightDistribution dist;
-    for (int y = range.begin(); y < range.end(); ++y) {
-      for (int x = 0; x < w; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        ref.mean.pixels[i] = DirectEmission(g, i, lightList);
-        if (!g.IsSurface(i) || lights.Empty()) continue;
-        const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
-        dist.Build(sp, lights);
-        const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
-                         static_cast<uint32_t>(RngPass::kReference)};
-        glm::dvec3 replicateMean[kReplicates];
-        for (int rep = 0; rep < kReplicates; ++rep) {
-          double shift[kSampleDims];
-          for (int j = 0; j < kSampleDims; ++j)
-            shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * kSampleDims + j));
-          glm::dvec3 sum(0.0);
-          for (int k = 0; k < perReplicate; ++k) {
-            float u[kSampleDims];
-            for (int j = 0; j < kSampleDims; ++j) u[j] = rd.Coordinate(shift[j], k, j);
-            sum += glm::dvec3(DirectSample(sp, scene, lightList, dist, u, localRays));
-          }
-          replicateMean[rep] = sum / double(perReplicate);
+  tbb::combinable<uint64_t> samples([] { return uint64_t{0}; });
+  // The pilot's per-pixel light distributions are kept for the main pass when they fit in
+  // kKeptDistributionBytes; otherwise the main pass builds them again (the same bits).
+  const size_t nLights = lightList.size();
+  const LightProxies proxies(lightList);
+  const bool keep = pixels * nLights * 2 * sizeof(float) <= kKeptDistributionBytes;
+  std::vector<float> kept(keep ? pixels * nLights * 2 : 0);
+  auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
+      PixelLightDistribution dist;
+      SampleBatch batch;
+      std::vector<float> u, local(keep ? 0 : 2 * nLights);
+      std::vector<Vec3> values;
+      for (int y = range.begin(); y < range.end(); ++y)
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!active[i]) continue;
+          const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
+          float* pmf = keep ? kept.data() + i * 2 * nLights : local.data();
+          if (keep && builtBefore)
+            dist.View(pmf, pmf + nLights, nLights);
+          else
+            dist.Build(sp, lights, proxies, pmf, pmf + nLights);
+          perPixel(i, sp, dist, batch, u, values);
         }
-        glm::dvec3 mean(0.0), var(0.0);
-        for (const glm::dvec3& m : replicateMean) mean += m;
-        mean /= double(kReplicates);
-        for (const glm::dvec3& m : replicateMean) var += (m - mean) * (m - mean);
-        var /= double(kReplicates - 1);
-        const double meanY = LuminanceD(mean);
-        double varY = 0.0;
-        for (const glm::dvec3& m : replicateMean) varY += (LuminanceD(m) - meanY) * (LuminanceD(m) - meanY);
-        varY /= double(kReplicates - 1);
-        ref.mean.pixels[i] += Vec3(mean);
-        ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
-        ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
-      }
+    });
+  };
+
+  // Pilot: independent uniform samples (their own RNG pass), only their relative variance is kept.
+  std::vector<float> relVar(pixels, -1.0f);
+  forEachActiveRow(false, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
+                              SampleBatch& batch, std::vector<float>& u, std::vector<Vec3>& values) {
+    const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
+                     static_cast<uint32_t>(RngPass::kReferencePilot)};
+    u.resize(kPilotSamples * kSampleDims);
+    for (size_t d = 0; d < u.size(); ++d) u[d] = UniformFloat(key, static_cast<uint32_t>(d));
+    values.resize(kPilotSamples);
+    DirectSamples(sp, scene, lightList, dist, u.data(), kPilotSamples, batch, values.data(), rays.local());
+    samples.local() += kPilotSamples;
+    double sum = 0.0, sumSq = 0.0;
+    for (const Vec3& v : values) {
+      const double yv = Luminance(v);
+      sum += yv;
+      sumSq += yv * yv;
     }
+    const double mean = sum / kPilotSamples;
+    const double var = std::max(0.0, (sumSq - sum * mean) / (kPilotSamples - 1));
+    if (mean > 0.0) relVar[i] = static_cast<float>(std::min(var / (mean * mean), 1e30));
+  });
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, active, params);
+  ref.pixelSamples.assign(pixels, 0);
+  for (size_t i = 0; i < pixels; ++i)
+    if (active[i]) ref.pixelSamples[i] = kPilotSamples + perReplicate[i] * kReplicates;
+
+  // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
+  // points each.
+  forEachActiveRow(true, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
+                             SampleBatch& batch, std::vector<float>& u, std::vector<Vec3>& values) {
+    const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kReference)};
+    const int m = static_cast<int>(perReplicate[i]);
+    const size_t n = static_cast<size_t>(m) * kReplicates;
+    u.resize(n * kSampleDims);
+    for (int rep = 0; rep < kReplicates; ++rep) {
+      double shift[kSampleDims];
+      for (int j = 0; j < kSampleDims; ++j) shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * kSampleDims + j));
+      for (int k = 0; k < m; ++k)
+        for (int j = 0; j < kSampleDims; ++j)
+          u[(static_cast<size_t>(rep) * m + k) * kSampleDims + j] = rd.Coordinate(shift[j], k, j);
+    }
+    values.resize(n);
+    DirectSamples(sp, scene, lightList, dist, u.data(), n, batch, values.data(), rays.local());
+    samples.local() += n;
+    glm::dvec3 replicateMean[kReplicates];
+    for (int rep = 0; rep < kReplicates; ++rep) {
+      glm::dvec3 sum(0.0);
+      for (int k = 0; k < m; ++k) sum += glm::dvec3(values[static_cast<size_t>(rep) * m + k]);
+      replicateMean[rep] = sum / double(m);
+    }
+    glm::dvec3 mean(0.0), var(0.0);
+    for (const glm::dvec3& r : replicateMean) mean += r;
+    mean /= double(kReplicates);
+    for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
+    var /= double(kReplicates - 1);
+    const double meanY = LuminanceD(mean);
+    double varY = 0.0;
+    for (const glm::dvec3& r : replicateMean) varY += (LuminanceD(r) - meanY) * (LuminanceD(r) - meanY);
+    varY /= double(kReplicates - 1);
+    ref.mean.pixels[i] += Vec3(mean);
+    ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
+    ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
   });
   ref.rays = rays.combine(std::plus<uint64_t>());
+  ref.samples = samples.combine(std::plus<uint64_t>());
   if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError,
                                                                     ref.lumaStandardError));
   ref.ms = MsSince(t0);

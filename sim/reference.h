@@ -1,7 +1,8 @@
-// The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with light selection
-// by power, uniform area sampling and one shadow ray per sample, combined by MIS with BSDF sampling on glossy
-// surfaces. Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also
-// reports an honest per-pixel standard error. Cached on disk.
+// The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with per-pixel light
+// selection, uniform area sampling and one shadow ray per sample (traced in packets), combined by MIS with BSDF
+// sampling on glossy surfaces. A pilot pass estimates each pixel's relative variance; the main pass spends the
+// samples in proportion to it. Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the
+// reference also reports an honest per-pixel standard error. Cached on disk.
 #pragma once
 
 #include <cstdint>
@@ -15,8 +16,14 @@
 namespace restir {
 
 struct ReferenceParams {
-  int samplesPerPixel = 1024;  // direct-lighting samples per pixel, rounded up to a multiple of 16 (replicates)
-  std::string cacheDir;        // where converged frames are kept; empty: no cache
+  // Mean direct-lighting samples per pixel, the pilot's 16 included; the main pass's per-pixel counts are
+  // multiples of 16 (replicates) in proportion to the pilot's relative variance. Ignored when
+  // targetRelativeError > 0.
+  int samplesPerPixel = 1024;
+  // When > 0 (--reference-error): each pixel gets the samples its pilot says it needs for this relative standard
+  // error (between 16 and 65536), instead of a share of a fixed budget.
+  double targetRelativeError = 0.0;
+  std::string cacheDir;  // where converged frames are kept; empty: no cache
 };
 
 struct ReferenceImage {
@@ -28,6 +35,8 @@ struct ReferenceImage {
   bool fromCache = false;   // read from the cache rather than rendered
   double ms = 0.0;          // wall time (render or cache read)
   uint64_t rays = 0;        // rays traced (0 when cached)
+  uint64_t samples = 0;     // direct-lighting samples taken, the pilot's included (0 when cached)
+  std::vector<uint32_t> pixelSamples;  // per pixel, the samples it took, pilot included (empty when cached)
 };
 
 // Renders (or reads from the cache) the reference of the scene's current frame, at the G-buffer's pixels.
@@ -40,7 +49,7 @@ uint64_t HashFrameState(const FrameState& state);
 
 // The cache key: a hash of everything that changes the reference image (sequence content, frame state, samples,
 // renderer version). Not the frame index: identical states share one reference.
-std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, int spp);
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
 // Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
 // reference's own relative noise.

@@ -130,7 +130,7 @@ struct RunState {
 // The checkpoint (--resume) is keyed by the configuration: run.json without the fields that do not change the
 // results, so a different run never resumes from it.
 std::string ConfigurationKey(nlohmann::json runJson) {
-  for (const char* volatileField : {"commandLine", "status", "threads", "simd", "wallSeconds"})
+  for (const char* volatileField : {"commandLine", "status", "threads", "simd", "wallSeconds", "referenceThroughput"})
     runJson.erase(volatileField);
   return runJson.dump();
 }
@@ -246,6 +246,7 @@ RunResult Run(const RunOptions& opt) {
   CheckRunMemory(opt, seq, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
   ReferenceParams refParams;
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
+  refParams.targetRelativeError = opt.referenceError;
   refParams.cacheDir = opt.cacheDir;
   const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
 
@@ -263,6 +264,7 @@ RunResult Run(const RunOptions& opt) {
       {"embreeIsa", EmbreeIsaName(ActiveEmbreeIsa())},
       {"threads", threads},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
+                                                    {"targetRelativeError", refParams.targetRelativeError},
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
@@ -303,7 +305,14 @@ RunResult Run(const RunOptions& opt) {
   const int firstFrame = opt.resume ? LoadCheckpoint(checkpointPath, configKey, state, opt.frameBegin) : opt.frameBegin;
   if (firstFrame > opt.frameBegin) result.resumedAtFrame = firstFrame;
   ProgressBar progress(opt.progress, seq.name, frameEnd - opt.frameBegin);
+  struct {
+    int frames = 0, cachedFrames = 0;
+    uint64_t rays = 0, samples = 0;
+    double ms = 0.0;
+  } refRendered;  // the references this run rendered (not read from the cache), for run.json
 
+  auto lastCheckpoint = Clock::now();
+  bool checkpointWritten = false;
   for (int frame = firstFrame; frame < frameEnd; ++frame) {
     loop.BeginFrame(frame);
     const FrameState& frameState = loop.State();
@@ -318,6 +327,14 @@ RunResult Run(const RunOptions& opt) {
     if (opt.reference) {
       progress.Show(frame - opt.frameBegin, "reference");
       ref = RenderReference(seq, frameState, loop.Scene(), current, refParams);
+      if (!ref.fromCache) {
+        refRendered.frames += 1;
+        refRendered.rays += ref.rays;
+        refRendered.samples += ref.samples;
+        refRendered.ms += ref.ms;
+      } else {
+        refRendered.cachedFrames += 1;
+      }
     }
 
     for (size_t p = 0; p < presets.size(); ++p) {
@@ -396,7 +413,12 @@ RunResult Run(const RunOptions& opt) {
     WriteFileAtomic(csvPath, MetricsCsv(result.rows));
     loop.EndFrame();
     if (opt.reference) previousReference = std::move(ref.mean);
-    SaveCheckpoint(checkpointPath, configKey, state, frame + 1);
+    if (!checkpointWritten || opt.checkpointSeconds <= 0.0 ||
+        std::chrono::duration<double>(Clock::now() - lastCheckpoint).count() >= opt.checkpointSeconds) {
+      SaveCheckpoint(checkpointPath, configKey, state, frame + 1);
+      lastCheckpoint = Clock::now();
+      checkpointWritten = true;
+    }
     progress.FrameDone();
     progress.Show(frame - opt.frameBegin + 1, "done");
   }
@@ -406,6 +428,20 @@ RunResult Run(const RunOptions& opt) {
   std::filesystem::remove(checkpointPath, ec);  // a finished run needs no checkpoint
   runJson["status"] = "complete";
   runJson["wallSeconds"] = result.wallSeconds;
+  if (opt.reference) {
+    // What the reference cost where it was rendered: its rays (shadow rays and, on glossy pixels, BSDF rays)
+    // per second of its wall time, to set beside the ray floor of docs/performance.md.
+    runJson["referenceThroughput"] = {
+        {"framesRendered", refRendered.frames},
+        {"framesFromCache", refRendered.cachedFrames},
+        {"rays", refRendered.rays},
+        {"samples", refRendered.samples},
+        {"seconds", refRendered.ms / 1000.0},
+        {"raysPerSecond", refRendered.ms > 0.0 ? double(refRendered.rays) / (refRendered.ms / 1000.0) : 0.0},
+        {"samplesPerPixel", refRendered.frames > 0 ? double(refRendered.samples) / (double(width) * height *
+                                                                                   refRendered.frames)
+                                                   : 0.0}};
+  }
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
   if (opt.report) WriteReport(opt.outDir);
   return result;

@@ -21,12 +21,17 @@ struct RunOptions {
   int threads = 0;                       // 0: every core
   std::optional<uint32_t> seed;          // unset: the sequence's seed
   int referenceSpp = 0;                  // 0: the sequence's render.referenceSpp
+  double referenceError = 0.0;           // > 0: reference sampled to this relative standard error per pixel
   bool reference = true;                 // false: no reference, no error metrics
   std::string outDir = "out";            // where frames, metrics.csv and run.json go
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
   bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
   bool progress = true;                  // progress line on stderr when stderr is a terminal
   bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
+  // Seconds of work between checkpoints (after the first frame's, which is always written); 0: every frame. A
+  // checkpoint of the flagship at 640x360 with every preset is ~140 MB, so writing it every frame cost ~10% of
+  // README command 1; a resumed run redoes at most this much.
+  double checkpointSeconds = 60.0;
   bool report = true;                    // summary.json and report.html when the run completes
   int ensemble = 1;                      // K runs per preset with seeds seed..seed+K-1: bias²/variance split
   std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)

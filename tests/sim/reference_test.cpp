@@ -170,17 +170,27 @@ TEST(Reference, CacheRoundTripsBitExactly) {
   EXPECT_TRUE(b.fromCache);
   EXPECT_EQ(HashImage(a.mean), HashImage(b.mean));
   EXPECT_EQ(HashImage(a.standardError), HashImage(b.standardError));
-  // A different sample count, camera or light state is a different key; the frame index alone is not.
-  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, r.state, 17));
+  // A different sample count, error target, camera or light state is a different key; the frame index alone is
+  // not, and neither is the budget when an error target replaces it.
+  auto key = [&](const FrameState& s, int spp, double error = 0.0) {
+    ReferenceParams p;
+    p.samplesPerPixel = spp;
+    p.targetRelativeError = error;
+    return ReferenceCacheKey(r.seq, s, p);
+  };
+  EXPECT_NE(key(r.state, 16), key(r.state, 17));
+  EXPECT_NE(key(r.state, 16), key(r.state, 16, 0.01));
+  EXPECT_NE(key(r.state, 16, 0.01), key(r.state, 16, 0.02));
+  EXPECT_EQ(key(r.state, 16, 0.01), key(r.state, 64, 0.01));
   FrameState moved = r.state;
   moved.camera.position.x += 1e-3f;
-  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, moved, 16));
+  EXPECT_NE(key(r.state, 16), key(moved, 16));
   FrameState dark = r.state;
   dark.lightOn[0] = 0;
-  EXPECT_NE(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, dark, 16));
+  EXPECT_NE(key(r.state, 16), key(dark, 16));
   FrameState later = r.state;
   later.frame = 7;
-  EXPECT_EQ(ReferenceCacheKey(r.seq, r.state, 16), ReferenceCacheKey(r.seq, later, 16));
+  EXPECT_EQ(key(r.state, 16), key(later, 16));
 }
 
 }  // namespace
