@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cctype>
+#include <cmath>
 #include <charconv>
 #include <cstdio>
 #include <optional>
@@ -119,17 +120,25 @@ int RunCommandLine(int argc, char** argv) {
   run->add_option("--threads", opt.threads, "Worker threads (default: every core); results do not depend on it")
       ->check(CLI::Range(1, 1024));
   run->add_option("--seed", seed, "Override the sequence's seed")->check(CLI::Range(int64_t{0}, int64_t{4294967295}));
+  // CLI::Range lets NaN through (every comparison with it is false).
+  const CLI::Validator kFinite(
+      [](std::string& v) {
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        return std::isfinite(x) ? std::string() : "not a finite number: " + v;
+      },
+      "FINITE");
   run->add_option("--reference-spp", opt.referenceSpp, "Reference samples per pixel (default: the sequence's)")
       ->check(CLI::Range(1, 1 << 24));
   run->add_option("--reference-error", opt.referenceError,
                   "Instead of a sample budget: sample each reference pixel until its estimated relative standard "
                   "error is this (e.g. 0.01), from a pilot pass; 16 to 65536 samples per pixel")
-      ->check(CLI::Range(1e-4, 1.0))
+      ->check(kFinite & CLI::Range(1e-4, 1.0))
       ->excludes("--reference-spp");
   run->add_option("--checkpoint-seconds", opt.checkpointSeconds,
                   "Seconds of work between checkpoints for --resume (the first frame's is always written; 0: every "
                   "frame)")
-      ->check(CLI::Range(0.0, 1e9))
+      ->check(kFinite & CLI::Range(0.0, 1e9))
       ->capture_default_str();
   run->add_option("--set", opt.settings,
                   "Override a preset setting for every preset, KEY=VALUE (repeatable), e.g. "

@@ -15,6 +15,7 @@
 #include "sim/gbuffer.h"
 #include "sim/input_file.h"
 #include "sim/passes/frame_view.h"
+#include "sim/reference.h"
 #include "sim/sequence.h"  // InputError
 
 namespace restir {
@@ -73,9 +74,13 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
   const double exr = s.writeImages ? px * (kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float)) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
-  const double transient = std::max({checkpoint, flip, exr, cacheEntry});
-  add(transient == checkpoint ? "checkpoint" : transient == flip ? "FLIP" : transient == exr ? "EXR encoding"
-                                                                                             : "reference cache entry",
+  const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles)) : 0.0;
+  const double transient = std::max({checkpoint, flip, exr, cacheEntry, referenceRender});
+  add(transient == checkpoint        ? "checkpoint"
+      : transient == flip            ? "FLIP"
+      : transient == exr             ? "EXR encoding"
+      : transient == referenceRender ? "reference rendering"
+                                     : "reference cache entry",
       transient);
 
   add("metrics rows", double(s.frames) * presets * kRowBytes);

@@ -488,6 +488,13 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   return ref;
 }
 
+double ReferenceScratchBytes(double pixels, double lights) {
+  const double kept = pixels * lights * 2.0 * sizeof(float);
+  // active flag, relative variance, per-replicate count, samples per pixel
+  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t);
+  return (kept <= double(kKeptDistributionBytes) ? kept : 0.0) + pixels * perPixel;
+}
+
 double MeanRelativeStandardError(const ReferenceImage& ref) {
   double sum = 0.0;
   size_t count = 0;

@@ -51,6 +51,11 @@ uint64_t HashFrameState(const FrameState& state);
 // renderer version). Not the frame index: identical states share one reference.
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
+// The most RenderReference allocates while it runs beyond its result, for a frame of `pixels` pixels and `lights`
+// light triangles (the kept per-pixel light distributions, capped, and the pilot's per-pixel state); for the run's
+// memory estimate (sim/memory_estimate.h).
+double ReferenceScratchBytes(double pixels, double lights);
+
 // Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
 // reference's own relative noise.
 double MeanRelativeStandardError(const ReferenceImage& ref);

@@ -24,7 +24,7 @@ TEST_F(Cli, HelpExitsZeroAndListsCommands) {
   const Result rr = RunCli("run --help");
   EXPECT_EQ(rr.status, 0);
   for (const char* w : {"--preset", "--frames", "--resolution", "--threads", "--seed", "--reference-spp",
-                        "--no-reference", "--out"})
+                        "--reference-error", "--checkpoint-seconds", "--no-reference", "--out"})
     EXPECT_NE(rr.output.find(w), std::string::npos) << w;
 }
 
@@ -55,6 +55,14 @@ TEST_F(Cli, BadInputExitsTwoWithOneMessage) {
   EXPECT_EQ(r.status, 2);
   r = RunCli("run sequences/smoke.json --resolution 0x5 --out " + ::testing::TempDir() + "/restir-cli-out");
   EXPECT_EQ(r.status, 2);
+  // The error target is a relative standard error in [1e-4, 1], and replaces the budget rather than joining it.
+  for (const char* bad : {"--reference-error 0", "--reference-error -0.01", "--reference-error 2",
+                          "--reference-error nan", "--reference-error 0.01 --reference-spp 64",
+                          "--checkpoint-seconds -1"}) {
+    r = RunCli(std::string("run sequences/smoke.json --frames 0:1 ") + bad + " --out " + ::testing::TempDir() +
+               "/restir-cli-out");
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+  }
   r = RunCli("run does/not/exist.json");
   EXPECT_EQ(r.status, 2);
   r = RunCli("run");  // missing argument
