@@ -1,358 +1,116 @@
+// FLIP's public functions (sim/flip.h): the exposure range, LDR-FLIP, FlipReference and HDR-FLIP, and how their
+// work is split into tasks. The filter passes are in sim/flip_passes.cpp, their SIMD stages in sim/flip_rows.cpp.
 #include "sim/flip.h"
 
-#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <limits>
+#include <cstring>
 #include <stdexcept>
+
+#include "sim/flip_internal.h"
 
 namespace restir {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using namespace flip_detail;
 
-// --- Constants of the papers -------------------------------------------------------------------------------
-
-// Colour pipeline (FLIP 2020, §4.1): exponent of the HyAB distance and the error redistribution.
-constexpr float kQc = 0.7f;
-constexpr float kPc = 0.4f;
-constexpr float kPt = 0.95f;
-// Feature pipeline (§4.2): exponent, and the peak-to-trough width of the edge detector in degrees.
-constexpr double kQf = 0.5;
-constexpr double kFeatureWidthDegrees = 0.082;
-
-// Contrast sensitivity functions as sums of two Gaussians in the frequency domain (§4.1, Table 1):
-// S(f) = a1 exp(-b1 f²) + a2 exp(-b2 f²), per opponent channel; b2 = 1e-5 only avoids a division by 0 where
-// a2 = 0.
-struct CsfParams {
-  double a1, b1, a2, b2;
-};
-constexpr CsfParams kCsfAchromatic{1.0, 0.0047, 0.0, 1e-5};
-constexpr CsfParams kCsfRedGreen{1.0, 0.0053, 0.0, 1e-5};
-constexpr CsfParams kCsfBlueYellow{34.1, 0.04, 13.5, 0.025};
-
-// HDR-FLIP's ACES tone mapper (Narkowicz's fit, with the fit's 0.6 pre-exposure folded in):
-// t(x) = (k0 x² + k1 x + k2) / (k3 x² + k4 x + k5).
-constexpr double kTm0 = 0.6 * 0.6 * 2.51, kTm1 = 0.6 * 0.03, kTm2 = 0.0;
-constexpr double kTm3 = 0.6 * 0.6 * 2.43, kTm4 = 0.6 * 0.59, kTm5 = 0.14;
 // Tone-mapped value the brightest pixel reaches at the start exposure and the median at the stop exposure.
 constexpr double kToneTarget = 0.85;
 
-// Linear sRGB <-> CIE XYZ (D65), and the D65 reference white.
-constexpr float kRgbToXyz[3][3] = {{10135552.0f / 24577794.0f, 8788810.0f / 24577794.0f, 4435075.0f / 24577794.0f},
-                                   {2613072.0f / 12288897.0f, 8788810.0f / 12288897.0f, 887015.0f / 12288897.0f},
-                                   {1425312.0f / 73733382.0f, 8788810.0f / 73733382.0f, 70074185.0f / 73733382.0f}};
-constexpr float kXyzToRgb[3][3] = {{3.241003275f, -1.537398934f, -0.498615861f},
-                                   {-0.969224334f, 1.875930071f, 0.041554224f},
-                                   {0.055639423f, -0.204011202f, 1.057148933f}};
-constexpr float kWhite[3] = {0.950428545f, 1.0f, 1.088900371f};
-constexpr float kInvWhite[3] = {1.052156925f, 1.0f, 0.918357670f};
-
-// --- Colour spaces -------------------------------------------------------------------------------------------
-
-struct Color3 {
-  float v[3];
-};
-
-inline Color3 MulMatrix(const float m[3][3], float a, float b, float c) {
-  return {{m[0][0] * a + m[0][1] * b + m[0][2] * c, m[1][0] * a + m[1][1] * b + m[1][2] * c,
-           m[2][0] * a + m[2][1] * b + m[2][2] * c}};
-}
-
-// Linear RGB -> YCxCz (the opponent space of the colour pipeline).
-inline Color3 LinearRgbToYcxcz(float r, float g, float b) {
-  const Color3 xyz = MulMatrix(kRgbToXyz, r, g, b);
-  const float x = xyz.v[0] * kInvWhite[0], y = xyz.v[1] * kInvWhite[1], z = xyz.v[2] * kInvWhite[2];
-  return {{116.0f * y - 16.0f, 500.0f * (x - y), 200.0f * (y - z)}};
-}
-
-inline Color3 YcxczToLinearRgb(float yy, float cx, float cz) {
-  const float y = (yy + 16.0f) / 116.0f;
-  const float x = y + cx / 500.0f;
-  const float z = y - cz / 200.0f;
-  return MulMatrix(kXyzToRgb, x * kWhite[0], y * kWhite[1], z * kWhite[2]);
-}
-
-// Linear RGB -> CIE L*a*b* (D65).
-inline Color3 LinearRgbToLab(float r, float g, float b) {
-  const Color3 xyz = MulMatrix(kRgbToXyz, r, g, b);
-  constexpr float delta = 6.0f / 29.0f;
-  constexpr float deltaCube = delta * delta * delta;
-  constexpr float factor = 1.0f / (3.0f * delta * delta);
-  float f[3];
-  for (int c = 0; c < 3; ++c) {
-    const float t = xyz.v[c] * kInvWhite[c];
-    f[c] = t > deltaCube ? std::cbrt(t) : factor * t + 4.0f / 29.0f;
+// The image split into blocks of rows; a task is one block at one exposure (a FlipReference's planes, LDR-FLIP).
+// Each task redoes the horizontal pass for the `pad` rows either side of its block (the vertical filters' reach),
+// so blocks are kept tall: just enough of them that every thread gets a few tasks (equal tasks balance; the rows'
+// work is nearly uniform).
+struct TaskGrid {
+  int rowsPerBlock = 1, blocks = 1;
+  TaskGrid(int height, int exposures, int pad) {
+    const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+    const int wanted = (8 * threads + exposures - 1) / exposures;
+    const int most = std::max(1, height / std::max(1, 4 * pad));  // blocks at least 4 pads tall
+    blocks = std::clamp(wanted, 1, most);
+    rowsPerBlock = (height + blocks - 1) / blocks;
+    blocks = (height + rowsPerBlock - 1) / rowsPerBlock;
   }
-  return {{116.0f * f[1] - 16.0f, 500.0f * (f[0] - f[1]), 200.0f * (f[1] - f[2])}};
-}
-
-// Hunt adjustment: chroma scales with lightness, a* and b* multiplied by 0.01 L*.
-inline Color3 Hunt(const Color3& lab) {
-  const float s = 0.01f * lab.v[0];
-  return {{lab.v[0], s * lab.v[1], s * lab.v[2]}};
-}
-
-// HyAB: city-block in lightness, Euclidean in the chromatic plane. Symmetric bit for bit.
-inline float HyAB(const Color3& p, const Color3& q) {
-  const float dl = p.v[0] - q.v[0], da = p.v[1] - q.v[1], db = p.v[2] - q.v[2];
-  return std::fabs(dl) + std::sqrt(da * da + db * db);
-}
-
-// Largest HyAB distance between two colours of the unit RGB cube in Hunt-adjusted L*a*b* (green vs blue), to
-// the power q_c.
-float MaxHyabPow() {
-  const Color3 green = Hunt(LinearRgbToLab(0.0f, 1.0f, 0.0f));
-  const Color3 blue = Hunt(LinearRgbToLab(0.0f, 0.0f, 1.0f));
-  return std::pow(HyAB(green, blue), kQc);
-}
-
-// Maps the exponentiated HyAB distance to [0, 1]: [0, p_c cmax) linearly onto [0, p_t), the rest onto [p_t, 1].
-inline float Redistribute(float powHyab, float cmax) {
-  const float pcCmax = kPc * cmax;
-  const float e = powHyab < pcCmax ? (kPt / pcCmax) * powHyab
-                                   : kPt + ((powHyab - pcCmax) / (cmax - pcCmax)) * (1.0f - kPt);
-  return std::min(e, 1.0f);  // the paper's cmax is the gamut's largest distance; guard rounding only
-}
-
-inline float Clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }  // NaN -> 0
-
-// --- Filters ---------------------------------------------------------------------------------------------------
-
-// A 1D kernel of 2 radius + 1 taps, applied as a correlation: out(x) = sum_t w[t] in(x - radius + t).
-struct Kernel {
-  int radius = 0;
-  std::vector<float> w;
+  int Tasks(int exposures) const { return blocks * exposures; }
 };
 
-struct FlipKernels {
-  int csfRadius = 0, featureRadius = 0, pad = 0;
-  Kernel achromatic, redGreen, blueYellow1, blueYellow2;  // normalised Gaussians
-  float blueYellowWeight1 = 1.0f, blueYellowWeight2 = 0.0f;
-  Kernel gauss, edge, point;  // feature detectors: Gaussian, its first and second derivatives
-
-  explicit FlipKernels(double ppd) {
-    // CSF filters: the spatial-domain version of each sum of Gaussians, a sqrt(pi / b) exp(-pi² r² / b) with r
-    // in degrees, sampled every 1 / ppd degrees over a radius of 3 standard deviations of the widest Gaussian and
-    // normalised to unit sum over the 2D footprint. Each term is separable, so the 2D kernel is a weighted sum of
-    // products of normalised 1D Gaussians.
-    const double bMax = std::max({kCsfAchromatic.b1, kCsfAchromatic.b2, kCsfRedGreen.b1, kCsfRedGreen.b2,
-                                  kCsfBlueYellow.b1, kCsfBlueYellow.b2});
-    csfRadius = static_cast<int>(std::ceil(3.0 * std::sqrt(bMax / (2.0 * kPi * kPi)) * ppd));
-    auto gaussian = [&](double b, double& sum) {
-      Kernel k;
-      k.radius = csfRadius;
-      std::vector<double> e(2 * csfRadius + 1);
-      sum = 0.0;
-      for (int i = -csfRadius; i <= csfRadius; ++i) {
-        const double x = i / ppd;
-        e[i + csfRadius] = std::exp(-kPi * kPi * x * x / b);
-        sum += e[i + csfRadius];
-      }
-      for (double v : e) k.w.push_back(static_cast<float>(v / sum));
-      return k;
-    };
-    double s1 = 0.0, s2 = 0.0;
-    achromatic = gaussian(kCsfAchromatic.b1, s1);  // a2 = 0 for the achromatic and red-green channels
-    redGreen = gaussian(kCsfRedGreen.b1, s1);
-    blueYellow1 = gaussian(kCsfBlueYellow.b1, s1);
-    blueYellow2 = gaussian(kCsfBlueYellow.b2, s2);
-    const double m1 = kCsfBlueYellow.a1 * std::sqrt(kPi / kCsfBlueYellow.b1) * s1 * s1;
-    const double m2 = kCsfBlueYellow.a2 * std::sqrt(kPi / kCsfBlueYellow.b2) * s2 * s2;
-    blueYellowWeight1 = static_cast<float>(m1 / (m1 + m2));
-    blueYellowWeight2 = static_cast<float>(m2 / (m1 + m2));
-
-    // Feature detectors: standard deviation half the peak-to-trough width (0.082 degrees) in pixels, radius
-    // 3 sd. The 2D kernels are f(x) g(y) with g a Gaussian; normalising positive weights to sum 1 and negative
-    // weights to sum -1 over the 2D footprint equals normalising f that way and g to unit sum.
-    const double sd = 0.5 * kFeatureWidthDegrees * ppd;
-    featureRadius = static_cast<int>(std::ceil(3.0 * sd));
-    const int r = featureRadius;
-    std::vector<double> g(2 * r + 1), fe(2 * r + 1), fp(2 * r + 1);
-    double gSum = 0.0;
-    for (int i = -r; i <= r; ++i) {
-      const double gi = std::exp(-double(i) * i / (2.0 * sd * sd));
-      g[i + r] = gi;
-      gSum += gi;
-      fe[i + r] = -double(i) * gi;
-      fp[i + r] = (double(i) * i / (sd * sd) - 1.0) * gi;
-    }
-    auto normalisedSigned = [r](const std::vector<double>& f) {
-      double pos = 0.0, neg = 0.0;
-      for (double v : f) {
-        if (v > 0.0) pos += v;
-        if (v < 0.0) neg -= v;
-      }
-      Kernel k;
-      k.radius = r;
-      for (double v : f) k.w.push_back(static_cast<float>(v > 0.0 ? v / pos : (v < 0.0 ? v / neg : 0.0)));
-      return k;
-    };
-    gauss.radius = r;
-    for (double v : g) gauss.w.push_back(static_cast<float>(v / gSum));
-    edge = normalisedSigned(fe);
-    point = normalisedSigned(fp);
-    pad = std::max(csfRadius, featureRadius);
+// HdrFlip's tasks: a block of rows at every exposure, so that each pixel's maximum over the exposures is taken in
+// one place (BoundsRow, then the exact values of the candidates); the block keeps every exposure's HyAB and feature
+// difference meanwhile (8 bytes per pixel and exposure). Blocks are tall, for the horizontal pass's overlap: a
+// multiple of the thread count of them (equal blocks balance), at most kMaxRows rows (the memory), at least 4 pads
+// unless the image is shorter.
+struct BlockGrid {
+  static constexpr int kMaxRows = 128;
+  int rowsPerBlock = 1, blocks = 1;
+  BlockGrid(int height, int pad) {
+    const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+    blocks = threads * ((height + threads * kMaxRows - 1) / (threads * kMaxRows));
+    blocks = std::clamp(blocks, 1, std::max(1, height / std::max(1, 4 * pad)));
+    rowsPerBlock = (height + blocks - 1) / blocks;
+    blocks = (height + rowsPerBlock - 1) / rowsPerBlock;
   }
 };
 
-// Planes of one image after the horizontal pass.
-enum Plane { kPlaneY, kPlaneCx, kPlaneCz1, kPlaneCz2, kPlaneGauss, kPlaneEdge, kPlanePoint, kPlaneCount };
-
-// Correlation of `taps` source rows with weights w: out[x] = sum_t w[t] src[t][x], summed in tap order. With
-// `centre`, each term is w[t] (src[t][x] - centre[x]) and the tap `skip` is left out: a zero-sum kernel (the
-// derivative detectors) applied that way is the same sum mathematically and exactly 0 on a flat neighbourhood.
-// Pixels go in blocks whose accumulators stay in registers; the order of the sum is the same for every pixel.
-template <class SourceRow>
-void Correlate(SourceRow src, const float* w, int taps, const float* centre, int skip, int width,
-               float* __restrict out) {
-  constexpr int kBlock = 16;
-  int x0 = 0;
-  for (; x0 + kBlock <= width; x0 += kBlock) {
-    float acc[kBlock];
-    for (int i = 0; i < kBlock; ++i) acc[i] = 0.0f;
-    if (!centre) {
-      const float* s0 = src(0) + x0;
-      for (int i = 0; i < kBlock; ++i) acc[i] = w[0] * s0[i];
-      for (int t = 1; t < taps; ++t) {
-        const float* st = src(t) + x0;
-        const float wt = w[t];
-        for (int i = 0; i < kBlock; ++i) acc[i] += wt * st[i];
-      }
-    } else {
-      const float* c = centre + x0;
-      for (int t = 0; t < taps; ++t) {
-        if (t == skip) continue;
-        const float* st = src(t) + x0;
-        const float wt = w[t];
-        for (int i = 0; i < kBlock; ++i) acc[i] += wt * (st[i] - c[i]);
-      }
-    }
-    for (int i = 0; i < kBlock; ++i) out[x0 + i] = acc[i];
-  }
-  for (int x = x0; x < width; ++x) {
-    float acc = 0.0f;
-    if (!centre) {
-      acc = w[0] * src(0)[x];
-      for (int t = 1; t < taps; ++t) acc += w[t] * src(t)[x];
-    } else {
-      for (int t = 0; t < taps; ++t)
-        if (t != skip) acc += w[t] * (src(t)[x] - centre[x]);
-    }
-    out[x] = acc;
-  }
-}
-
-// Horizontal correlation of a row padded by `pad` replicated pixels on each side (zeroSum: see Correlate).
-void CorrelateRow(const float* padded, int pad, int width, const Kernel& k, bool zeroSum, float* __restrict out) {
-  const int r = k.radius;
-  const float* base = padded + (pad - r);
-  Correlate([base](int t) { return base + t; }, k.w.data(), 2 * r + 1, zeroSum ? padded + pad : nullptr, r, width,
-            out);
-}
-
-// Vertical correlation at row y of a plane (rows clamped to the image: replicated border).
-void CorrelateColumn(const float* plane, int width, int height, int y, const Kernel& k, bool zeroSum,
-                     float* __restrict out) {
-  const int r = k.radius;
-  auto row = [=](int t) { return plane + static_cast<size_t>(std::clamp(y - r + t, 0, height - 1)) * width; };
-  Correlate(row, k.w.data(), 2 * r + 1, zeroSum ? plane + static_cast<size_t>(y) * width : nullptr, r, width, out);
-}
-
-struct Workspace {
-  std::array<std::array<std::vector<float>, kPlaneCount>, 2> planes;  // [image][plane]
-  void Resize(size_t n) {
-    for (auto& img : planes)
-      for (auto& p : img) p.resize(n);
-  }
-};
-
-// LDR-FLIP of two images whose pixels `prepare` maps to linear RGB in [0, 1]. For every pixel i it calls
-// sink(i, flip, color, feature); rows go to threads, each pixel to exactly one call.
-template <class Prepare, class Sink>
-void LdrFlipCore(const ImageRgb& reference, const ImageRgb& test, const FlipKernels& k, float cmax,
-                 Prepare prepare, Workspace& ws, Sink sink) {
-  const int w = reference.width, h = reference.height;
-  ws.Resize(static_cast<size_t>(w) * h);
-  const ImageRgb* images[2] = {&reference, &test};
-  const int pad = k.pad;
-
-  // Pass 1, per row: colour transform (YCxCz and normalised luminance), then the horizontal filters.
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    const size_t padded = static_cast<size_t>(w) + 2 * pad;
-    std::vector<float> yy(padded), cx(padded), cz(padded), lum(padded);
-    for (int y = rows.begin(); y < rows.end(); ++y) {
-      for (int img = 0; img < 2; ++img) {
-        const Vec3* src = images[img]->pixels.data() + static_cast<size_t>(y) * w;
-        for (int x = 0; x < w; ++x) {
-          const Vec3 c = prepare(src[x]);
-          const Color3 o = LinearRgbToYcxcz(c.x, c.y, c.z);
-          yy[x + pad] = o.v[0];
-          cx[x + pad] = o.v[1];
-          cz[x + pad] = o.v[2];
-          lum[x + pad] = (o.v[0] + 16.0f) / 116.0f;  // the feature pipeline's achromatic channel, in [0, 1]
-        }
-        for (std::vector<float>* b : {&yy, &cx, &cz, &lum})
-          for (int i = 0; i < pad; ++i) {
-            (*b)[i] = (*b)[pad];
-            (*b)[pad + w + i] = (*b)[pad + w - 1];
-          }
-        auto& p = ws.planes[img];
-        const size_t o = static_cast<size_t>(y) * w;
-        CorrelateRow(yy.data(), pad, w, k.achromatic, false, p[kPlaneY].data() + o);
-        CorrelateRow(cx.data(), pad, w, k.redGreen, false, p[kPlaneCx].data() + o);
-        CorrelateRow(cz.data(), pad, w, k.blueYellow1, false, p[kPlaneCz1].data() + o);
-        CorrelateRow(cz.data(), pad, w, k.blueYellow2, false, p[kPlaneCz2].data() + o);
-        CorrelateRow(lum.data(), pad, w, k.gauss, false, p[kPlaneGauss].data() + o);
-        CorrelateRow(lum.data(), pad, w, k.edge, true, p[kPlaneEdge].data() + o);
-        CorrelateRow(lum.data(), pad, w, k.point, true, p[kPlanePoint].data() + o);
-      }
-    }
+// A reference's features at each tone: [tone][plane][row][stride].
+ReferencePlanes AnalyseReference(const ImageRgb& image, const FlipKernels& k, const std::vector<double>& scales) {
+  const int w = image.width, h = image.height, stride = RowStride(w);
+  const size_t planeSize = size_t(h) * stride;
+  ReferencePlanes planes;
+  planes.stride = stride;
+  planes.values.resize(scales.size() * kFeaturePlanes * planeSize);
+  float* out = planes.values.data();
+  const int tones = static_cast<int>(scales.size());
+  const TaskGrid grid(h, tones, k.pad);
+  tbb::enumerable_thread_specific<Scratch> scratch(w, k.pad);
+  tbb::parallel_for(0, grid.Tasks(tones), [&](int task) {
+    const int e = task / grid.blocks, b = task % grid.blocks;
+    const int y0 = b * grid.rowsPerBlock, y1 = std::min(h, y0 + grid.rowsPerBlock);
+    Scratch& s = scratch.local();
+    Analyse(image, k, scales[size_t(e)], y0, y1, s, [&](int y) {
+      for (int p = 0; p < kFeaturePlanes; ++p)
+        std::memcpy(out + (size_t(e) * kFeaturePlanes + p) * planeSize + size_t(y) * stride, s.Feature(p),
+                    size_t(stride) * sizeof(float));
+    });
   });
+  return planes;
+}
 
-  // Pass 2, per row: vertical filters, then the colour and feature differences.
-  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
-    enum { kY, kCx, kCz1, kCz2, kEx, kEy, kPx, kPy, kCount };
-    std::array<std::array<std::vector<float>, kCount>, 2> v;
-    for (auto& img : v)
-      for (auto& b : img) b.resize(w);
-    for (int y = rows.begin(); y < rows.end(); ++y) {
-      for (int img = 0; img < 2; ++img) {
-        const auto& p = ws.planes[img];
-        auto& o = v[img];
-        CorrelateColumn(p[kPlaneY].data(), w, h, y, k.achromatic, false, o[kY].data());
-        CorrelateColumn(p[kPlaneCx].data(), w, h, y, k.redGreen, false, o[kCx].data());
-        CorrelateColumn(p[kPlaneCz1].data(), w, h, y, k.blueYellow1, false, o[kCz1].data());
-        CorrelateColumn(p[kPlaneCz2].data(), w, h, y, k.blueYellow2, false, o[kCz2].data());
-        CorrelateColumn(p[kPlaneEdge].data(), w, h, y, k.gauss, false, o[kEx].data());   // d/dx, smoothed in y
-        CorrelateColumn(p[kPlaneGauss].data(), w, h, y, k.edge, true, o[kEy].data());   // d/dy, smoothed in x
-        CorrelateColumn(p[kPlanePoint].data(), w, h, y, k.gauss, false, o[kPx].data());  // d²/dx²
-        CorrelateColumn(p[kPlaneGauss].data(), w, h, y, k.point, true, o[kPy].data());  // d²/dy²
+// LDR-FLIP's comparison: the test image against the reference's features at each tone. Per row and tone,
+// sink(tone, y, flip, color, feature) gets the row's [0, width) values; it runs on the tasks' threads, rows of one
+// tone never twice.
+template <class Sink>
+void CompareWithReference(const ImageRgb& test, const FlipKernels& k, const std::vector<double>& scales,
+                          const ReferencePlanes& reference, Sink sink) {
+  const int w = test.width, h = test.height, stride = RowStride(w);
+  const float cmax = MaxHyabPow();
+  const int tones = static_cast<int>(scales.size());
+  const TaskGrid grid(h, tones, k.pad);
+  tbb::enumerable_thread_specific<Scratch> scratch(w, k.pad);
+  tbb::parallel_for(0, grid.Tasks(tones), [&](int task) {
+    const int e = task / grid.blocks, b = task % grid.blocks;
+    const int y0 = b * grid.rowsPerBlock, y1 = std::min(h, y0 + grid.rowsPerBlock);
+    Scratch& s = scratch.local();
+    Analyse(test, k, scales[size_t(e)], y0, y1, s, [&](int y) {
+      const float* ref[kFeaturePlanes];
+      const float* tst[kFeaturePlanes];
+      for (int p = 0; p < kFeaturePlanes; ++p) {
+        ref[p] = reference.Row(e, p, y, h);
+        tst[p] = s.Feature(p);
       }
-      for (int x = 0; x < w; ++x) {
-        Color3 lab[2];
-        float edgeMag[2], pointMag[2];
-        for (int img = 0; img < 2; ++img) {
-          const auto& o = v[img];
-          const float czFiltered = k.blueYellowWeight1 * o[kCz1][x] + k.blueYellowWeight2 * o[kCz2][x];
-          const Color3 rgb = YcxczToLinearRgb(o[kY][x], o[kCx][x], czFiltered);
-          lab[img] = Hunt(LinearRgbToLab(Clamp01(rgb.v[0]), Clamp01(rgb.v[1]), Clamp01(rgb.v[2])));
-          edgeMag[img] = std::sqrt(o[kEx][x] * o[kEx][x] + o[kEy][x] * o[kEy][x]);
-          pointMag[img] = std::sqrt(o[kPx][x] * o[kPx][x] + o[kPy][x] * o[kPy][x]);
-        }
-        const float color = Redistribute(std::pow(HyAB(lab[0], lab[1]), kQc), cmax);
-        const float featureDiff =
-            std::max(std::fabs(edgeMag[0] - edgeMag[1]), std::fabs(pointMag[0] - pointMag[1]));
-        const float feature =
-            std::min(1.0f, static_cast<float>(std::pow(double(featureDiff) / std::sqrt(2.0), kQf)));
-        const float flip = Clamp01(std::pow(color, 1.0f - feature));
-        sink(static_cast<size_t>(y) * w + x, flip, color, feature);
+      float *hyab = s.Compare(0), *feature = s.Compare(1), *color = s.Compare(2), *flip = s.Compare(3);
+      DifferenceRow(ref, tst, stride, hyab, feature);
+      for (int x = 0; x < w; ++x) {  // FlipFromDifferences, keeping its colour and feature terms
+        feature[x] = FeatureTerm(feature[x]);
+        color[x] = Redistribute(PowOrShortcut(hyab[x], kQc), cmax);
+        flip[x] = Clamp01(PowOrShortcut(color[x], 1.0f - feature[x]));
       }
-    }
+      sink(e, y, flip, color, feature);
+    });
   });
 }
 
@@ -363,13 +121,6 @@ void CheckInputs(const ImageRgb& reference, const ImageRgb& test, double ppd) {
       test.Size() != reference.Size())
     throw std::invalid_argument("FLIP: image pixel count does not match its size");
   if (!(ppd > 0.0) || !std::isfinite(ppd)) throw std::invalid_argument("FLIP: pixels per degree must be > 0");
-}
-
-double ToneMapX(double x) {
-  if (!(x > 0.0)) return 0.0;   // negative and NaN
-  if (x > 1e100) return 1.0;    // +inf and beyond the double range of x²: the curve's limit k0/k3 > 1 clamps to 1
-  const double y = (kTm0 * x * x + kTm1 * x + kTm2) / (kTm3 * x * x + kTm4 * x + kTm5);
-  return std::min(y, 1.0);
 }
 
 // x at which the tone mapper reaches t: the positive root of (k0 - k3 t) x² + (k1 - k4 t) x + (k2 - k5 t) = 0.
@@ -388,6 +139,12 @@ double Median(std::vector<double> v) {
   if (n % 2 == 1) return upper;
   const double lower = *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(hi));
   return 0.5 * (lower + upper);
+}
+
+std::vector<double> ExposureScales(const FlipExposureRange& range) {
+  std::vector<double> scales;
+  for (int e = 0; e < range.count; ++e) scales.push_back(std::exp2(range.Exposure(e)));
+  return scales;
 }
 
 }  // namespace
@@ -427,23 +184,22 @@ FlipExposureRange FlipExposures(const ImageRgb& reference) {
 
 LdrFlipComponents LdrFlipWithComponents(const ImageRgb& reference, const ImageRgb& test, double ppd) {
   CheckInputs(reference, test, ppd);
-  const FlipKernels kernels(ppd);
-  const float cmax = MaxHyabPow();
   LdrFlipComponents out;
   out.flip.width = reference.width;
   out.flip.height = reference.height;
   out.flip.values.resize(reference.Size());
   out.color.resize(reference.Size());
   out.feature.resize(reference.Size());
-  Workspace ws;
-  LdrFlipCore(
-      reference, test, kernels, cmax,
-      [](const Vec3& c) { return Vec3(Clamp01(c.x), Clamp01(c.y), Clamp01(c.z)); }, ws,
-      [&](size_t i, float flip, float color, float feature) {
-        out.flip.values[i] = flip;
-        out.color[i] = color;
-        out.feature[i] = feature;
-      });
+  if (reference.Size() == 0) return out;
+  const FlipKernels kernels(ppd);
+  const std::vector<double> ldr{0.0};  // one tone: clamp to [0, 1]
+  const size_t w = size_t(reference.width);
+  CompareWithReference(test, kernels, ldr, AnalyseReference(reference, kernels, ldr),
+                       [&](int, int y, const float* flip, const float* color, const float* feature) {
+                         std::copy(flip, flip + w, out.flip.values.begin() + ptrdiff_t(y * w));
+                         std::copy(color, color + w, out.color.begin() + ptrdiff_t(y * w));
+                         std::copy(feature, feature + w, out.feature.begin() + ptrdiff_t(y * w));
+                       });
   return out;
 }
 
@@ -451,33 +207,90 @@ FlipMap LdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd) {
   return LdrFlipWithComponents(reference, test, ppd).flip;
 }
 
-FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd, FlipExposureRange* rangeOut) {
-  CheckInputs(reference, test, ppd);
-  const FlipKernels kernels(ppd);
-  const float cmax = MaxHyabPow();
-  const FlipExposureRange range = FlipExposures(reference);
-  if (rangeOut) *rangeOut = range;
+FlipReference::FlipReference(const ImageRgb& reference, double ppd)
+    : width_(reference.width), height_(reference.height), ppd_(ppd) {
+  CheckInputs(reference, reference, ppd);
+  range_ = FlipExposures(reference);
+  planes_ = std::make_shared<const ReferencePlanes>(
+      reference.Size() ? AnalyseReference(reference, FlipKernels(ppd), ExposureScales(range_)) : ReferencePlanes());
+}
+
+size_t FlipReference::Bytes() const { return planes_->values.capacity() * sizeof(float); }
+
+FlipMap HdrFlip(const FlipReference& reference, const ImageRgb& test, FlipExposureRange* rangeOut) {
+  if (reference.width_ != test.width || reference.height_ != test.height)
+    throw std::invalid_argument("FLIP: reference and test images differ in size");
+  if (test.Size() != static_cast<size_t>(test.width) * test.height)
+    throw std::invalid_argument("FLIP: image pixel count does not match its size");
+  if (rangeOut) *rangeOut = reference.range_;
   FlipMap out;
-  out.width = reference.width;
-  out.height = reference.height;
-  out.values.assign(reference.Size(), 0.0f);
-  Workspace ws;
-  for (int e = 0; e < range.count; ++e) {
-    const double scale = std::exp2(range.Exposure(e));
-    LdrFlipCore(
-        reference, test, kernels, cmax,
-        [scale](const Vec3& c) {
-          return Vec3(static_cast<float>(ToneMapX(scale * double(c.x))),
-                      static_cast<float>(ToneMapX(scale * double(c.y))),
-                      static_cast<float>(ToneMapX(scale * double(c.z))));
-        },
-        ws, [&](size_t i, float flip, float, float) { out.values[i] = std::max(out.values[i], flip); });
-  }
+  out.width = test.width;
+  out.height = test.height;
+  out.values.assign(test.Size(), 0.0f);
+  if (out.values.empty()) return out;
+  const FlipKernels kernels(reference.ppd_);
+  const std::vector<double> scales = ExposureScales(reference.range_);
+  const int exposures = reference.range_.count, w = test.width, h = test.height, stride = RowStride(w);
+  const size_t exposureStride = 2 * size_t(stride);  // a row's HyAB, then its feature difference, per exposure
+  const float cmax = MaxHyabPow();
+  const BlockGrid grid(h, kernels.pad);
+  struct BlockScratch {
+    Scratch rows;
+    AlignedFloats differences;  // [row of the block][exposure][HyAB, feature difference][stride]
+    AlignedFloats hi, maxLo;    // BoundsRow's: [exposure][stride], [stride]
+    BlockScratch(int width, int pad, int rowsPerBlock, int exposures)
+        : rows(width, pad),
+          differences(size_t(rowsPerBlock) * exposures * 2 * RowStride(width)),
+          hi(size_t(exposures) * RowStride(width)),
+          maxLo(size_t(RowStride(width))) {}
+  };
+  tbb::enumerable_thread_specific<BlockScratch> scratch(w, kernels.pad, grid.rowsPerBlock, exposures);
+  tbb::parallel_for(0, grid.blocks, [&](int b) {
+    const int y0 = b * grid.rowsPerBlock, y1 = std::min(h, y0 + grid.rowsPerBlock);
+    BlockScratch& s = scratch.local();
+    auto hyabRow = [&](int y, int e) {
+      return s.differences.data() + (size_t(y - y0) * exposures + e) * exposureStride;
+    };
+    for (int e = 0; e < exposures; ++e) {
+      Analyse(test, kernels, scales[size_t(e)], y0, y1, s.rows, [&](int y) {
+        const float* ref[kFeaturePlanes];
+        const float* tst[kFeaturePlanes];
+        for (int p = 0; p < kFeaturePlanes; ++p) {
+          ref[p] = reference.planes_->Row(e, p, y, h);
+          tst[p] = s.rows.Feature(p);
+        }
+        DifferenceRow(ref, tst, stride, hyabRow(y, e), hyabRow(y, e) + stride);
+      });
+    }
+    for (int y = y0; y < y1; ++y) {
+      const float* hyab = hyabRow(y, 0);
+      const float* featureDiff = hyab + stride;
+      BoundsRow(hyab, featureDiff, exposureStride, exposures, stride, cmax, s.hi.data(), s.maxLo.data());
+      float* row = out.values.data() + size_t(y) * w;
+      for (int x = 0; x < w; ++x) {
+        // The pre-optimisation code took std::max over every exposure, in order, from 0. FLIP values are never
+        // NaN or -0, so the maximum over the candidates, in any order, is the same bits.
+        float best = 0.0f;
+        for (int e = 0; e < exposures; ++e) {
+          if (!(s.hi[size_t(e) * stride + x] >= s.maxLo[x])) continue;  // provably below another exposure's
+          const size_t i = size_t(e) * exposureStride + x;
+          best = std::max(best, FlipFromDifferences(hyab[i], featureDiff[i], cmax));
+        }
+        row[x] = best;
+      }
+    }
+  });
   return out;
 }
 
-size_t HdrFlipScratchBytesPerPixel() {
-  return 2 * kPlaneCount * sizeof(float) + sizeof(double);  // Workspace::planes, FlipExposures' luminances
+FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd, FlipExposureRange* range) {
+  CheckInputs(reference, test, ppd);
+  return HdrFlip(FlipReference(reference, ppd), test, range);
+}
+
+size_t HdrFlipScratchBytesPerPixel(int exposures) {
+  // 5 floats (the FlipReference) and at most 2 (HdrFlip's blocks in flight) per pixel and exposure.
+  return size_t(std::max(exposures, 2)) * (kFeaturePlanes + 2) * sizeof(float);
 }
 
 double MeanFlip(const FlipMap& map, const std::vector<uint8_t>* mask) {

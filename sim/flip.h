@@ -10,17 +10,24 @@
 // exposures of the ACES-tone-mapped pair, the range taken from the reference's luminance.
 //
 // Deterministic: every output pixel is computed by the same operations in the same order whatever the thread
-// count (rows are distributed with tbb::parallel_for, nothing is reduced across threads), and the means are
-// summed sequentially in pixel order in double.
+// count and SIMD target (blocks of rows go to tbb::parallel_for tasks, each pixel's value, HDR-FLIP's maximum over
+// the exposures included, is computed within one task), and the means are summed sequentially in pixel order in
+// double. The implementation (sim/flip.cpp, flip_passes.cpp, flip_rows.cpp) reproduces its first version bit for
+// bit; tests/sim/flip_legacy_test.cpp keeps that version as the oracle.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "sim/image.h"
 
 namespace restir {
+
+namespace flip_detail {
+struct ReferencePlanes;  // sim/flip_internal.h
+}
 
 // Pixels per degree of visual angle for an observer `distance` metres from a monitor `monitorWidth` metres wide
 // showing `monitorPixels` pixels across: distance * (monitorPixels / monitorWidth) * pi / 180.
@@ -72,8 +79,37 @@ struct FlipExposureRange {
 // luminances is used instead.
 FlipExposureRange FlipExposures(const ImageRgb& reference);
 
+// HDR-FLIP's work on the reference alone, done once and reused for every test image compared with it (the run
+// compares each frame's reference with every preset's image): the exposure range and, per exposure, the
+// reference's per-pixel Hunt-adjusted L*a*b* and edge and point magnitudes after both filter passes. Holds
+// 5 floats per pixel (rows padded to a multiple of 16) per exposure, Bytes(): 40 MB at 640x360 with 9 exposures,
+// 370 MB at 1920x1080. Immutable; copies share the planes.
+class FlipReference {
+ public:
+  explicit FlipReference(const ImageRgb& reference, double ppd = kFlipDefaultPpd);
+
+  int Width() const { return width_; }
+  int Height() const { return height_; }
+  double Ppd() const { return ppd_; }
+  const FlipExposureRange& Range() const { return range_; }
+  // Heap bytes held (the per-exposure planes).
+  size_t Bytes() const;
+
+ private:
+  friend FlipMap HdrFlip(const FlipReference& reference, const ImageRgb& test, FlipExposureRange* range);
+  int width_ = 0, height_ = 0;
+  double ppd_ = kFlipDefaultPpd;
+  FlipExposureRange range_;
+  std::shared_ptr<const flip_detail::ReferencePlanes> planes_;  // immutable: copies share it
+};
+
+// HDR-FLIP of a test image against a prepared reference, bit for bit the map of HdrFlip(reference image, test,
+// ppd). `range`, when given, receives the exposures used.
+FlipMap HdrFlip(const FlipReference& reference, const ImageRgb& test, FlipExposureRange* range = nullptr);
+
 // HDR-FLIP of two linear HDR images (negative values and NaN count as 0, +inf tone-maps to 1). Not symmetric:
-// the exposure range comes from the reference. `range`, when given, receives the exposures used.
+// the exposure range comes from the reference. `range`, when given, receives the exposures used. Prepares the
+// reference for this one call: comparing several images with one reference, build a FlipReference once.
 FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd = kFlipDefaultPpd,
                 FlipExposureRange* range = nullptr);
 
@@ -81,8 +117,18 @@ FlipMap HdrFlip(const ImageRgb& reference, const ImageRgb& test, double ppd = kF
 // in pixel order in double.
 double MeanFlip(const FlipMap& map, const std::vector<uint8_t>* mask = nullptr);
 
-// The bytes per pixel HdrFlip allocates while it runs (its filter planes and the luminances for the exposure
-// range), for the run's memory estimate (sim/memory_estimate.h).
-size_t HdrFlipScratchBytesPerPixel();
+// Exposure count the memory estimate assumes: the run cannot know it before the reference is rendered. It is
+// ceil(log2(Y_max / Y_median)) of the reference: 8 or 9 for this project's sequences; 12 leaves room for a
+// brightest pixel ten times brighter than theirs.
+constexpr int kFlipEstimateExposures = 12;
+
+// The bytes per pixel a frame's HDR-FLIP holds at its peak, for the run's memory estimate (sim/memory_estimate.h),
+// at `exposures` exposures: the FlipReference's planes (5 floats per pixel and exposure) and an HdrFlip call's
+// blocks in flight (at most 2 floats per pixel and exposure; less when the threads' blocks, 128 rows at most, do
+// not cover the image). Nothing else grows with the pixel count and coexists with them: the FlipReference's
+// construction first holds the reference's luminances (a double per pixel, freed before the planes are allocated),
+// a call returns its map (counted with each preset's images), and the row padding (to a multiple of 16 pixels) and
+// the per-thread row buffers grow with the width only.
+size_t HdrFlipScratchBytesPerPixel(int exposures = kFlipEstimateExposures);
 
 }  // namespace restir

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -289,6 +290,7 @@ RunResult Run(const RunOptions& opt) {
     CheckWritableDirectory(opt.cacheDir, "reference cache directory");
   }
   tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+  if (opt.writeImages) SetExrThreads(threads);
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
 
   std::vector<PresetState> presets;
@@ -337,6 +339,11 @@ RunResult Run(const RunOptions& opt) {
       }
     }
 
+    // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
+    // once per preset.
+    std::optional<FlipReference> flipReference;
+    if (opt.reference) flipReference.emplace(ref.mean);
+
     for (size_t p = 0; p < presets.size(); ++p) {
       PresetState& ps = presets[p];
       progress.Show(frame - opt.frameBegin,
@@ -359,7 +366,7 @@ RunResult Run(const RunOptions& opt) {
       }
       ImageRgb accumMean(width, height);
       for (size_t i = 0; i < accumMean.Size(); ++i) accumMean.pixels[i] = ps.accumSum.pixels[i] / float(accumFrames);
-      const FlipMap flipMap = opt.reference ? HdrFlip(ref.mean, fr.image) : FlipMap{};
+      const FlipMap flipMap = opt.reference ? HdrFlip(*flipReference, fr.image) : FlipMap{};
 
       FrameMeasurement m;
       m.frame = frame;
