@@ -5,9 +5,9 @@
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <ImfStdIO.h>
+#include <ImfThreading.h>
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -42,12 +42,17 @@ float SrgbEncode(float v) {
 
 }  // namespace
 
+void SetExrThreads(int threads) { Imf::setGlobalThreadCount(std::max(0, threads)); }
+
 void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   const ImageRgb& est = *layers.estimate;
   const int w = est.width, h = est.height;
   const GBuffer& g = *layers.gbuffer;
   Imf::Header header(w, h);
   header.compression() = Imf::ZIP_COMPRESSION;
+  // Level 1 instead of the default 4: on the flagship's frames 15 % less time for 1 % more bytes (noisy floats
+  // barely compress further).
+  header.zipCompressionLevel() = 1;
   Imf::FrameBuffer fb;
   AddRgbLayer(header, fb, "", est);
   ImageRgb error;
@@ -77,9 +82,9 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes.
   Imf::StdOSStream stream;
   {
-    // ZIP compresses 16-line chunks independently; OpenEXR's own pool compresses them in parallel, with the
-    // same bytes whatever the thread count.
-    Imf::OutputFile file(stream, header, std::max(1, tbb::this_task_arena::max_concurrency()));
+    // ZIP compresses 16-line chunks independently; OpenEXR's own pool (SetExrThreads) compresses them in
+    // parallel, with the same bytes whatever the thread count.
+    Imf::OutputFile file(stream, header, Imf::globalThreadCount());
     file.setFrameBuffer(fb);
     file.writePixels(h);
   }

@@ -25,6 +25,10 @@ struct FrameLayers {
 
 void WriteFrameExr(const std::string& path, const FrameLayers& layers);
 
+// Threads OpenEXR's own pool uses to compress a file's chunks (0: on the calling thread). The run sets it to its
+// --threads; the bytes written do not depend on it.
+void SetExrThreads(int threads);
+
 // Estimate beside reference (or the estimate alone), both with one exposure chosen from the reference
 // (or estimate) so that its 90th luminance percentile maps to 0.8 (emitters saturate), clamped, sRGB, 8 bits.
 void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference);
