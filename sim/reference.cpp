@@ -82,9 +82,8 @@ struct LightProxies {
 
 class PixelLightDistribution {
  public:
-  // Builds the distribution into pmf[0, n) and cdf[0, n) (n lights), storage the caller owns, and views it.
-  void Build(const ShadingPoint& sp, const LightSampler& power, const LightProxies& proxies, float* pmf,
-             float* cdf) {
+  // Builds the distribution's cdf into cdf[0, n) (n lights), storage the caller owns, and views it.
+  void Build(const ShadingPoint& sp, const LightSampler& power, const LightProxies& proxies, float* cdf) {
     const std::vector<LightTriangle>& lights = power.Lights();
     const size_t n = lights.size();
     work_.resize(n);
@@ -119,15 +118,13 @@ class PixelLightDistribution {
     }
     double running = 0.0;
     for (size_t l = 0; l < n; ++l) {
-      pmf[l] = static_cast<float>(work_[l] / c);
       running += work_[l];
       cdf[l] = static_cast<float>(running / c);
     }
-    View(pmf, cdf, n);
+    View(cdf, n);
   }
   // Views a distribution Build wrote earlier.
-  void View(const float* pmf, const float* cdf, size_t n) {
-    pmf_ = pmf;
+  void View(const float* cdf, size_t n) {
     cdf_ = cdf;
     n_ = n;
   }
@@ -142,9 +139,9 @@ class PixelLightDistribution {
       lo = cdf_[lo + half - 1] <= target ? lo + half : lo;
       len -= half;
     }
-    size_t l = std::min(lo + (cdf_[lo] <= target ? 1 : 0), n_ - 1);
-    while (pmf_[l] <= 0.0f && l + 1 < n_) ++l;  // never return a zero-probability light
-    return static_cast<uint32_t>(l);
+    // The first entry above target has Pmf > 0. Only when rounding puts target at the total is the last light
+    // returned whatever its Pmf; a zero Pmf then gives the sample no light term (DirectSamples).
+    return static_cast<uint32_t>(std::min(lo + (cdf_[lo] <= target ? 1 : 0), n_ - 1));
   }
   // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
   float Pmf(uint32_t l) const { return (cdf_[l] - (l ? cdf_[l - 1] : 0.0f)) / cdf_[n_ - 1]; }
@@ -187,7 +184,6 @@ class PixelLightDistribution {
 
   std::vector<double> work_;
   std::vector<float> point_;
-  const float* pmf_ = nullptr;
   const float* cdf_ = nullptr;
   size_t n_ = 0;
 };
@@ -262,7 +258,7 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
     if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
 }
 
-// Two-stage allocation (DESIGN §7): kPilotSamples independent uniform
+// Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples independent uniform
 // samples per pixel estimate the per-sample relative variance v = Var[f] / E[f]²; the main pass then spends
 // samples in proportion to v (every pixel reaching about the same relative standard error), with samples
 // independent of the pilot's. The pilot's samples are not part of the estimate: the allocation is then a
@@ -394,24 +390,24 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // kKeptDistributionBytes; otherwise the main pass builds them again (the same bits).
   const size_t nLights = lightList.size();
   const LightProxies proxies(lightList);
-  const bool keep = pixels * nLights * 2 * sizeof(float) <= kKeptDistributionBytes;
-  std::vector<float> kept(keep ? pixels * nLights * 2 : 0);
+  const bool keep = pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
+  std::vector<float> kept(keep ? pixels * nLights : 0);
   auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
       PixelLightDistribution dist;
       SampleBatch batch;
-      std::vector<float> u, local(keep ? 0 : 2 * nLights);
+      std::vector<float> u, local(keep ? 0 : nLights);
       std::vector<Vec3> values;
       for (int y = range.begin(); y < range.end(); ++y)
         for (int x = 0; x < w; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
           if (!active[i]) continue;
           const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
-          float* pmf = keep ? kept.data() + i * 2 * nLights : local.data();
+          float* cdf = keep ? kept.data() + i * nLights : local.data();
           if (keep && builtBefore)
-            dist.View(pmf, pmf + nLights, nLights);
+            dist.View(cdf, nLights);
           else
-            dist.Build(sp, lights, proxies, pmf, pmf + nLights);
+            dist.Build(sp, lights, proxies, cdf);
           perPixel(i, sp, dist, batch, u, values);
         }
     });
@@ -489,7 +485,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
 }
 
 double ReferenceScratchBytes(double pixels, double lights) {
-  const double kept = pixels * lights * 2.0 * sizeof(float);
+  const double kept = pixels * lights * sizeof(float);
   // active flag, relative variance, per-replicate count, samples per pixel
   const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t);
   return (kept <= double(kKeptDistributionBytes) ? kept : 0.0) + pixels * perPixel;
