@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages ReSTIR Sim builds against, only those not yet installed. Idempotent; uses sudo
-# only when not root. Usage: scripts/setup.sh [--with-fuzz]
+# only when not root. Usage: scripts/setup.sh [--with-fuzz] [--with-slurm]
 #   --with-fuzz   also Debian's clang and its compiler-rt (libFuzzer, ASan, UBSan) for the `fuzz` preset
 #                 (scripts/fuzz.sh passes it; about 100 MB, so the plain setup leaves it out)
+#   --with-slurm  also Slurm (slurmctld, slurmd, slurm-client) and munge, for the test that runs a sweep as a job
+#                 array on a single-node cluster on localhost (tests/cli/slurm_sweep.sh; about 30 MB)
 # The tools the tests read our EXRs with (exrheader, oiiotool) are always installed; --with-tools, which used to
 # add them, is still accepted and does nothing.
 set -euo pipefail
@@ -26,8 +28,9 @@ packages=(
 for arg in "$@"; do
   case "$arg" in
     --with-fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang++ and libclang_rt.fuzzer/asan/ubsan
+    --with-slurm) packages+=(slurmctld slurmd slurm-client munge) ;;  # the cluster test's Slurm
     --with-tools) ;;
-    *) echo "setup: unknown option '$arg' (usage: scripts/setup.sh [--with-fuzz])" >&2; exit 2 ;;
+    *) echo "setup: unknown option '$arg' (usage: scripts/setup.sh [--with-fuzz] [--with-slurm])" >&2; exit 2 ;;
   esac
 done
 

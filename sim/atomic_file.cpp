@@ -78,7 +78,14 @@ class Area {
       throw AreaError{error, lockPath_};
     }
     dir_ = (base / owner).string();
-    if (::mkdir(dir_.c_str(), 0755) != 0) {
+    // Another process's RemoveStaleTemporaryAreas may remove `base` when it finds it empty, between our
+    // create_directories and this mkdir: make it again and retry.
+    int made = ::mkdir(dir_.c_str(), 0755);
+    for (int attempt = 0; made != 0 && errno == ENOENT && attempt < 8; ++attempt) {
+      fs::create_directories(base, ec);
+      made = ::mkdir(dir_.c_str(), 0755);
+    }
+    if (made != 0) {
       const AreaError e{errno, dir_};
       ::close(lockFd_);
       fs::remove(lockPath_, ec);
@@ -197,6 +204,23 @@ void WriteFileAtomic(const std::string& path, const std::string& bytes) {
   // A network file system may only report a failed write when the file is closed.
   if (::close(fd) != 0) fail(errno);
   if (::rename(tmp.c_str(), path.c_str()) != 0) fail(errno);
+}
+
+FileLock::FileLock(const std::string& path) {
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd_ < 0) return;
+  int r;
+  do {
+    r = ::flock(fd_, LOCK_EX);
+  } while (r != 0 && errno == EINTR);
+  if (r != 0) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing releases the lock
 }
 
 void CheckWritableDirectory(const std::string& dir, const std::string& what) {

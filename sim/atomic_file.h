@@ -42,6 +42,23 @@ void RemoveStaleTemporaryAreas(const std::string& root);
 // Writes `bytes` to `path` atomically, creating parent directories. Throws OutputError on any failure.
 void WriteFileAtomic(const std::string& path, const std::string& bytes);
 
+// An exclusive advisory lock (flock) on the file `path` (created if needed), held for the object's life and released
+// by the kernel if the process dies, so a crashed holder never blocks the others. Blocks until it is granted. Where
+// the file system cannot lock (Held() false: cannot create the file, or ENOLCK on a network file system without a
+// lock manager), the caller goes on unlocked and must stay correct without it. The file is left in place: removing
+// it would let a third process lock a new file while the second still waits on the old one.
+class FileLock {
+ public:
+  explicit FileLock(const std::string& path);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  bool Held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+
 // Throws InputError naming `dir` and `what` it is (e.g. "output directory") unless a file can be created in it
 // (creating it if needed).
 void CheckWritableDirectory(const std::string& dir, const std::string& what);

@@ -192,17 +192,38 @@ int RunCommandLine(int argc, char** argv) {
   compareCmd->add_option("run_a", compareA, "Run A: output directory or metrics.csv")->required();
   compareCmd->add_option("run_b", compareB, "Run B: output directory or metrics.csv")->required();
 
-  std::string sweepPath, sweepOut = "out/sweep";
+  std::string sweepPath, sweepOut = "out/sweep", sweepJob, sweepFormat = "jsonl", sweepCache = ".cache/restir-sim";
   int sweepThreads = 0;
+  bool sweepPlan = false, sweepMissing = false, sweepMerge = false;
   CLI::App* sweep = app.add_subcommand(
-      "sweep", "Run a grid of presets and settings (docs/sweep-format.md); write sweep.csv, sweep.svg (Pareto plot "
-               "of relmse against ms/frame) and sweep.md (equal-time and equal-sample tables)");
+      "sweep", "Run a study: configurations x sequences x seeds (docs/sweep-format.md), as one process or as "
+               "independent jobs (--plan, --job, --merge; docs/cluster.md); write sweep.csv, the Pareto plots and "
+               "sweep.md (equal-time, equal-sample and seed-ensemble tables)");
   sweep->add_option("sweep", sweepPath, "Sweep file (JSON)")->required();
-  sweep->add_option("--out", sweepOut, "Output directory (runs go to OUT/runs/<config>)")->capture_default_str();
+  sweep->add_option("--out", sweepOut, "Output directory (job results go to OUT/runs/<sequence>/<config>/seed-<seed>)")
+      ->capture_default_str();
+  sweep->add_option("--cache-dir", sweepCache,
+                    "Reference cache directory, shared by every job ('' disables it); on a cluster, a shared file "
+                    "system")
+      ->capture_default_str();
   sweep->add_option("--embree-isa", embreeIsaName, "Embree's ISA, as for run")->capture_default_str();
   sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
+  CLI::Option* planOpt = sweep->add_flag("--plan", sweepPlan, "Print the jobs, one per line, and run nothing");
+  sweep->add_flag("--missing", sweepMissing, "With --plan: only the jobs without a complete result in OUT")
+      ->needs(planOpt);
+  sweep->add_option("--format", sweepFormat,
+                    "With --plan: jsonl (one JSON object per job), index (one index per line, for xargs) or array "
+                    "(Slurm's --array list)")
+      ->check(CLI::IsMember({"jsonl", "index", "array"}))
+      ->needs(planOpt)
+      ->capture_default_str();
+  CLI::Option* jobOpt =
+      sweep->add_option("--job", sweepJob, "Run one job (its index or id from --plan) into OUT")->excludes(planOpt);
+  sweep->add_flag("--merge", sweepMerge, "Write the reports from whatever jobs in OUT are complete; run nothing")
+      ->excludes(planOpt)
+      ->excludes(jobOpt);
 
   try {
     app.parse(argc, argv);
@@ -214,13 +235,42 @@ int RunCommandLine(int argc, char** argv) {
   try {
     if (sweep->parsed() || run->parsed()) ApplyEmbreeIsa(embreeIsaName);
     if (sweep->parsed()) {
-      const TemporaryRoot temporaries(sweepOut);
       SweepSpec spec = LoadSweep(sweepPath);
       spec.base.threads = sweepThreads;
       spec.base.progress = false;
+      spec.base.cacheDir = sweepCache;
       for (int i = 0; i < argc; ++i) spec.base.commandLine += (i ? " " : "") + std::string(argv[i]);
-      const std::vector<SweepPoint> points = RunSweep(spec, sweepOut);
-      std::fprintf(stderr, "wrote %zu configurations to %s/sweep.{csv,svg,md}\n", points.size(), sweepOut.c_str());
+      if (sweepPlan) {
+        std::vector<SweepJob> jobs;
+        for (const SweepJob& j : PlanSweep(spec))
+          if (!sweepMissing || !SweepJobComplete(spec, j, sweepOut)) jobs.push_back(j);
+        if (sweepFormat == "array") {
+          if (!jobs.empty()) std::cout << SlurmArraySpec(jobs) << "\n";
+        } else {
+          for (const SweepJob& j : jobs) std::cout << (sweepFormat == "index" ? std::to_string(j.index)
+                                                                             : SweepJobLine(spec, j)) << "\n";
+        }
+        return 0;
+      }
+      const TemporaryRoot temporaries(sweepOut);
+      CheckWritableDirectory(sweepOut, "output directory");
+      if (!sweepJob.empty()) {
+        const std::vector<SweepJob> jobs = PlanSweep(spec);
+        const SweepJob& job = FindSweepJob(spec, jobs, sweepJob);
+        std::fprintf(stderr, "sweep: job %zu/%zu %s\n", job.index + 1, jobs.size(), job.id.c_str());
+        RunSweepJob(spec, job, sweepOut);
+        std::fprintf(stderr, "wrote %s/%s\n", sweepOut.c_str(), job.dir.c_str());
+        return 0;
+      }
+      const SweepMerge m = sweepMerge ? MergeSweep(spec, sweepOut) : RunSweep(spec, sweepOut);
+      std::fprintf(stderr, "merged %zu of %zu jobs into %s/sweep.{csv,md} and the plots", m.jobs - m.missing.size(),
+                   m.jobs, sweepOut.c_str());
+      if (!m.missing.empty()) {
+        std::fprintf(stderr, "; %zu missing:", m.missing.size());
+        for (size_t k = 0; k < m.missing.size() && k < 10; ++k) std::fprintf(stderr, " %s", m.missing[k].c_str());
+        if (m.missing.size() > 10) std::fprintf(stderr, " ...");
+      }
+      std::fprintf(stderr, "\n");
       return 0;
     }
     if (reportCmd->parsed()) {

@@ -19,13 +19,13 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
     for (int c = 0; c < 3; ++c) {
       const double d = double(a[c]) - double(r[c]);
       se += d * d;
-      rel += d * d / (double(r[c]) * double(r[c]) + 0.01);
+      rel += d * d / RelmseDenominator(r[c]);
       if (corrected) {
         const double v = double(noise->standardError->pixels[i][c]) * double(noise->standardError->pixels[i][c]);
         noiseVar += v;
         // Only the numerator's share: the terms from the denominator's own noise (−2 d g' v + d² g'' v / 2 with
         // g = 1 / (R² + 0.01)) would need derivatives of 1/R̂², which explode where R̂ is noisy and near 0.
-        noiseRel += v / (double(r[c]) * double(r[c]) + 0.01);
+        noiseRel += v / RelmseDenominator(r[c]);
       }
     }
     const double ya = Luminance(a), yr = Luminance(r);

@@ -40,6 +40,9 @@ struct AccuracyMetrics {
   double relmseCorrected = 0.0;    // mean of ((I − R)² − se²) / (R² + 0.01): unbiased to first order in se²
 };
 
+// relmse's denominator for a reference value r: the 0.01 keeps dark pixels from dominating (docs/metrics.md).
+inline double RelmseDenominator(double r) { return r * r + 0.01; }
+
 // Over every pixel, or over the pixels where mask[i] != 0 when a mask is given.
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
                                 const std::vector<uint8_t>* mask = nullptr, const ReferenceNoise* noise = nullptr);

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <filesystem>
 
 #include "core/light_sampler.h"
@@ -310,7 +311,8 @@ std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const st
 // A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
 // (damaged, truncated, another frame's, not a regular file) is reported in one line and rendered again; the new
 // entry then replaces it.
-bool ReadCache(const std::string& path, const std::string& key, int w, int h, ReferenceImage& out) {
+bool ReadCache(const std::string& path, const std::string& key, int w, int h, ReferenceImage& out,
+               bool quiet = false) {
   std::string bytes, problem;
   if (!TryReadRegularFile(path, ReferenceCacheEntrySize(key, w, h), bytes, problem)) {
     if (problem == "no such file") return false;
@@ -318,6 +320,7 @@ bool ReadCache(const std::string& path, const std::string& key, int w, int h, Re
                                        problem)) {
     return true;
   }
+  if (quiet) return false;  // read again under the lock: the first reading already said what is wrong with it
   std::fprintf(stderr, "restir-sim: warning: %s: unusable reference cache entry (%s); rendering it again\n",
                path.c_str(), problem.c_str());
   return false;
@@ -355,11 +358,22 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const auto t0 = Clock::now();
   const int w = g.width, h = g.height;
   std::string cachePath, cacheKey;
+  std::optional<FileLock> lock;  // held until the entry is written
   if (!params.cacheDir.empty()) {
     cacheKey = ReferenceCacheKey(sequence, state, params);
     cachePath = (std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".bin")).string();
     ReferenceImage cached;
     if (ReadCache(cachePath, cacheKey, w, h, cached)) {
+      cached.fromCache = true;
+      cached.ms = MsSince(t0);
+      return cached;
+    }
+    // Many processes (a sweep's jobs, on one machine or a cluster's shared file system) may want this entry at
+    // once: the first to lock it renders it, the others wait and read its entry instead of rendering it again.
+    // Without the lock (a file system that cannot lock) they render concurrently; each entry's bytes are the same
+    // and reach the file by an atomic rename, so any one of them is whole.
+    lock.emplace((std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".lock")).string());
+    if (lock->Held() && ReadCache(cachePath, cacheKey, w, h, cached, /*quiet=*/true)) {
       cached.fromCache = true;
       cached.ms = MsSince(t0);
       return cached;

@@ -31,6 +31,7 @@
 #include "sim/report.h"
 #include "sim/sequence.h"
 #include "sim/settings.h"
+#include "sim/seed_ensemble.h"
 
 namespace restir {
 
@@ -244,6 +245,9 @@ RunResult Run(const RunOptions& opt) {
   // The split needs a reference, so without one the other members would be rendered for nothing.
   const int members = opt.reference ? std::max(1, opt.ensemble) : 1;
   const std::vector<Preset> resolved = ResolvePresets(opt, seq);
+  if (!opt.relativeErrorPath.empty() && (resolved.size() != 1 || !opt.reference || opt.resume))
+    throw InputError(opt.relativeErrorPath + ": error: relative-error frames need one preset, a reference and no "
+                     "--resume");
   CheckRunMemory(opt, seq, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
   ReferenceParams refParams;
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
@@ -293,6 +297,7 @@ RunResult Run(const RunOptions& opt) {
   if (opt.writeImages) SetExrThreads(threads);
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
 
+  std::string relativeErrors;  // the frames' blocks for opt.relativeErrorPath
   std::vector<PresetState> presets;
   for (const Preset& p : resolved) {
     PresetState& ps = presets.emplace_back();
@@ -398,6 +403,11 @@ RunResult Run(const RunOptions& opt) {
         if (members > 1) m.ensemble = &ens;
       }
       result.rows.push_back(MeasureFrame(m));
+      if (!opt.relativeErrorPath.empty()) {
+        std::vector<float> e;
+        AppendRelativeError(fr.image, ref.mean, e);
+        relativeErrors += EncodeRelativeErrorFrame(e);
+      }
 
       if (opt.writeImages) {
         char name[32];
@@ -449,6 +459,9 @@ RunResult Run(const RunOptions& opt) {
                                                                                    refRendered.frames)
                                                    : 0.0}};
   }
+  if (!opt.relativeErrorPath.empty())
+    WriteFileAtomic(opt.relativeErrorPath,
+                    EncodeRelativeErrorHeader(width, height, frameEnd - opt.frameBegin) + relativeErrors);
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
   if (opt.report) WriteReport(opt.outDir);
   return result;

@@ -38,6 +38,10 @@ struct RunOptions {
   // The memory the run may take (--max-memory): 0, the machine's (sim/memory_estimate.h); < 0, no check.
   double maxMemoryBytes = 0.0;
   std::string commandLine;               // recorded in run.json
+  // Where to write each frame's relative error (I − R) / sqrt(R² + 0.01) (sim/seed_ensemble.h), for a sweep's
+  // seed-ensemble split; empty: not written. Needs one preset and a reference, and no --resume (the frames before
+  // a checkpoint would be missing).
+  std::string relativeErrorPath;
 };
 
 struct RunResult {
