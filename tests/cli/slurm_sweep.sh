@@ -33,6 +33,7 @@ if [ ${#missing[@]} -gt 0 ] || [ "$(id -u)" -ne 0 ]; then
 fi
 
 cluster=$W/cluster
+seconds() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
 cleanup() { scripts/slurm/local_cluster.sh stop "$cluster" >&2 || true; }
 trap cleanup EXIT
 t0=$(date +%s.%N)
@@ -59,16 +60,17 @@ submit() {  # the sweep's missing jobs as an array, then the merge; waits for th
   RESTIR_SIM=$BIN RESTIR_SLURM_WAIT=1 timeout 600 scripts/slurm/submit.sh "$W/study.json" "$W/slurm" \
     --cache-dir "$W/cache-shared" -- --output="$W/slurm-%A_%a.out" --time=10
 }
-seconds() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
 s0=$(date +%s.%N)
 submit > "$W/submit.log"
 s1=$(date +%s.%N)
 cat "$W/submit.log"
 echo "array and merge done in $(seconds "$s0" "$s1") s"
 
-# The columns that are timings, or follow from them, are left out of the comparison.
-drop_timings() {  # FILE: the CSV without ms_*, efficiency and pareto columns
-  awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) keep[i] = !($i ~ /^ms_/ || $i == "efficiency" || $i == "pareto") }
+# The columns that are timings, or follow from them, are left out of the comparison, and reference_cached, which
+# says whether this process rendered the frame's reference or read another's from the cache.
+drop_timings() {  # FILE: the CSV without ms_*, efficiency, pareto and reference_cached columns
+  awk -F, 'NR == 1 { for (i = 1; i <= NF; i++)
+                       keep[i] = !($i ~ /^ms_/ || $i == "efficiency" || $i == "pareto" || $i == "reference_cached") }
            { line = ""; for (i = 1; i <= NF; i++) if (keep[i]) line = line $i ","; print line }' "$1"
 }
 fail=0
