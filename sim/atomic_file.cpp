@@ -24,6 +24,9 @@ constexpr const char* kAreaDirectory = ".restir-sim-tmp";
 
 std::string Cause(int error) { return std::strerror(error); }
 
+// flock's errors that mean "this file system cannot lock", not "someone holds it".
+bool CannotLock(int error) { return error == ENOLCK || error == ENOSYS || error == EOPNOTSUPP || error == EINVAL; }
+
 // Why an area could not be made: the system's error and what was being created.
 struct AreaError {
   int error;
@@ -63,43 +66,55 @@ class Area {
  private:
   void Create() {
     const fs::path base = fs::path(root_) / kAreaDirectory;
-    std::error_code ec;
-    fs::create_directories(base, ec);
-    if (ec) throw AreaError{ec.value(), base.string()};
     char host[128] = "host";
     ::gethostname(host, sizeof(host) - 1);
     const auto nonce = std::chrono::steady_clock::now().time_since_epoch().count();
     const std::string owner = std::string(host) + "-" + std::to_string(::getpid()) + "-" + std::to_string(nonce);
+    // Another process's RemoveStaleTemporaryAreas removes `base` whenever it finds it empty, which can happen
+    // between our steps: start again.
+    for (int attempt = 0;; ++attempt) {
+      try {
+        CreateOnce(base, owner);
+        return;
+      } catch (const AreaError& e) {
+        if (e.error != ENOENT || attempt >= 16) throw;
+      }
+    }
+  }
+
+  // The lock is taken under a name no cleaner looks at (<owner>.lock.new) and renamed to <owner>.lock only once
+  // held and once the directory exists, so a cleaner never sees a lock that is free because its owner has not
+  // taken it yet.
+  void CreateOnce(const fs::path& base, const std::string& owner) {
+    std::error_code ec;
+    fs::create_directories(base, ec);
+    if (ec) throw AreaError{ec.value(), base.string()};
+    const std::string pending = (base / (owner + ".lock.new")).string();
     lockPath_ = (base / (owner + ".lock")).string();
-    lockFd_ = ::open(lockPath_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (lockFd_ < 0 || ::flock(lockFd_, LOCK_EX | LOCK_NB) != 0) {
-      const int error = errno;
-      if (lockFd_ >= 0) ::close(lockFd_);
-      throw AreaError{error, lockPath_};
-    }
     dir_ = (base / owner).string();
-    // Another process's RemoveStaleTemporaryAreas may remove `base` when it finds it empty, between our
-    // create_directories and this mkdir: make it again and retry.
-    int made = ::mkdir(dir_.c_str(), 0755);
-    for (int attempt = 0; made != 0 && errno == ENOENT && attempt < 8; ++attempt) {
-      fs::create_directories(base, ec);
-      made = ::mkdir(dir_.c_str(), 0755);
-    }
-    if (made != 0) {
-      const AreaError e{errno, dir_};
-      ::close(lockFd_);
-      fs::remove(lockPath_, ec);
+    auto fail = [&](int error, const std::string& what) {
+      if (lockFd_ >= 0) ::close(lockFd_);
+      lockFd_ = -1;
+      fs::remove(pending, ec);
+      fs::remove(dir_, ec);
       dir_.clear();
-      throw e;
-    }
+      throw AreaError{error, what};
+    };
+    lockFd_ = ::open(pending.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (lockFd_ < 0) fail(errno, pending);
+    // A file system that cannot lock (ENOLCK: NFS without a lock manager) leaves the area unlocked: cleaners
+    // cannot lock it either, so they leave it alone, and this process removes it when it ends.
+    if (::flock(lockFd_, LOCK_EX | LOCK_NB) != 0 && !CannotLock(errno)) fail(errno, pending);
+    if (::mkdir(dir_.c_str(), 0755) != 0) fail(errno, dir_);
+    if (::rename(pending.c_str(), lockPath_.c_str()) != 0) fail(errno, lockPath_);
   }
 
   std::string root_;
   std::mutex mutex_;
   std::string dir_;       // empty until first use
   std::string lockPath_;
-  int lockFd_ = -1;
-  uint64_t counter_ = 0;
+  int lockFd_ = -1;       // holds the area's lock while the area exists
+  uint64_t counter_ = 0;  // numbers the temporaries
 };
 
 // The areas of this process: registered roots first (innermost last), then the fallback areas of directories
@@ -158,7 +173,8 @@ void RemoveStaleTemporaryAreas(const std::string& root) {
   for (auto it = fs::directory_iterator(base, ec); !ec && it != fs::directory_iterator(); it.increment(ec))
     if (it->path().extension() == ".lock" && it->is_regular_file(ec)) locks.push_back(it->path());
   for (const fs::path& lockPath : locks) {
-    const int fd = ::open(lockPath.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+    // Read-write: on NFS flock is a POSIX write lock, which needs a descriptor open for writing.
+    const int fd = ::open(lockPath.c_str(), O_RDWR | O_CLOEXEC | O_NOFOLLOW);
     if (fd < 0) continue;
     if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {  // its owner is gone
       fs::path dir = lockPath;
@@ -171,39 +187,64 @@ void RemoveStaleTemporaryAreas(const std::string& root) {
   fs::remove(base, ec);  // only when empty
 }
 
-void WriteFileAtomic(const std::string& path, const std::string& bytes) {
-  const fs::path target(path);
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
+  const fs::path target(path_);
   std::error_code ec;
   if (target.has_parent_path()) {
     fs::create_directories(target.parent_path(), ec);
-    if (ec) throw OutputError(path + ": error: cannot write (cannot create its directory: " + ec.message() + ")");
+    if (ec) throw OutputError(path_ + ": error: cannot write (cannot create its directory: " + ec.message() + ")");
   }
-  std::string tmp;
   try {
-    tmp = Areas::Get().For(target).NewPath(path);
+    tmp_ = Areas::Get().For(target).NewPath(path_);
   } catch (const AreaError& e) {
-    throw OutputError(path + ": error: cannot write (" + Cause(e.error) + ": cannot create " + e.path + ")");
+    throw OutputError(path_ + ": error: cannot write (" + Cause(e.error) + ": cannot create " + e.path + ")");
   }
-  auto fail = [&](int error) {
-    fs::remove(tmp, ec);
-    throw OutputError(path + ": error: cannot write (" + Cause(error) + ")");
-  };
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) fail(errno);
+  fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd_ < 0) Fail(errno);
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!committed_ && !tmp_.empty()) {
+    std::error_code ec;
+    fs::remove(tmp_, ec);
+  }
+}
+
+void AtomicFileWriter::Fail(int error) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  std::error_code ec;
+  fs::remove(tmp_, ec);
+  tmp_.clear();
+  throw OutputError(path_ + ": error: cannot write (" + Cause(error) + ")");
+}
+
+void AtomicFileWriter::Write(const std::string& bytes) {
+  if (fd_ < 0) throw OutputError(path_ + ": error: cannot write (already failed or committed)");
   size_t done = 0;
   while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int error = n < 0 ? errno : EIO;
-      ::close(fd);
-      fail(error);
-    }
+    if (n <= 0) Fail(n < 0 ? errno : EIO);
     done += static_cast<size_t>(n);
   }
+}
+
+void AtomicFileWriter::Commit() {
+  if (fd_ < 0) throw OutputError(path_ + ": error: cannot write (already failed or committed)");
   // A network file system may only report a failed write when the file is closed.
-  if (::close(fd) != 0) fail(errno);
-  if (::rename(tmp.c_str(), path.c_str()) != 0) fail(errno);
+  const int closed = ::close(fd_);
+  fd_ = -1;
+  if (closed != 0) Fail(errno);
+  if (::rename(tmp_.c_str(), path_.c_str()) != 0) Fail(errno);
+  committed_ = true;
+}
+
+void WriteFileAtomic(const std::string& path, const std::string& bytes) {
+  AtomicFileWriter w(path);
+  w.Write(bytes);
+  w.Commit();
 }
 
 FileLock::FileLock(const std::string& path) {

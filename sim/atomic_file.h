@@ -42,6 +42,25 @@ void RemoveStaleTemporaryAreas(const std::string& root);
 // Writes `bytes` to `path` atomically, creating parent directories. Throws OutputError on any failure.
 void WriteFileAtomic(const std::string& path, const std::string& bytes);
 
+// The same for a file written in pieces (one too big to hold whole in memory): it appears under its name only when
+// Commit() succeeds; destroyed uncommitted (an error, an interrupted run), it leaves nothing. Throws OutputError.
+class AtomicFileWriter {
+ public:
+  explicit AtomicFileWriter(std::string path);
+  ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  void Write(const std::string& bytes);
+  void Commit();
+
+ private:
+  [[noreturn]] void Fail(int error);
+  std::string path_;        // the final name
+  std::string tmp_;         // the temporary written until Commit
+  int fd_ = -1;             // the temporary, open until Commit
+  bool committed_ = false;  // renamed onto path_
+};
+
 // An exclusive advisory lock (flock) on the file `path` (created if needed), held for the object's life and released
 // by the kernel if the process dies, so a crashed holder never blocks the others. Blocks until it is granted. Where
 // the file system cannot lock (Held() false: cannot create the file, or ENOLCK on a network file system without a
@@ -56,7 +75,7 @@ class FileLock {
   bool Held() const { return fd_ >= 0; }
 
  private:
-  int fd_ = -1;
+  int fd_ = -1;  // the lock file, open (and locked) while held
 };
 
 // Throws InputError naming `dir` and `what` it is (e.g. "output directory") unless a file can be created in it

@@ -297,7 +297,12 @@ RunResult Run(const RunOptions& opt) {
   if (opt.writeImages) SetExrThreads(threads);
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
 
-  std::string relativeErrors;  // the frames' blocks for opt.relativeErrorPath
+  // opt.relativeErrorPath, written frame by frame (a long run's would not fit in memory twice).
+  std::optional<AtomicFileWriter> relativeErrors;
+  if (!opt.relativeErrorPath.empty()) {
+    relativeErrors.emplace(opt.relativeErrorPath);
+    relativeErrors->Write(EncodeRelativeErrorHeader(width, height, frameEnd - opt.frameBegin));
+  }
   std::vector<PresetState> presets;
   for (const Preset& p : resolved) {
     PresetState& ps = presets.emplace_back();
@@ -403,10 +408,10 @@ RunResult Run(const RunOptions& opt) {
         if (members > 1) m.ensemble = &ens;
       }
       result.rows.push_back(MeasureFrame(m));
-      if (!opt.relativeErrorPath.empty()) {
+      if (relativeErrors) {
         std::vector<float> e;
         AppendRelativeError(fr.image, ref.mean, e);
-        relativeErrors += EncodeRelativeErrorFrame(e);
+        relativeErrors->Write(EncodeRelativeErrorFrame(e));
       }
 
       if (opt.writeImages) {
@@ -459,9 +464,7 @@ RunResult Run(const RunOptions& opt) {
                                                                                    refRendered.frames)
                                                    : 0.0}};
   }
-  if (!opt.relativeErrorPath.empty())
-    WriteFileAtomic(opt.relativeErrorPath,
-                    EncodeRelativeErrorHeader(width, height, frameEnd - opt.frameBegin) + relativeErrors);
+  if (relativeErrors) relativeErrors->Commit();
   WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
   if (opt.report) WriteReport(opt.outDir);
   return result;

@@ -53,7 +53,7 @@ struct SweepJob {
 // it has no temporal input and warms the caches) and then over its completed seeds.
 struct SweepPoint {
   std::string sequence;         // SweepSequence::name
-  SweepConfig config;
+  SweepConfig config;           // the configuration measured
   int seeds = 1;                // completed seeds averaged
   double relmse = 0.0;          // mean per-frame relmse
   double relmseDisocc = 0.0;    // mean relmse_disocc over frames with recently disoccluded pixels (NaN: none)
@@ -89,7 +89,8 @@ std::string SweepJobLine(const SweepSpec& spec, const SweepJob& job);
 std::string SlurmArraySpec(const std::vector<SweepJob>& jobs);
 
 // Whether the job's results under outDir are complete and were written by this very job (same sequence content,
-// settings, frames, resolution, reference and seed); `why` says what is wrong otherwise.
+// settings, frames, resolution, reference, seed and program version) and every file the merge reads is whole
+// (metrics.csv's rows, every relative-error frame's checksum); `why` says what is wrong otherwise.
 bool SweepJobComplete(const SweepSpec& spec, const SweepJob& job, const std::string& outDir, std::string* why = nullptr);
 
 // Runs one job into outDir/<job.dir>: metrics.csv, run.json, with two or more seeds the relative-error frames the
@@ -99,7 +100,8 @@ void RunSweepJob(const SweepSpec& spec, const SweepJob& job, const std::string& 
 // What a merge found and wrote.
 struct SweepMerge {
   std::vector<SweepPoint> points;    // one per (sequence, configuration) with at least one completed seed
-  std::vector<std::string> missing;  // ids of the jobs not (or not validly) complete, in plan order
+  std::vector<std::string> missing;     // ids of the jobs not (or not validly) complete, in plan order
+  std::vector<std::string> missingWhy;  // for each, why (not run or not finished, stale, damaged)
   size_t jobs = 0;                   // jobs in the plan
 };
 

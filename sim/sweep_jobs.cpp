@@ -2,6 +2,7 @@
 // describes exactly the job the plan asks for; the merge reads only such directories, so it neither waits for nor
 // trusts anything else, and a directory left by an edited sweep file or a job killed mid-run counts as missing.
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -38,7 +39,9 @@ nlohmann::ordered_json JobDescription(const SweepSpec& spec, const SweepJob& job
           {"frames", {b.frameBegin, b.frameEnd}},
           {"referenceSpp", b.referenceSpp},
           {"referenceError", b.referenceError},
-          {"relativeErrors", q.seeds.size() >= 2}};
+          {"relativeErrors", q.seeds.size() >= 2},
+          // Another build may compute other numbers (a reference or estimator change): its results are not merged.
+          {"version", RESTIR_VERSION}};
 }
 
 fs::path JobDir(const std::string& outDir, const SweepJob& job) { return fs::path(outDir) / job.dir; }
@@ -91,15 +94,38 @@ double FiniteMean(const std::vector<double>& v) {
   return n ? sum / n : NAN;
 }
 
+struct Resolution {
+  int width = 0;   // the job's run.json "resolution"
+  int height = 0;
+};
+
+// The resolution a job ran at, from its run.json (the relative-error file's size follows from it).
+Resolution ReadResolution(const fs::path& dir) {
+  const std::string path = (dir / "run.json").string();
+  const nlohmann::json j = nlohmann::json::parse(ReadInputFile(path, size_t(1) << 20, "run.json"), nullptr, false);
+  const bool ok = j.is_object() && j.contains("resolution") && j["resolution"].is_array() &&
+                  j["resolution"].size() == 2 && j["resolution"][0].is_number_integer() &&
+                  j["resolution"][1].is_number_integer();
+  Resolution r;
+  if (ok) r.width = j["resolution"][0].get<int>(), r.height = j["resolution"][1].get<int>();
+  if (r.width < 1 || r.height < 1 || r.width > 16384 || r.height > 16384)
+    throw InputError(path + ": error: no resolution [width, height] of at most 16384 each");
+  return r;
+}
+
 // One (sequence, configuration): its completed seeds' summaries combined, and their ensemble split.
 SweepPoint MergeSeeds(const SweepSpec& spec, const std::vector<const SweepJob*>& done, const std::string& outDir) {
   const SweepJob& first = *done.front();
   const SweepConfig& config = spec.configs[first.config];
   std::vector<SweepPoint> perSeed;
   std::vector<std::vector<FrameMetricsRow>> rows;
-  int frames = 0;
+  const int frames = CompleteFrames(spec, first, outDir, nullptr);
   for (const SweepJob* j : done) {
-    frames = CompleteFrames(spec, *j, outDir, nullptr);
+    // The seeds' frames are paired in the split: a job.json claiming other frames than its siblings' is refused.
+    if (CompleteFrames(spec, *j, outDir, nullptr) != frames)
+      throw InputError((JobDir(outDir, *j) / "job.json").string() + ": error: " +
+                       std::to_string(CompleteFrames(spec, *j, outDir, nullptr)) + " frames, its sibling seeds " +
+                       std::to_string(frames));
     rows.push_back(ReadJobRows(JobDir(outDir, *j), config.preset, frames));
     perSeed.push_back(Summarize(config, rows.back()));
   }
@@ -128,21 +154,11 @@ SweepPoint MergeSeeds(const SweepSpec& spec, const std::vector<const SweepJob*>&
   p.relmseCi95 = StudentT975(s - 1) * std::sqrt(ss / (s - 1) / s);
 
   // The split reads every seed's relative errors frame by frame.
-  int width = 0, height = 0;
-  {
-    std::string bytes, problem;
-    const std::string runJson = (JobDir(outDir, first) / "run.json").string();
-    const nlohmann::json j = nlohmann::json::parse(ReadInputFile(runJson, size_t(1) << 20, "run.json"), nullptr, false);
-    if (!j.is_object() || !j.contains("resolution") || !j["resolution"].is_array() || j["resolution"].size() != 2 ||
-        !j["resolution"][0].is_number_integer() || !j["resolution"][1].is_number_integer())
-      throw InputError(runJson + ": error: no resolution");
-    width = j["resolution"][0].get<int>(), height = j["resolution"][1].get<int>();
-    if (width < 1 || height < 1 || width > 16384 || height > 16384) throw InputError(runJson + ": error: bad resolution");
-  }
+  const Resolution r = ReadResolution(JobDir(outDir, first));
   std::vector<std::unique_ptr<RelativeErrorFile>> files;
   for (const SweepJob* j : done)
-    files.push_back(std::make_unique<RelativeErrorFile>((JobDir(outDir, *j) / kRelativeErrorFile).string(), width,
-                                                        height, frames));
+    files.push_back(std::make_unique<RelativeErrorFile>((JobDir(outDir, *j) / kRelativeErrorFile).string(), r.width,
+                                                        r.height, frames));
   SeedSplit split(s);
   std::vector<std::vector<float>> values(static_cast<size_t>(s));
   std::vector<const float*> pointers(static_cast<size_t>(s));
@@ -155,21 +171,31 @@ SweepPoint MergeSeeds(const SweepSpec& spec, const std::vector<const SweepJob*>&
     const double noise = Column(rows[0][size_t(f)], "relmse") - Column(rows[0][size_t(f)], "relmse_corrected");
     split.AddFrame(pointers, values[0].size(), std::isnan(noise) ? 0.0 : noise);
   }
-  const SeedSplitResult r = split.Result();
-  p.bias2 = r.bias2, p.bias2Ci95 = r.bias2Ci95, p.variance = r.variance, p.varianceCi95 = r.varianceCi95;
+  const SeedSplitResult split95 = split.Result();
+  p.bias2 = split95.bias2, p.bias2Ci95 = split95.bias2Ci95, p.variance = split95.variance;
+  p.varianceCi95 = split95.varianceCi95;
   return p;
 }
 
 }  // namespace
 
 bool SweepJobComplete(const SweepSpec& spec, const SweepJob& job, const std::string& outDir, std::string* why) {
-  if (CompleteFrames(spec, job, outDir, why) == 0) return false;
-  if (spec.sequences[job.sequence].seeds.size() >= 2) {
-    std::error_code ec;
-    if (!fs::is_regular_file(JobDir(outDir, job) / kRelativeErrorFile, ec)) {
-      if (why) *why = std::string(kRelativeErrorFile) + " is missing";
-      return false;
+  const int frames = CompleteFrames(spec, job, outDir, why);
+  if (frames == 0) return false;
+  // Everything the merge will read, read now: a damaged job is missing (so --plan --missing lists it and a
+  // resubmission reruns it), never a merge that stops at it.
+  const fs::path dir = JobDir(outDir, job);
+  try {
+    ReadJobRows(dir, spec.configs[job.config].preset, frames);
+    if (spec.sequences[job.sequence].seeds.size() >= 2) {
+      const Resolution r = ReadResolution(dir);
+      const RelativeErrorFile file((dir / kRelativeErrorFile).string(), r.width, r.height, frames);
+      std::vector<float> values;
+      for (int f = 0; f < frames; ++f) file.ReadFrame(f, values);
     }
+  } catch (const InputError& e) {
+    if (why) *why = e.what();
+    return false;
   }
   return true;
 }
@@ -207,8 +233,13 @@ SweepMerge MergeSweep(const SweepSpec& spec, const std::string& outDir) {
     while (e < jobs.size() && jobs[e].sequence == jobs[k].sequence && jobs[e].config == jobs[k].config) ++e;
     std::vector<const SweepJob*> done;
     for (size_t i = k; i < e; ++i) {
-      if (SweepJobComplete(spec, jobs[i], outDir)) done.push_back(&jobs[i]);
-      else m.missing.push_back(jobs[i].id);
+      std::string why;
+      if (SweepJobComplete(spec, jobs[i], outDir, &why)) {
+        done.push_back(&jobs[i]);
+      } else {
+        m.missing.push_back(jobs[i].id);
+        m.missingWhy.push_back(why);
+      }
     }
     if (!done.empty()) m.points.push_back(MergeSeeds(spec, done, outDir));
     k = e;

@@ -191,7 +191,8 @@ std::string SweepMarkdown(const SweepSpec& spec, const SweepMerge& merge) {
   if (!merge.missing.empty()) {
     o << "## Missing jobs\n\n" << merge.missing.size() << " jobs have no complete result; every figure below leaves "
       << "them out (`restir-sim sweep FILE --plan --missing` lists them again):\n\n";
-    for (const std::string& id : merge.missing) o << "- `" << id << "`\n";
+    for (size_t k = 0; k < merge.missing.size(); ++k)
+      o << "- `" << merge.missing[k] << "`" << (k < merge.missingWhy.size() ? ": " + merge.missingWhy[k] : "") << "\n";
     o << "\n";
   }
   for (const SweepSequence& q : spec.sequences) {

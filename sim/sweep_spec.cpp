@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "sim/hash.h"
 #include "sim/input_file.h"
 #include "sim/json_reader.h"
 #include "sim/presets.h"
@@ -22,6 +23,8 @@ namespace fs = std::filesystem;
 
 // Jobs one sweep may plan: a Slurm array's default MaxArraySize is 1001, so a study is split well before this.
 constexpr size_t kMaxJobs = 100000;
+// Seeds per sequence: the merge holds one open file per seed of a configuration (the usual limit is 1024).
+constexpr int64_t kMaxSeeds = 512;
 
 // A sweep file being read: JsonReader's located errors, plus what only a sweep has (settings and presets).
 class SweepReader : public JsonReader {
@@ -31,12 +34,8 @@ class SweepReader : public JsonReader {
   // A setting's value as --set takes it: numbers, booleans and strings.
   std::string SettingValue(const Json& v, const std::string& pointer) const {
     if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
-    if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
-    if (v.is_number_float()) {
-      std::ostringstream o;
-      o << v.get<double>();
-      return o.str();
-    }
+    // dump() spells a number in the fewest digits that read back to it: 0.1234567 stays 0.1234567.
+    if (v.is_number()) return v.dump();
     if (v.is_string()) return v.get<std::string>();
     Fail(pointer, "expected a number, a boolean or a string");
   }
@@ -61,9 +60,14 @@ class SweepReader : public JsonReader {
 };
 
 // A run directory name: the characters a file name can always hold.
+// A run directory name: the characters a file name can always hold, never "." or ".." or hidden (a leading dot),
+// and short enough for any file system (a long grid name keeps its start and a hash of the whole).
 std::string SafeName(const std::string& s) {
   std::string out;
   for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '=') ? c : '_';
+  if (out.empty() || out[0] == '.') out = "_" + out;
+  constexpr size_t kMaxName = 120;
+  if (out.size() > kMaxName) out = out.substr(0, kMaxName - 17) + "~" + HexHash(Fnv1a(s.data(), s.size()));
   return out;
 }
 
@@ -107,6 +111,7 @@ void ReadSeeds(const SweepReader& r, const Json& root, std::vector<SweepSequence
   std::vector<uint32_t> list;
   if (root.contains("seeds")) {
     const Json& s = r.AsArray(root["seeds"], "/seeds", true);
+    if (s.size() > kMaxSeeds) r.Fail("/seeds", "more than " + std::to_string(kMaxSeeds) + " seeds");
     std::set<uint32_t> seen;
     for (size_t i = 0; i < s.size(); ++i) {
       const std::string p = PointerChild("/seeds", i);
@@ -116,7 +121,7 @@ void ReadSeeds(const SweepReader& r, const Json& root, std::vector<SweepSequence
     }
   }
   int64_t count = 1;
-  if (root.contains("seedCount")) count = r.Integer(root["seedCount"], "/seedCount", 1, 4096, "seedCount");
+  if (root.contains("seedCount")) count = r.Integer(root["seedCount"], "/seedCount", 1, kMaxSeeds, "seedCount");
   for (SweepSequence& q : sequences) {
     if (!list.empty()) {
       q.seeds = list;

@@ -308,7 +308,7 @@ EOF
   done
   trap - INT TERM
   log "cluster up in $((SECONDS - t0))s: node $node idle, $cpus CPUs, partition debug"
-  echo "export SLURM_CONF=$conf"
+  printf 'export SLURM_CONF=%q\n' "$conf"
 }
 
 case $action in

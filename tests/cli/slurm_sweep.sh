@@ -15,10 +15,12 @@ set -euo pipefail
 BIN=$(realpath "$1")
 cd "$(dirname "$0")/../.."
 repo=$(pwd)
-W=${2:-$(mktemp -d /tmp/restir-slurm.XXXXXX)}
+# Everything goes to a fresh directory inside WORKDIR (nothing else in WORKDIR is touched).
+base=${2:-$(mktemp -d /tmp/restir-slurm.XXXXXX)}
+mkdir -p "$base"
+W=$(realpath "$base")/slurm-sweep-test
 rm -rf "$W"
 mkdir -p "$W"
-W=$(realpath "$W")
 
 missing=()
 for tool in munged slurmctld slurmd sbatch squeue sinfo; do command -v "$tool" >/dev/null || missing+=("$tool"); done
@@ -37,7 +39,9 @@ seconds() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
 cleanup() { scripts/slurm/local_cluster.sh stop "$cluster" >&2 || true; }
 trap cleanup EXIT
 t0=$(date +%s.%N)
-eval "$(scripts/slurm/local_cluster.sh start "$cluster")"
+started=$(scripts/slurm/local_cluster.sh start "$cluster")  # set -e: a failed start ends the test here
+eval "$started"
+[ -n "${SLURM_CONF:-}" ] || { echo "FAIL: the cluster's start printed no SLURM_CONF"; exit 1; }
 t1=$(date +%s.%N)
 echo "cluster up in $(seconds "$t0" "$t1") s ($SLURM_CONF)"
 sinfo >&2
@@ -87,12 +91,15 @@ compare() {  # what: a label
         cmp -s "$W/local/$dir/$f" "$W/slurm/$dir/$f" || { echo "FAIL ($1): $dir/$f differs"; fail=1; }
       fi
     done
-  done < <("$BIN" sweep "$W/study.json" --plan | sed 's/.*"dir":"\([^"]*\)".*/\1/')
+  done <<< "$dirs"
 }
+dirs=$("$BIN" sweep "$W/study.json" --plan | sed 's/.*"dir":"\([^"]*\)".*/\1/')
+[ "$(printf '%s\n' "$dirs" | grep -c '^runs/')" -eq 8 ] || { echo "FAIL: the plan's directories: $dirs"; exit 1; }
 [ -s "$W/slurm/sweep.csv" ] || { echo "FAIL: the merge job wrote no sweep.csv"; ls -R "$W/slurm" | head; exit 1; }
 compare "first submission"
-tasks=$(ls "$W"/slurm-*_*.out 2>/dev/null | wc -l)
-[ "$tasks" -ge 8 ] || { echo "FAIL: $tasks array task logs, expected 8"; fail=1; }
+# Array tasks' logs are slurm-<array>_<task>.out with a task index below 8 (the merge's %a is not one).
+tasks=$(ls "$W"/slurm-*_[0-7].out 2>/dev/null | wc -l)
+[ "$tasks" -eq 8 ] || { echo "FAIL: $tasks array task logs, expected 8"; fail=1; }
 grep -q "merged 8 of 8 jobs" "$W"/slurm-*.out || { echo "FAIL: no merge log saying 8 of 8"; fail=1; }
 
 # A partially failed array: two jobs lost their results. The plan lists exactly those; the resubmission runs them.

@@ -142,6 +142,75 @@ TEST(SeedSplit, IntervalsCoverAtTheirRate) {
   }
 }
 
+// The reference's own error eta is shared by every seed (one reference): e_s = b + eta + sigma z_s. Given n_R =
+// E eta² (what relmse − relmse_corrected estimates), bias2 stays unbiased for b² over trials that redraw eta; the
+// jackknife cannot see eta (it is constant across seeds), so its intervals are conditional on the reference. Same
+// z-test and rate as above.
+TEST(SeedSplit, SharedReferenceNoiseIsTakenOutByItsExpectedSquare) {
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> z(0.0, 1.0);
+  const int seeds = 4, n = 32, trials = 400;
+  const double b = 0.15, sigma = 0.2, tau = 0.1;  // tau: the reference's standard error
+  std::vector<double> bias2;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> eta(static_cast<size_t>(n));
+    for (double& x : eta) x = tau * z(rng);
+    std::vector<std::vector<float>> e(static_cast<size_t>(seeds), std::vector<float>(static_cast<size_t>(n)));
+    std::vector<const float*> p;
+    for (auto& v : e) p.push_back(v.data());
+    for (int s = 0; s < seeds; ++s)
+      for (int i = 0; i < n; ++i) e[size_t(s)][size_t(i)] = static_cast<float>(b + eta[size_t(i)] + sigma * z(rng));
+    SeedSplit split(seeds);
+    split.AddFrame(p, size_t(n), tau * tau);
+    bias2.push_back(split.Result().bias2);
+  }
+  double m = 0.0, v = 0.0;
+  for (double x : bias2) m += x / trials;
+  for (double x : bias2) v += (x - m) * (x - m) / (trials - 1);
+  EXPECT_LT(std::fabs(m - b * b) / std::sqrt(v / trials), 4.42) << m;
+}
+
+// The delete-one shortcuts (O(1) per seed from the seeds' sums) against the jackknife recomputed by brute force:
+// S splits of S − 1 seeds each.
+TEST(SeedSplit, JackknifeMatchesDeleteOneRecomputation) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> z(0.0, 1.0);
+  for (int seeds : {3, 5, 9}) {
+    const int n = 40, frames = 3;
+    std::vector<std::vector<std::vector<float>>> e(static_cast<size_t>(frames));
+    for (auto& frame : e) {
+      frame.assign(static_cast<size_t>(seeds), std::vector<float>(static_cast<size_t>(n)));
+      for (auto& seed : frame)
+        for (float& x : seed) x = static_cast<float>(0.3 + 0.5 * z(rng));
+    }
+    auto run = [&](int without) {
+      SeedSplit split(without < 0 ? seeds : seeds - 1);
+      for (int f = 0; f < frames; ++f) {
+        std::vector<const float*> p;
+        for (int s = 0; s < seeds; ++s)
+          if (s != without) p.push_back(e[size_t(f)][size_t(s)].data());
+        split.AddFrame(p, size_t(n), 0.002);
+      }
+      return split.Result();
+    };
+    const SeedSplitResult all = run(-1);
+    std::vector<double> b, v;
+    for (int k = 0; k < seeds; ++k) {
+      const SeedSplitResult r = run(k);
+      b.push_back(r.bias2);
+      v.push_back(r.variance);
+    }
+    auto half = [&](const std::vector<double>& x) {
+      double m = 0.0, ss = 0.0;
+      for (double a : x) m += a / seeds;
+      for (double a : x) ss += (a - m) * (a - m);
+      return StudentT975(seeds - 1) * std::sqrt(double(seeds - 1) / seeds * ss);
+    };
+    EXPECT_NEAR(all.varianceCi95, half(v), 1e-9 + 1e-6 * half(v)) << seeds;
+    EXPECT_NEAR(all.bias2Ci95, half(b), 1e-9 + 1e-6 * half(b)) << seeds;
+  }
+}
+
 TEST(SeedSplit, TwoSeedsHaveNoIntervalOneSeedNoSplit) {
   std::mt19937_64 rng(1);
   const Trial two = RunTrial(rng, 2, 1, 8, 0.1, 0.1, 1.0, 0.0);

@@ -274,21 +274,35 @@ TEST(Sweep, JobsRunApartMergeToTheLocalSweep) {
   // A job killed before it finished has no job.json: missing.
   fs::remove(split / jobs[2].dir / "job.json");
   EXPECT_FALSE(SweepJobComplete(spec, jobs[2], split.string(), &why));
-  // A damaged relative-error file is refused by name, not merged.
+  // A damaged relative-error file or a cut metrics.csv makes its job missing, named with the damage, so that
+  // --plan --missing lists it and a resubmission reruns it; the merge goes on with the others.
   RunSweepJob(spec, jobs[2], split.string());
   {
     std::fstream f(split / jobs[2].dir / "relative_error.bin", std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(100);
     f.put('\x7f');
   }
-  try {
-    MergeSweep(spec, split.string());
-    ADD_FAILURE() << "merged a damaged relative-error file";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("relative_error.bin: error: unusable relative-error file (frame 0: checksum"),
-              std::string::npos)
-        << e.what();
-  }
+  fs::resize_file(split / jobs[7].dir / "metrics.csv", fs::file_size(split / jobs[7].dir / "metrics.csv") - 9);
+  const SweepMerge damaged = MergeSweep(spec, split.string());
+  ASSERT_EQ(damaged.missing, (std::vector<std::string>{jobs[2].id, jobs[7].id}));
+  EXPECT_NE(damaged.missingWhy[0].find("relative_error.bin: error: unusable relative-error file (frame 0: checksum"),
+            std::string::npos)
+      << damaged.missingWhy[0];
+  EXPECT_NE(damaged.missingWhy[1].find("metrics.csv"), std::string::npos) << damaged.missingWhy[1];
+  EXPECT_NE(ReadText(split / "sweep.md").find(jobs[2].id + "`: " + (split / jobs[2].dir).string()), std::string::npos);
+  RunSweepJob(spec, jobs[2], split.string());
+  RunSweepJob(spec, jobs[7], split.string());
+  EXPECT_TRUE(MergeSweep(spec, split.string()).missing.empty());
+  // The tables that hold no timing are equal too: equal samples and the seed ensembles.
+  auto untimed = [&](const fs::path& md) {
+    const std::string text = ReadText(md);
+    std::string out;
+    for (size_t k = text.find("### Equal samples"); k != std::string::npos; k = text.find("### Equal samples", k + 1))
+      out += text.substr(k, text.find("\n## ", k) - k);
+    return out;
+  };
+  EXPECT_FALSE(untimed(local / "sweep.md").empty());
+  EXPECT_EQ(untimed(split / "sweep.md"), untimed(local / "sweep.md"));
 }
 
 }  // namespace
