@@ -4,19 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <map>
-#include <nlohmann/json.hpp>
-#include <set>
 #include <sstream>
 
-#include "sim/atomic_file.h"
-#include "sim/input_file.h"
-#include "sim/json_reader.h"
 #include "sim/pipeline.h"
-#include "sim/presets.h"
-#include "sim/sequence.h"
-#include "sim/settings.h"
 #include "sim/summary.h"
 #include "sim/svg_plot.h"
 #include "sim/text.h"
@@ -24,8 +14,6 @@
 namespace restir {
 
 namespace {
-
-namespace fs = std::filesystem;
 
 double Value(const FrameMetricsRow& row, const std::string& column) {
   for (const auto& [name, value] : row.values)
@@ -163,10 +151,6 @@ std::string BudgetTable(const std::vector<SweepPoint>& points, double SweepPoint
   }
   return o.str();
 }
-
-}  // namespace
-
-namespace {
 
 // ± half-width, or nothing when there is no interval.
 std::string WithInterval(double v, double half, const char* format) {

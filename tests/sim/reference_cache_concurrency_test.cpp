@@ -15,11 +15,17 @@
 #include "sim/metrics_csv.h"
 #include "sim/reference_cache.h"
 #include "tests/sim/sim_binary.h"
+#include "tests/sim/sweep_fixtures.h"
 
 namespace restir {
 namespace {
 
 namespace fs = std::filesystem;
+using test::ReadText;
+
+// Starts restir-sim with `args`; its output goes to `log`.
+pid_t Spawn(const std::vector<std::string>& args, const fs::path& log) { return test::SpawnSim(args, log.string()); }
+int Wait(pid_t pid) { return test::WaitSim(pid); }
 
 constexpr int kWidth = 64, kHeight = 36, kFrames = 4;
 
@@ -27,34 +33,6 @@ std::vector<std::string> RunArgs(const fs::path& cache, const fs::path& out) {
   return {"run", "sequences/smoke.json", "--preset", "ris", "--resolution", std::to_string(kWidth) + "x" +
           std::to_string(kHeight), "--frames", "0:" + std::to_string(kFrames), "--reference-spp", "64", "--threads",
           "1", "--no-images", "--no-progress", "--cache-dir", cache.string(), "--out", out.string()};
-}
-
-// Starts restir-sim with `args`; its output goes to `log`.
-pid_t Spawn(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> all = {test::SimBinary()};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = -1;
-  const int r = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  return r == 0 ? pid : -1;
-}
-
-int Wait(pid_t pid) {
-  int st = 0;
-  if (waitpid(pid, &st, 0) != pid || !WIFEXITED(st)) return -1;
-  return WEXITSTATUS(st);
-}
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
 // Per frame: (reference_cached, the row's values other than timings, the image hash).

@@ -49,14 +49,21 @@ inline ShellResult Shell(const std::string& command) {
 // restir-sim with `args` (a shell word list), stderr captured with stdout.
 inline ShellResult RunSim(const std::string& args) { return Shell(SimBinary() + " " + args + " 2>&1"); }
 
+// restir-sim's argv for `args`: the strings are kept in `storage`.
+inline std::vector<char*> SimArgv(const std::vector<std::string>& args, std::vector<std::string>& storage) {
+  storage = {SimBinary()};
+  storage.insert(storage.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  return argv;
+}
+
 // restir-sim with `args` as its argv in a child of its own, stdout and stderr to /dev/null, measured alone
 // (wait4's rusage is the child's own, unlike RUSAGE_CHILDREN).
 inline ShellResult RunSimMeasured(const std::vector<std::string>& args) {
-  std::vector<std::string> all = {SimBinary()};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
+  std::vector<std::string> storage;
+  std::vector<char*> argv = SimArgv(args, storage);
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
@@ -73,6 +80,28 @@ inline ShellResult RunSimMeasured(const std::vector<std::string>& args) {
   r.status = r.exited ? WEXITSTATUS(st) : -1;
   r.peakBytes = double(usage.ru_maxrss) * 1024.0;  // ru_maxrss is in KiB on Linux
   return r;
+}
+
+// Starts restir-sim with `args` without waiting (processes that must run at once); its stdout and stderr go to
+// `log`. The pid, or -1.
+inline pid_t SpawnSim(const std::vector<std::string>& args, const std::string& log) {
+  std::vector<std::string> storage;
+  std::vector<char*> argv = SimArgv(args, storage);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = -1;
+  const int r = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return r == 0 ? pid : -1;
+}
+
+// Waits for a SpawnSim child: its exit status, or -1 when a signal ended it.
+inline int WaitSim(pid_t pid) {
+  int st = 0;
+  if (waitpid(pid, &st, 0) != pid || !WIFEXITED(st)) return -1;
+  return WEXITSTATUS(st);
 }
 
 }  // namespace restir::test

@@ -11,11 +11,14 @@
 #include <string>
 
 #include "sim/sequence.h"
+#include "tests/sim/sweep_fixtures.h"
 
 namespace restir {
 namespace {
 
 namespace fs = std::filesystem;
+using test::ReadText;
+using test::WithoutTimings;
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
   const fs::path p = fs::path(::testing::TempDir()) / name;
@@ -173,31 +176,6 @@ TEST(Sweep, TinySweepWritesCsvPlotAndTables) {
   for (size_t k = s.find("<circle"); k != std::string::npos; k = s.find("<circle", k + 1)) ++circles;
   EXPECT_EQ(circles, 4 + 2);  // one per configuration, one per preset in the legend
   EXPECT_TRUE(fs::exists(out / "sweep.md"));
-}
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-}
-
-// sweep.csv without the columns that are timings or follow from them (ms_frame, efficiency, pareto).
-std::string WithoutTimings(const std::string& csv) {
-  std::istringstream in(csv);
-  std::string out, line;
-  std::vector<bool> keep;
-  while (std::getline(in, line)) {
-    std::vector<std::string> fields;
-    std::string f;
-    std::istringstream ls(line);
-    while (std::getline(ls, f, ',')) fields.push_back(f);
-    if (line.back() == ',') fields.push_back("");
-    if (keep.empty())
-      for (const std::string& name : fields) keep.push_back(name != "ms_frame" && name != "efficiency" && name != "pareto");
-    for (size_t k = 0; k < fields.size() && k < keep.size(); ++k)
-      if (keep[k]) out += fields[k] + ",";
-    out += "\n";
-  }
-  return out;
 }
 
 std::string TwoSequenceSweep() {
