@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Fuzzes the readers of untrusted files for a bounded time with libFuzzer + ASan + UBSan: the sequence parser
 # (tests/fuzz/sequence_fuzz.cpp) for SECONDS, then the reference cache reader (cache_fuzz.cpp) and the metrics.csv
-# reader of report and compare (metrics_csv_fuzz.cpp) for SECONDS/2 each. Installs clang if missing, builds the
+# reader of report and compare (metrics_csv_fuzz.cpp) for SECONDS/2 each, then the reader of a sweep job's
+# relative-error frames (relative_error_fuzz.cpp) for SECONDS/4. Installs clang if missing, builds the
 # `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any finding (crash, uncaught
 # exception, sanitizer report, timeout, leak, out-of-memory), leaving the input that triggered it in
 # build/fuzz/artifacts/<target>/.
@@ -43,3 +44,4 @@ fuzz() {
 fuzz sequence_fuzz "$seconds" 8192 sequences tests/data/bad_sequences -- -dict=tests/fuzz/sequence.dict
 fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 tests/fuzz/cache_seeds
 fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 tests/fuzz/metrics_seeds
+fuzz relative_error_fuzz $(( (seconds + 3) / 4 )) 256 tests/fuzz/relative_error_seeds

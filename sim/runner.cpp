@@ -31,6 +31,7 @@
 #include "sim/report.h"
 #include "sim/sequence.h"
 #include "sim/settings.h"
+#include "sim/relative_error_file.h"
 #include "sim/seed_ensemble.h"
 
 namespace restir {

@@ -11,6 +11,7 @@
 #include "sim/atomic_file.h"
 #include "sim/input_file.h"
 #include "sim/metrics_csv.h"
+#include "sim/relative_error_file.h"
 #include "sim/seed_ensemble.h"
 #include "sim/sequence.h"
 #include "sim/summary.h"

@@ -3,6 +3,8 @@
 // known (a Gaussian model written here, not the simulator's estimators).
 #include "sim/seed_ensemble.h"
 
+#include "sim/relative_error_file.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
