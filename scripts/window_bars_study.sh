@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
-# The stochastic pairwise MIS study (seed 004) behind docs/studies/window_bars.md: a sweep of restir-spmis,
-# restir-unbiased and restir-biased on the disocclusion sequences at 640x360, then the generated document.
-# Usage: scripts/window_bars_study.sh [SEQUENCE.json ...]   (default: the flagship and the camera cut)
+# The stochastic pairwise MIS study (seed 004) behind docs/studies/window_bars.md: restir-spmis, restir-unbiased and
+# restir-biased on the disocclusion sequences at 640x360, run as one sweep (docs/sweep-format.md), then the
+# generated document.
+# Usage: [SEEDS=N] [SLURM=1] scripts/window_bars_study.sh [SEQUENCE.json ...]
+#   (default: the flagship and the camera cut; SEEDS: seeds per configuration from each sequence's own, default 1,
+#   with 2 or more relmse_disocc gets its interval; SLURM=1: run the jobs as Slurm arrays through
+#   scripts/slurm/submit.sh and wait for the merge — docs/cluster.md — instead of in this process)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${BIN:-build/release/restir-sim}
@@ -10,32 +14,40 @@ if [ ${#seqs[@]} -eq 0 ]; then
   seqs=(sequences/window_bars_pan.json)
   [ -f sequences/hard/camera_cut.json ] && seqs+=(sequences/hard/camera_cut.json)
 fi
-# name|preset|overrides (space-separated KEY=VALUE)
-configs=(
-  "biased-k5|restir-biased|"
-  "unbiased-k3|restir-unbiased|spatial.neighbours=3 spatial.disocclusionNeighbours=6"
-  "unbiased-k5|restir-unbiased|"
-  "unbiased-k8|restir-unbiased|spatial.neighbours=8 spatial.disocclusionNeighbours=15"
-  "spmis-N2|restir-spmis|spatial.draws=2 spatial.canonicalDraws=2"
-  "spmis-N3|restir-spmis|spatial.draws=3 spatial.canonicalDraws=3"
-  "spmis-N5|restir-spmis|"
-  "spmis-N8|restir-spmis|spatial.draws=8 spatial.canonicalDraws=8"
-  "spmis-N5-noscale|restir-spmis|spatial.confidenceScaling=false"
-)
+out=out/study
+mkdir -p "$out"
+sequences=""
+for s in "${seqs[@]}"; do sequences+="${sequences:+, }\"$(realpath "$s")\""; done
+# name, preset, settings
+cat > "$out/window_bars.json" <<JSON
+{
+  "sequences": [$sequences],
+  "resolution": [640, 360],
+  "seedCount": ${SEEDS:-1},
+  "configs": [
+    {"name": "biased-k5", "preset": "restir-biased"},
+    {"name": "unbiased-k3", "preset": "restir-unbiased",
+     "set": {"spatial.neighbours": 3, "spatial.disocclusionNeighbours": 6}},
+    {"name": "unbiased-k5", "preset": "restir-unbiased"},
+    {"name": "unbiased-k8", "preset": "restir-unbiased",
+     "set": {"spatial.neighbours": 8, "spatial.disocclusionNeighbours": 15}},
+    {"name": "spmis-N2", "preset": "restir-spmis", "set": {"spatial.draws": 2, "spatial.canonicalDraws": 2}},
+    {"name": "spmis-N3", "preset": "restir-spmis", "set": {"spatial.draws": 3, "spatial.canonicalDraws": 3}},
+    {"name": "spmis-N5", "preset": "restir-spmis"},
+    {"name": "spmis-N8", "preset": "restir-spmis", "set": {"spatial.draws": 8, "spatial.canonicalDraws": 8}},
+    {"name": "spmis-N5-noscale", "preset": "restir-spmis", "set": {"spatial.confidenceScaling": false}}
+  ]
+}
+JSON
+if [ "${SLURM:-0}" = 1 ]; then
+  RESTIR_SIM=$bin RESTIR_SLURM_WAIT=1 scripts/slurm/submit.sh "$out/window_bars.json" "$out"
+else
+  "$bin" sweep "$out/window_bars.json" --out "$out"
+fi
 dirs=()
-for s in "${seqs[@]}"; do
-  name=$(basename "$s" .json)
-  for c in "${configs[@]}"; do
-    IFS='|' read -r label preset overrides <<<"$c"
-    out="out/study/$name/$label"
-    args=()
-    for o in $overrides; do args+=(--set "$o"); done
-    echo "study: $name $label" >&2
-    "$bin" run "$s" --preset "$preset" "${args[@]}" --resolution 640x360 --no-images --no-progress --out "$out"
-    dirs+=("$out")
-  done
-done
+while read -r d; do dirs+=("$out/$d"); done < <("$bin" sweep "$out/window_bars.json" --plan |
+                                                sed 's/.*"dir":"\([^"]*\)".*/\1/')
 mkdir -p docs/studies
 scripts/make_window_bars_study.py "${dirs[@]}" > docs/studies/window_bars.md.tmp
 mv docs/studies/window_bars.md.tmp docs/studies/window_bars.md
-echo "wrote docs/studies/window_bars.md" >&2
+echo "wrote docs/studies/window_bars.md (the sweep's own tables: $out/sweep.md)" >&2
