@@ -8,7 +8,7 @@
 // Bit-exactness (DESIGN §3): each lane computes exactly the scalar expression tree, term for term in the same
 // order: glm::dot(a, b) = (a.x b.x + a.y b.y) + a.z b.z, glm::length = sqrt(dot), vec3 / s divides each
 // component. Branches of the scalar code become masks; every early return is mirrored with the scalar test
-// itself (e.g. !(c <= 0), which differs from c > 0 for NaN) and both BSDFs are evaluated then selected, so a
+// itself (e.g. !(c <= 0), which differs from c > 0 for NaN) and every BSDF model is evaluated then selected, so a
 // value computed on a path the scalar code would not take never reaches a result. No MulAdd (FMA), no
 // approximate reciprocals or square roots.
 
@@ -60,9 +60,12 @@ HWY_INLINE VF GgxLambdaV(VF c, VF alpha2) {
 
 // A packet of Bsdf (core/bsdf.h), gathered from the SoA table.
 struct BsdfV {
-  MF isGgx;       // BsdfType::kGgx, else diffuse
-  VF albedo[3];   // Bsdf::albedo
-  VF alpha2;      // Bsdf::alpha squared: the only form of alpha the equations use
+  MF isGgx;           // BsdfType::kGgx
+  MF isLayered;       // BsdfType::kLayered; a lane in neither mask is diffuse
+  VF albedo[3];       // Bsdf::albedo
+  VF alpha2;          // Bsdf::alpha squared: the only form of alpha the equations use
+  VF specular[3];     // Bsdf::specular; zero in a packet without a layered lane, where no result reads it
+  VF specularWeight;  // Bsdf::specularWeight; likewise
 };
 
 // Every lane's `materialId` must index `mt` (callers substitute a valid id in lanes they ignore).
@@ -70,11 +73,20 @@ HWY_INLINE BsdfV GatherBsdfV(const BsdfSoa& mt, VI materialId) {
   const DF df;
   const DI di;
   BsdfV b;
-  b.isGgx = hn::RebindMask(df, hn::Eq(hn::GatherIndex(di, mt.type.data(), materialId),
-                                      hn::Set(di, static_cast<int32_t>(BsdfType::kGgx))));
+  const VI type = hn::GatherIndex(di, mt.type.data(), materialId);
+  b.isGgx = hn::RebindMask(df, hn::Eq(type, hn::Set(di, static_cast<int32_t>(BsdfType::kGgx))));
+  b.isLayered = hn::RebindMask(df, hn::Eq(type, hn::Set(di, static_cast<int32_t>(BsdfType::kLayered))));
   for (int c = 0; c < 3; ++c) b.albedo[c] = hn::GatherIndex(df, mt.albedo[c].data(), materialId);
   const VF alpha = hn::GatherIndex(df, mt.alpha.data(), materialId);
   b.alpha2 = hn::Mul(alpha, alpha);
+  // The layered fields only reach lanes that are kLayered: a packet without one skips their four gathers.
+  if (hn::AllFalse(df, b.isLayered)) {
+    for (int c = 0; c < 3; ++c) b.specular[c] = hn::Zero(df);
+    b.specularWeight = hn::Zero(df);
+  } else {
+    for (int c = 0; c < 3; ++c) b.specular[c] = hn::GatherIndex(df, mt.specular[c].data(), materialId);
+    b.specularWeight = hn::GatherIndex(df, mt.specularWeight.data(), materialId);
+  }
   return b;
 }
 
@@ -88,7 +100,7 @@ struct ShadingPointV {
   BsdfV bsdf;
   VF cosO;        // dot(n, wo)
   MF cosOk;       // EvalBsdf's !(cosO <= 0)
-  VF diffuse[3];  // albedo / pi, the Lambertian value
+  VF diffuse[3];  // albedo / pi: the kDiffuse value and kLayered's diffuse term
   VF lambdaO;     // GgxLambda(cosO, alpha)
 };
 
@@ -139,8 +151,11 @@ HWY_INLINE LightPathV ConnectToLightV(const ShadingPointV& sp, const VF (&y)[3],
   return p;
 }
 
-// EvalBsdf (core/bsdf.cpp) into f. The GGX lobe is evaluated only when some lane in `needed` is GGX and
-// reaches it; elsewhere its value never reaches a result, so skipping it changes no bits.
+// EvalBsdf (core/bsdf.cpp) into f: per lane albedo / pi (kDiffuse), the GGX lobe with F0 = albedo (kGgx), or
+// (albedo / pi) + (GGX lobe with F0 = specular) * specularWeight (kLayered). The GGX lobe (GgxLobe in
+// core/bsdf.cpp) is evaluated once for both models, with each lane's F0 selected, and only when some lane in
+// `needed` is GGX or layered and reaches it; elsewhere its value never reaches a result, so skipping it changes no
+// bits.
 HWY_INLINE void EvalBsdfV(const ShadingPointV& sp, const LightPathV& path, MF needed, VF (&f)[3]) {
   const DF df;
   const VF zero = hn::Zero(df);
@@ -148,7 +163,8 @@ HWY_INLINE void EvalBsdfV(const ShadingPointV& sp, const LightPathV& path, MF ne
   // Zero unless cos(theta_o) > 0 and cos(theta_i) > 0.
   const MF bsdfOk = hn::And(sp.cosOk, NotLe(path.cosI, zero));
   for (int c = 0; c < 3; ++c) f[c] = sp.diffuse[c];
-  if (!hn::AllFalse(df, hn::And(hn::And(needed, bsdfOk), sp.bsdf.isGgx))) {
+  const MF hasLobe = hn::Or(sp.bsdf.isGgx, sp.bsdf.isLayered);
+  if (!hn::AllFalse(df, hn::And(hn::And(needed, bsdfOk), hasLobe))) {
     const VF alpha2 = sp.bsdf.alpha2;
     VF hSum[3], h[3];
     for (int c = 0; c < 3; ++c) hSum[c] = hn::Add(sp.wo[c], path.wi[c]);
@@ -162,7 +178,7 @@ HWY_INLINE void EvalBsdfV(const ShadingPointV& sp, const LightPathV& path, MF ne
         hn::Le(cosH, zero), hn::Div(alpha2, hn::Mul(hn::Mul(hn::Set(df, kPi), denom), denom)));
     // Height-correlated Smith: 1 / (1 + Lambda(cosO) + Lambda(cosI)).
     const VF g = hn::Div(one, hn::Add(hn::Add(one, sp.lambdaO), GgxLambdaV(path.cosI, alpha2)));
-    // SchlickFresnel(albedo, dot(wi, h)): m = 1 - min(1, max(0, c)) with std::min/std::max semantics.
+    // SchlickFresnel(f0, dot(wi, h)): m = 1 - min(1, max(0, c)) with std::min/std::max semantics.
     const VF cosT = Dot(path.wi, h);
     const VF clamped0 = hn::IfThenElse(hn::Lt(zero, cosT), cosT, zero);      // std::max(0, c)
     const VF clamped = hn::IfThenElse(hn::Lt(clamped0, one), clamped0, one);  // std::min(1, .)
@@ -170,12 +186,15 @@ HWY_INLINE void EvalBsdfV(const ShadingPointV& sp, const LightPathV& path, MF ne
     const VF mm = hn::Mul(m, m);
     const VF m5 = hn::Mul(hn::Mul(mm, mm), m);
     const VF scale = hn::Div(hn::Mul(dTerm, g), hn::Mul(hn::Mul(hn::Set(df, 4.0f), sp.cosO), path.cosI));
-    // !(hLen > 0) returns zero.
+    // GgxLobe's !(hLen > 0): no lobe, so kGgx is zero and kLayered the diffuse term alone.
     const MF ggxOk = hn::Gt(hLen, zero);
+    const MF layeredOk = hn::And(sp.bsdf.isLayered, ggxOk);
     for (int c = 0; c < 3; ++c) {
-      const VF a = sp.bsdf.albedo[c];
-      const VF s = hn::Mul(hn::Add(a, hn::Mul(hn::Sub(one, a), m5)), scale);
-      f[c] = hn::IfThenElse(sp.bsdf.isGgx, hn::IfThenElseZero(ggxOk, s), f[c]);
+      const VF f0 = hn::IfThenElse(sp.bsdf.isLayered, sp.bsdf.specular[c], sp.bsdf.albedo[c]);
+      const VF lobe = hn::Mul(hn::Add(f0, hn::Mul(hn::Sub(one, f0), m5)), scale);
+      const VF layered = hn::Add(sp.diffuse[c], hn::Mul(lobe, sp.bsdf.specularWeight));
+      f[c] = hn::IfThenElse(sp.bsdf.isGgx, hn::IfThenElseZero(ggxOk, lobe),
+                            hn::IfThenElse(layeredOk, layered, f[c]));
     }
   }
   for (int c = 0; c < 3; ++c) f[c] = hn::IfThenElseZero(bsdfOk, f[c]);

@@ -1,7 +1,8 @@
 // The initial-sampling kernel (core/ris_kernel.h): its scalar twin reproduces the pipeline's original scalar
 // RIS bit for bit, and every SIMD target this machine supports reproduces the scalar twin bit for bit
-// (DESIGN §3), on random receivers, materials (diffuse and GGX) and lights, including back-facing and switched-off
-// lights, inactive pixels, M = 1, runs that are not a multiple of the vector width, and all-zero targets.
+// (DESIGN §3), on random receivers, materials (diffuse, GGX and layered) and lights, including back-facing and
+// switched-off lights, inactive pixels, M = 1, runs that are not a multiple of the vector width, and all-zero
+// targets.
 #include "core/ris_kernel.h"
 
 #include <gtest/gtest.h>
@@ -99,6 +100,14 @@ std::vector<Bsdf> RandomMaterials(std::mt19937& rng) {
     g.albedo = Vec3(u(rng), u(rng), u(rng));
     g.alpha = alpha;
     m.push_back(g);
+    // Layered as sim/ maps metallic-roughness: albedo (1 - s) baseColor, weight s, F0 in [0, 1]^3.
+    Bsdf l;
+    l.type = BsdfType::kLayered;
+    l.specularWeight = u(rng);
+    l.albedo = (1.0f - l.specularWeight) * Vec3(u(rng), u(rng), u(rng));
+    l.specular = Vec3(u(rng), u(rng), u(rng));
+    l.alpha = alpha;
+    m.push_back(l);
   }
   return m;
 }
@@ -220,7 +229,7 @@ TEST_F(RisKernelTest, ParseAndNameRoundTrip) {
 TEST_F(RisKernelTest, BitIdenticalAcrossTargetsOnRandomInputs) {
   std::mt19937 rng(20261122);
   const std::vector<Bsdf> bsdfs = RandomMaterials(rng);
-  size_t selected = 0, active = 0, selectedGgx = 0;
+  size_t selected = 0, active = 0, selectedGgx = 0, selectedLayered = 0;
   for (int trial = 0; trial < 12; ++trial) {
     const std::vector<LightTriangle> lights = RandomLights(rng, 1 + static_cast<int>(rng() % 300), 0.2f);
     const size_t count = 1 + rng() % 203;  // rarely a multiple of the vector width: exercises the tail
@@ -238,13 +247,17 @@ TEST_F(RisKernelTest, BitIdenticalAcrossTargetsOnRandomInputs) {
     const LightSampler sampler(lights, selection);
     Outputs o(count);
     RisInitialSamplingScalar(run.View(base), sampler.Soa(), MakeBsdfSoa(bsdfs), params, o.View());
-    for (size_t k = 0; k < count; ++k)
-      selectedGgx += run.active[k] && bsdfs[static_cast<size_t>(run.material[k])].type == BsdfType::kGgx &&
-                     o.f[11][k] > 0.0f;
+    for (size_t k = 0; k < count; ++k) {
+      if (!run.active[k] || !(o.f[11][k] > 0.0f)) continue;
+      const BsdfType type = bsdfs[static_cast<size_t>(run.material[k])].type;
+      selectedGgx += type == BsdfType::kGgx;
+      selectedLayered += type == BsdfType::kLayered;
+    }
   }
-  // The cases exercised selection, on both BSDFs: most active receivers see some light.
+  // The cases exercised selection, on every BSDF: most active receivers see some light.
   EXPECT_GT(selected, active / 3);
   EXPECT_GT(selectedGgx, active / 10);
+  EXPECT_GT(selectedLayered, active / 10);
 }
 
 TEST_F(RisKernelTest, AllZeroTargetsGiveEmptyReservoirs) {

@@ -1,9 +1,10 @@
 // The target-evaluation kernel (core/target_kernel.h): its scalar twin is TargetFunction(UnshadowedContribution)
 // of the pair's ShadingPoint, and every SIMD target this machine supports reproduces the twin bit for bit
-// (DESIGN §3), NaN payloads included, on random pairs mixed with the guarded and degenerate cases: lights behind
-// the receiver, receivers behind the light, touching points, grazing and exactly tangent directions, mirror
-// configurations on near-delta GGX, wo below the surface, zero and infinite radiance, NaN / Inf / denormal
-// inputs, and batch sizes around every vector width (tails, read from memory that faults one past the end).
+// (DESIGN §3), NaN payloads included, on random pairs (diffuse, GGX and layered materials) mixed with the guarded
+// and degenerate cases: lights behind the receiver, receivers behind the light, touching points, grazing and
+// exactly tangent directions, mirror configurations on near-delta GGX, wo below the surface, zero and infinite
+// radiance, NaN / Inf / denormal inputs, and batch sizes around every vector width (tails, read from memory that
+// faults one past the end).
 #include "core/target_kernel.h"
 
 #include <gtest/gtest.h>
@@ -39,8 +40,11 @@ using test::kNaN;
 using test::RandomUnit;
 
 // Diffuse and GGX over the range of alpha the kernel must survive (0 and near-delta to wider than physical),
-// F0 = 1, a black diffuse, and two poisoned entries (NaN alpha, infinite albedo).
-std::vector<Bsdf> TestMaterials() {
+// F0 = 1, a black diffuse, and two poisoned entries (NaN alpha, infinite albedo); with `layered`, also kLayered
+// over the same alphas, its two limits (s = 0: Lambert; s = 1 with no diffuse: GGX) and poisoned layered
+// entries (NaN and infinite weight, infinite F0, NaN alpha). Without, no packet holds a layered lane, the case
+// where GatherBsdfV skips the layered gathers.
+std::vector<Bsdf> TestMaterials(bool layered = true) {
   std::vector<Bsdf> m;
   m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f});
   m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f});
@@ -49,6 +53,15 @@ std::vector<Bsdf> TestMaterials() {
   m.push_back(Bsdf{BsdfType::kGgx, Vec3(1.0f), 0.05f});
   m.push_back(Bsdf{BsdfType::kGgx, Vec3(0.5f), kNaN});
   m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f});
+  if (!layered) return m;
+  for (float alpha : {0.0f, 1e-7f, 1e-4f, 1e-2f, 0.09f, 0.25f, 0.6f, 1.0f, 2.5f})
+    m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), alpha, Vec3(0.04f), 0.5f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.1f, 0.6f, 0.9f), 0.2f, Vec3(0.9f, 0.6f, 0.3f), 0.0f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kNaN});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kInf});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(kInf, 0.5f, 0.5f), 0.5f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), kNaN, Vec3(0.5f), 0.5f});
   return m;
 }
 
@@ -241,27 +254,34 @@ TEST_F(TargetKernel, ScalarTwinEqualsTargetFunctionOfUnshadowedContribution) {
   EXPECT_GT(nan, 10u);  // the canonical-NaN rule was exercised
 }
 
-TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
+// Every supported target against the twin on 4099 random pairs over TestMaterials(layered).
+void ExpectEveryTargetMatchesTwin(bool layered) {
   std::mt19937 rng(20260611);
-  const std::vector<Bsdf> bsdfs = TestMaterials();
+  const std::vector<Bsdf> bsdfs = TestMaterials(layered);
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const size_t n = 4099;  // a multiple of no vector width: ends in a tail on every target
   const PairSet pairs = RandomPairs(rng, n, static_cast<int>(bsdfs.size()));
   Results twin(n);
   EvaluateTargetsScalar(pairs.View(), materials, twin.View(true));
 
-  // The case mix reaches every outcome: positive targets (diffuse and GGX), exact zeros, NaN and infinities.
-  size_t positive = 0, positiveGgx = 0, zero = 0, nan = 0, inf = 0;
+  // The case mix reaches every outcome: positive targets (diffuse, GGX and layered), exact zeros, NaN and
+  // infinities.
+  size_t positive = 0, positiveGgx = 0, positiveLayered = 0, zero = 0, nan = 0, inf = 0;
   for (size_t k = 0; k < n; ++k) {
     const float t = twin.target[k];
+    const BsdfType type = bsdfs[static_cast<size_t>(pairs.material[k])].type;
     positive += t > 0.0f;
-    positiveGgx += t > 0.0f && bsdfs[static_cast<size_t>(pairs.material[k])].type == BsdfType::kGgx;
+    positiveGgx += t > 0.0f && type == BsdfType::kGgx;
+    positiveLayered += t > 0.0f && type == BsdfType::kLayered;
     zero += t == 0.0f;
     nan += std::isnan(t);
     inf += std::isinf(t);
   }
   EXPECT_GT(positive, n / 4);
-  EXPECT_GT(positiveGgx, n / 8);
+  EXPECT_GT(positiveGgx, layered ? n / 16 : n / 8);
+  if (layered) {
+    EXPECT_GT(positiveLayered, n / 8);
+  }
   EXPECT_GT(zero, n / 4);
   EXPECT_GT(nan, 10u);
   EXPECT_GT(inf, 0u);
@@ -271,7 +291,9 @@ TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
     for (bool rgb : {true, false}) {
       Results got(n);
       EvaluateTargets(pairs.View(), materials, got.View(rgb));
-      ExpectSameBits(twin, got, n, rgb, pairs, std::string(SimdTargetName(t)) + (rgb ? " rgb" : " target only"));
+      ExpectSameBits(twin, got, n, rgb, pairs,
+                     std::string(SimdTargetName(t)) + (rgb ? " rgb" : " target only") +
+                         (layered ? "" : " (no layered)"));
       if (!rgb) {
         for (int c = 0; c < 3; ++c) {
           for (size_t k = 0; k < n; ++k) ASSERT_EQ(got.rgb[c][k], -7.0f) << SimdTargetName(t) << " wrote rgb";
@@ -279,6 +301,11 @@ TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
       }
     }
   }
+}
+
+TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
+  ExpectEveryTargetMatchesTwin(true);
+  ExpectEveryTargetMatchesTwin(false);
 }
 
 // Batch sizes 0, 1, lanes - 1, lanes, lanes + 1 of every width (4, 8, 16 floats) and two packets plus a tail:
