@@ -19,6 +19,8 @@ packages=(
   libtbb-dev             # oneTBB: parallel loops
   nlohmann-json3-dev     # sequence files, reports
   libcli11-dev           # command line
+  libassimp-dev          # Assimp: glTF 2.0, OBJ/MTL and PLY assets
+  assimp-testmodels      # third-party assets, good and malformed, that the importer's tests load
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
   chromium               # headless browser: a test renders report.html and checks its plots and images

@@ -132,8 +132,9 @@ std::vector<LightTriangle> BuildLightTrianglesFrom(const std::vector<Light>& lig
     const bool on = l >= lightOn.size() || lightOn[l] != 0;
     for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
       LightTriangle tri;
+      const Vec3 radiance = light.triangleRadiance.empty() ? light.radiance : light.triangleRadiance[v / 3];
       if (!MakeLightTriangle(light.vertices[v], light.vertices[v + 1], light.vertices[v + 2],
-                             on ? light.radiance : Vec3(0.0f), tri)) {
+                             on ? radiance : Vec3(0.0f), tri)) {
         // Load rejects degenerate lights; should one slip through, it still occupies its slot so that light
         // ids keep matching Embree's primIDs, but it can never be sampled.
         tri.normal = Vec3(0.0f);
@@ -201,6 +202,7 @@ struct EmbreeScene::Impl {
     int32_t material = 0;
     std::vector<glm::uvec3> triangles;
     std::vector<Vec3> normals;      // object space for animated objects, world space once a static one is baked
+    std::vector<Vec2> texcoords;    // per position, only for objects whose material is textured
     std::vector<Vec3> positions;    // object space for animated objects, world space once a static one is baked
     RTCScene prototype = nullptr;   // animated objects only
   };
@@ -377,6 +379,9 @@ EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl
     // Normals only count when there is one per vertex; anything else falls back to flat shading.
     if (!obj.mesh.normals.empty() && obj.mesh.normals.size() == obj.mesh.positions.size())
       rec.normals = obj.mesh.normals;
+    if (obj.material < sequence.materials.size() && sequence.materials[obj.material].baseColorTexture >= 0 &&
+        obj.mesh.texcoords.size() == obj.mesh.positions.size())
+      rec.texcoords = obj.mesh.texcoords;
     // Kept to recompute hits (static ones are baked to world space at the first Update).
     rec.positions = obj.mesh.positions;
     if (obj.animated) {
@@ -519,6 +524,12 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   out.materialId = rec->material;
   out.lightId = -1;
   out.frontFace = true;
+  if (!rec->texcoords.empty()) {
+    const glm::uvec3 tri = rec->triangles[prim];
+    const glm::dvec2 uv = (1.0 - u - v) * glm::dvec2(rec->texcoords[tri.x]) + u * glm::dvec2(rec->texcoords[tri.y]) +
+                          v * glm::dvec2(rec->texcoords[tri.z]);
+    out.texcoord = Vec2(uv);
+  }
   if (!rec->normals.empty()) {
     const glm::uvec3 tri = rec->triangles[prim];
     const glm::dvec3 nd = (1.0 - u - v) * glm::dvec3(rec->normals[tri.x]) + u * glm::dvec3(rec->normals[tri.y]) +

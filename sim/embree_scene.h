@@ -44,6 +44,7 @@ struct SurfaceHit {
   int32_t materialId = -1; // index into Sequence::materials; -1 for an emitter or a miss
   int32_t lightId = -1;    // index into the light-triangle list for an emitter hit, else -1
   bool frontFace = true;   // for emitters: the ray hit the emitting side
+  Vec2 texcoord{0.0f};     // interpolated texture coordinates where the object's material is textured, else 0
 };
 
 // One shadow ray of a batch: from org along dir (unit) up to tmax.

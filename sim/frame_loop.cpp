@@ -21,7 +21,11 @@ void FrameLoop::BeginFrame(int frame) {
 
 double FrameLoop::Primary() {
   const auto t0 = Clock::now();
-  TracePrimary(scene_, state_.camera, current_);
+  SurfaceTextures textures;
+  textures.materials = &sequence_.materials;
+  textures.textures = &sequence_.textures;
+  textures.tableOffset = TextureTableOffset(sequence_.materials.size(), width_, height_, state_.frame);
+  TracePrimary(scene_, state_.camera, current_, sequence_.textures.empty() ? nullptr : &textures);
   return MsSince(t0);
 }
 
@@ -41,6 +45,7 @@ FrameInputs FrameLoop::Inputs(uint32_t seed) const {
   in.gbuffer = &current_;
   in.lights = lights_.get();
   in.materials = &bsdfs_;
+  if (!sequence_.textures.empty()) in.sceneMaterials = &sequence_.materials;
   in.seed = seed;
   in.frame = static_cast<uint32_t>(state_.frame);
   if (hasPrevious_) {

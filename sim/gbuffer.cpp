@@ -15,6 +15,8 @@ void GBuffer::Resize(int w, int h) {
   height = h > 0 ? h : 0;
   const size_t n = Size();
   for (auto* v : {&posX, &posY, &posZ, &ngX, &ngY, &ngZ, &nsX, &nsY, &nsZ, &errorScale, &depth}) v->assign(n, 0.0f);
+  for (auto* v : {&texelR, &texelG, &texelB}) v->assign(n, 1.0f);
+  bsdfId.assign(n, -1);
   prevX.assign(n, -1.0f);  // -1: not reprojected (Reproject also writes -1 where a point cannot be projected)
   prevY.assign(n, -1.0f);
   objectId.assign(n, -1);
@@ -24,9 +26,14 @@ void GBuffer::Resize(int w, int h) {
   disoccluded.assign(n, 0);
 }
 
-void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuffer) {
+int32_t TextureTableOffset(size_t materialCount, int width, int height, int frame) {
+  const int64_t pixels = int64_t(width > 0 ? width : 0) * int64_t(height > 0 ? height : 0);
+  return static_cast<int32_t>(int64_t(materialCount) + (frame & 1) * pixels);
+}
+
+void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuffer, const SurfaceTextures* tex) {
   if (gbuffer.width != camera.width || gbuffer.height != camera.height ||
-      gbuffer.objectId.size() != gbuffer.Size()) {
+      gbuffer.objectId.size() != gbuffer.Size() || gbuffer.bsdfId.size() != gbuffer.Size()) {
     gbuffer.Resize(camera.width, camera.height);
   }
   const int w = gbuffer.width;
@@ -50,6 +57,8 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
           gbuffer.errorScale[i] = 0.0f;
           gbuffer.objectId[i] = -1;
           gbuffer.materialId[i] = -1;
+          gbuffer.bsdfId[i] = -1;
+          gbuffer.texelR[i] = gbuffer.texelG[i] = gbuffer.texelB[i] = 1.0f;
           gbuffer.lightId[i] = -1;
           gbuffer.depth[i] = 0.0f;
           continue;
@@ -66,6 +75,18 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
         gbuffer.errorScale[i] = h.errorScale;
         gbuffer.objectId[i] = h.objectId;
         gbuffer.materialId[i] = h.materialId;
+        gbuffer.bsdfId[i] = h.materialId;
+        Vec3 texel(1.0f);
+        if (tex && h.materialId >= 0 && size_t(h.materialId) < tex->materials->size()) {
+          const int32_t t = (*tex->materials)[size_t(h.materialId)].baseColorTexture;
+          if (t >= 0 && size_t(t) < tex->textures->size()) {
+            texel = SampleBilinear((*tex->textures)[size_t(t)], h.texcoord.x, h.texcoord.y);
+            gbuffer.bsdfId[i] = tex->tableOffset + static_cast<int32_t>(i);
+          }
+        }
+        gbuffer.texelR[i] = texel.x;
+        gbuffer.texelG[i] = texel.y;
+        gbuffer.texelB[i] = texel.z;
         gbuffer.lightId[i] = h.lightId;
         gbuffer.depth[i] = camera.ViewDepth(h.position);
       }

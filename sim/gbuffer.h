@@ -20,6 +20,10 @@ struct GBuffer {
   std::vector<float> errorScale;           // the hit's error scale, for spawning rays off it (core/shadow_ray.h)
   std::vector<int32_t> objectId;           // -1: no hit
   std::vector<int32_t> materialId;         // -1: emitter or no hit
+  // The receiver's entry in the frame's BSDF table (FrameBsdfTable, sim/shading_point.h): materialId, or for a
+  // pixel on a textured material its own entry, textureTableOffset + pixel index. -1 where materialId is.
+  std::vector<int32_t> bsdfId;
+  std::vector<float> texelR, texelG, texelB;  // base-colour texture at the hit (linear); 1 where untextured
   std::vector<int32_t> lightId;            // emitter hit: light triangle; else -1
   std::vector<float> depth;                // view depth (distance along the camera's forward axis); 0 on a miss
   std::vector<float> prevX, prevY;         // continuous pixel coordinates of this point in the previous frame
@@ -30,9 +34,9 @@ struct GBuffer {
   template <typename G, typename F>
   static void ForEachArray(G& g, F&& f) {
     for (auto* v : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.errorScale,
-                    &g.depth, &g.prevX, &g.prevY})
+                    &g.depth, &g.prevX, &g.prevY, &g.texelR, &g.texelG, &g.texelB})
       f(*v);
-    for (auto* v : {&g.objectId, &g.materialId, &g.lightId}) f(*v);
+    for (auto* v : {&g.objectId, &g.materialId, &g.bsdfId, &g.lightId}) f(*v);
     for (auto* v : {&g.prevValid, &g.disoccluded}) f(*v);
   }
 
@@ -41,6 +45,7 @@ struct GBuffer {
   Vec3 Position(size_t i) const { return Vec3(posX[i], posY[i], posZ[i]); }
   Vec3 GeometricNormal(size_t i) const { return Vec3(ngX[i], ngY[i], ngZ[i]); }
   Vec3 ShadingNormal(size_t i) const { return Vec3(nsX[i], nsY[i], nsZ[i]); }
+  Vec3 Texel(size_t i) const { return Vec3(texelR[i], texelG[i], texelB[i]); }
   bool IsSurface(size_t i) const { return objectId[i] >= 0 && materialId[i] >= 0; }
 };
 
@@ -50,8 +55,22 @@ struct ReprojectionParams {
   float depthThreshold = 0.05f;   // maximum |depth_prev_buffer - depth_expected| / depth_expected
 };
 
-// Traces one primary ray per pixel centre in the current frame of `scene` (parallel over rows).
-void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuffer);
+// What TracePrimary needs to texture the receivers (base-colour textures of imported assets).
+struct SurfaceTextures {
+  const std::vector<Material>* materials = nullptr;  // the sequence's
+  const std::vector<Texture>* textures = nullptr;    // the sequence's
+  int32_t tableOffset = 0;  // FrameBsdfTable index of this G-buffer's pixel 0 (TextureTableOffset)
+};
+
+// Where a frame's textured receivers start in its BSDF table: after the materials, alternating between two
+// blocks of one entry per pixel, so that this frame's and the previous frame's G-buffers never share entries.
+int32_t TextureTableOffset(size_t materialCount, int width, int height, int frame);
+
+// Traces one primary ray per pixel centre in the current frame of `scene` (parallel over rows). With `textures`,
+// receivers on a textured material read their texel and get their own BSDF table entry; without, bsdfId =
+// materialId everywhere.
+void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuffer,
+                  const SurfaceTextures* textures = nullptr);
 
 // Fills prevX/prevY/prevValid/disoccluded of `current`: each hit point is carried back through its object's
 // previous transform and projected into the previous camera, then checked against `previous` at the nearest

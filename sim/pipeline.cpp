@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "core/gris.h"
+#include "sim/shading_point.h"
 
 namespace restir {
 
@@ -50,7 +51,10 @@ void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, FrameResult& r) 
 
 // DESIGN §2, from InitialSampling to Shade.
 FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
-  const BsdfSoa materials = MakeBsdfSoa(*in.materials);
+  const BsdfSoa materials =
+      in.sceneMaterials ? FrameBsdfTable(*in.materials, *in.sceneMaterials, *in.gbuffer,
+                                         in.previousState ? in.previousGbuffer : nullptr)
+                        : MakeBsdfSoa(*in.materials);
   const FrameView view = MakeFrameView(in, materials);
   const PipelineSettings& s = settings_;
   const VisibilityReuse visibility = s.shade.visibility;

@@ -34,6 +34,8 @@ struct FrameInputs {
   const GBuffer* gbuffer = nullptr;
   const LightSampler* lights = nullptr;            // built on the scene's current light triangles
   const std::vector<Bsdf>* materials = nullptr;    // one per Sequence::materials
+  // The sequence's materials, for the BSDFs of textured receivers (FrameBsdfTable); null: no textures.
+  const std::vector<Material>* sceneMaterials = nullptr;
   const FrameState* previousState = nullptr;       // null on the first frame of a run
   const GBuffer* previousGbuffer = nullptr;        // null on the first frame of a run
   const std::vector<LightTriangle>* previousLights = nullptr;  // the previous frame's light list

@@ -95,7 +95,7 @@ class PixelLightDistribution {
       const float albedo = Luminance(sp.bsdf.albedo) * kInvPi;
       for (size_t l = 0; l < n; ++l) work_[l] = point_[l] >= 0.0f ? double(point_[l]) * albedo
                                                                    : Exact(sp, lights[l], albedo);
-      if (sp.bsdf.type == BsdfType::kGgx) {
+      if (sp.bsdf.type != BsdfType::kDiffuse) {
         for (size_t l = 0; l < n; ++l) {
           if (work_[l] <= 0.0 && point_[l] == 0.0f) continue;  // facing away, dark or below the horizon
           const LightTriangle& t = lights[l];
@@ -205,7 +205,7 @@ struct SampleBatch {
 void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
                    const PixelLightDistribution& dist, const float* u, size_t count, SampleBatch& b, Vec3* out,
                    uint64_t& rays) {
-  const bool glossy = sp.bsdf.type == BsdfType::kGgx;
+  const bool glossy = sp.bsdf.type != BsdfType::kDiffuse;
   b.lightTerm.assign(count, Vec3(0.0f));
   b.bsdfTerm.assign(count, Vec3(0.0f));
   b.rays.clear();
@@ -386,7 +386,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ref.lumaStandardError.assign(static_cast<size_t>(w) * h, 0.0f);
   const std::vector<LightTriangle>& lightList = scene.LightTriangles();
   const LightSampler lights(lightList, LightSelection::kPower);
-  const std::vector<Bsdf> bsdfs = MaterialBsdfs(sequence);
+  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
   static const RobertsSequence<kSampleDims> rd;
   // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
   // get the same reference, bit for bit, and share one cache entry.

@@ -20,7 +20,8 @@
 #include "sim/hash.h"
 #include "sim/input_file.h"
 #include "sim/json_reader.h"
-#include "sim/obj_reader.h"
+#include "sim/asset_import.h"
+#include "sim/sequence_assets.h"
 #include "sim/shapes.h"
 #include "sim/text.h"
 
@@ -46,6 +47,7 @@ std::string FormatVec(const Vec3& v) {
 // parser to that. Far above any shipped sequence (docs/sequence-format.md, "Limits").
 constexpr size_t kMaxSceneTriangles = size_t(1) << 22;  // 4,194,304 object triangles
 constexpr size_t kMaxLights = size_t(1) << 18;          // 262,144 lights (524,288 emitter triangles for quads)
+constexpr size_t kMaxEmitterTriangles = size_t(1) << 20;  // 1,048,576 emissive triangles of imported assets
 
 // Finite float arithmetic (issue 14): every world-space point of an object under any of its keyframes is at most
 // kMaxWorldExtent from the origin and every light's radiance (colour x intensity) at most kMaxRadiance, besides
@@ -148,7 +150,8 @@ class Reader : public JsonReader {
   void ReadMaterials(const Json& list, const std::string& p, Sequence& seq);
   void ReadObjects(const Json& list, const std::string& p, Sequence& seq);
   Mesh ReadShape(const Json& shape, const std::string& p);
-  Mesh LoadObjMesh(const std::string& file, const std::string& p);
+  ImportedAsset LoadAsset(const std::string& file, const std::string& p);
+  void ReadAssetObject(const Json& o, const std::string& op, const std::string& name, Sequence& seq);
   std::vector<TransformKey> ReadTransformKeys(const Json& list, const std::string& p);
   void ReadLights(const Json& list, const std::string& p, Sequence& seq);
   void AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& vertices, const Vec3& radiance,
@@ -159,10 +162,11 @@ class Reader : public JsonReader {
 
   std::string baseDir_;
   uint64_t hash_;
+  uint64_t seqSkippedPrimitives_ = 0;
   int frameCount_ = 1;
   size_t sceneTriangles_ = 0;
   std::map<std::string, std::string> lightNames_;
-  std::unordered_map<std::string, Mesh> meshCache_;  // resolved OBJ path → mesh, so a file is read once
+  std::unordered_map<std::string, ImportedAsset> assetCache_;  // resolved path → asset, so a file is imported once
 
 };
 
@@ -199,6 +203,7 @@ Sequence Reader::Read(const Json& root) {
   ReadCamera(AsObject(Need(root, "", "camera"), "/camera"), "/camera", seq);
   if (const Json* v = Find(root, "render")) ReadRender(AsObject(*v, "/render"), "/render", seq);
   seq.contentHash = Hash();
+  seq.skippedPrimitives = seqSkippedPrimitives_;
   return seq;
 }
 
@@ -238,10 +243,15 @@ void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) 
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string op = PointerChild(p, i);
     const Json& o = AsObject(list[i], op);
-    CheckKeys(o, op, {"name", "material", "shape", "keyframes"});
+    CheckKeys(o, op, {"name", "material", "shape", "asset", "keyframes"});
     Object obj;
     obj.name = Name(Need(o, op, "name"), op + "/name");
     CheckUniqueName(names, obj.name, op + "/name", "object");
+    if (Find(o, "asset")) {
+      if (Find(o, "shape")) Fail(op + "/asset", "give either 'shape' or 'asset', not both");
+      ReadAssetObject(o, op, obj.name, seq);
+      continue;
+    }
     const std::string material = String(Need(o, op, "material"), op + "/material");
     auto it = std::find(materialNames.begin(), materialNames.end(), material);
     if (it == materialNames.end()) {
@@ -332,34 +342,92 @@ Mesh Reader::ReadShape(const Json& shape, const std::string& p) {
       CheckKeys(shape, p, {"type", "file"});
       const std::string file = String(Need(shape, p, "file"), p + "/file");
       if (file.empty()) Fail(p + "/file", "mesh file name must not be empty");
-      mesh = LoadObjMesh(file, p + "/file");
+      mesh = MergeAssetMeshes(LoadAsset(file, p + "/file"));
       break;
     }
   }
   return mesh;
 }
 
-// A mesh file, resolved against the sequence's directory and read once per run; its bytes enter the content hash.
-Mesh Reader::LoadObjMesh(const std::string& file, const std::string& p) {
+// An asset or mesh file, resolved against the sequence's directory and imported once per run (sim/asset_import.h).
+// What it imports to (geometry, materials, decoded textures) enters the content hash, so an edit to the file or to
+// a texture or buffer it references changes the hash, and so the reference cache key.
+ImportedAsset Reader::LoadAsset(const std::string& file, const std::string& p) {
   namespace fs = std::filesystem;
+  if (file.empty()) Fail(p, "file name must not be empty");
   fs::path resolved = fs::path(file);
   if (resolved.is_relative()) resolved = fs::path(baseDir_.empty() ? "." : baseDir_) / resolved;
-  const std::string objPath = resolved.lexically_normal().string();
-  if (auto it = meshCache_.find(objPath); it != meshCache_.end()) return it->second;
-
+  const std::string path = resolved.lexically_normal().string();
+  if (auto it = assetCache_.find(path); it != assetCache_.end()) return it->second;
   std::string bytes, problem;
-  if (!TryReadRegularFile(objPath, kMaxMeshBytes, bytes, problem))
-    Fail(p, "cannot read mesh file '" + objPath + "' (" + problem + ")");
-  // Only the bytes: the name as written is already in the sequence text, and the resolved path depends on the
-  // working directory, which must not change the hash (it keys the reference cache).
-  hash_ = Fnv1a(bytes.data(), bytes.size(), hash_);
-
+  if (!TryReadRegularFile(path, kMaxMeshBytes, bytes, problem))
+    Fail(p, "cannot read file '" + path + "' (" + problem + ")");
+  if (!IsSupportedAssetExtension(fs::path(path).extension().string()))
+    Fail(p, "'" + path + "' is not a supported asset (supported: .gltf, .glb, .obj, .ply)");
   const SourcePos from = Position(p);
-  const Mesh mesh = ParseObjMesh(bytes, objPath,
-                                 " (mesh of " + File() + ":" + std::to_string(from.line) + ":" +
-                                     std::to_string(from.column) + " " + p + ")");
-  meshCache_.emplace(objPath, mesh);
-  return mesh;
+  ImportedAsset asset;
+  try {
+    asset = ImportAsset(path);
+  } catch (const InputError& e) {
+    throw InputError(OneLine(std::string(e.what()) + " (asset of " + File() + ":" + std::to_string(from.line) + ":" +
+                             std::to_string(from.column) + " " + p + ")"));
+  }
+  const std::string imported = SerializeAsset(asset);
+  hash_ = Fnv1a(imported.data(), imported.size(), hash_);
+  seqSkippedPrimitives_ += asset.skippedPrimitives;
+  return assetCache_.emplace(path, std::move(asset)).first->second;
+}
+
+void Reader::ReadAssetObject(const Json& o, const std::string& op, const std::string& name, Sequence& seq) {
+  const std::string ap = op + "/asset";
+  const Json& a = AsObject(Need(o, op, "asset"), ap);
+  CheckKeys(a, ap, {"file", "emissionScale"});
+  AssetPlacement place;
+  place.name = name;
+  if (const Json* k = Find(o, "keyframes"))
+    place.keys = ReadTransformKeys(AsArray(*k, op + "/keyframes", true), op + "/keyframes");
+  else
+    place.keys.push_back(TransformKey{});
+  for (const TransformKey& key : place.keys)
+    place.animated = place.animated || key.translate != place.keys[0].translate ||
+                     key.rotateDegrees != place.keys[0].rotateDegrees || key.scale != place.keys[0].scale;
+  if (const Json* s = Find(a, "emissionScale")) {
+    place.emissionScale = Float(*s, ap + "/emissionScale");
+    if (!(place.emissionScale >= 0.0f)) Fail(ap + "/emissionScale", "emissionScale must be >= 0");
+  }
+  if (const Json* m = Find(o, "material")) {
+    const std::string material = String(*m, op + "/material");
+    std::vector<std::string> materialNames;
+    for (const Material& mat : seq.materials) materialNames.push_back(mat.name);
+    auto it = std::find(materialNames.begin(), materialNames.end(), material);
+    if (it == materialNames.end())
+      Fail(op + "/material", "unknown material '" + material + "'" + Suggestion(material, materialNames));
+    place.material = static_cast<int32_t>(it - materialNames.begin());
+  }
+  const ImportedAsset& asset = LoadAsset(String(Need(a, ap, "file"), ap + "/file"), ap + "/file");
+  AssetBudget budget;
+  budget.maxSceneTriangles = kMaxSceneTriangles;
+  budget.maxEmitterTriangles = kMaxEmitterTriangles;
+  budget.maxWorldExtent = kMaxWorldExtent;
+  budget.maxRadiance = kMaxRadiance;
+  const size_t objectsBefore = seq.objects.size(), lightsBefore = seq.lights.size();
+  AddAsset(asset, place, budget, seq, [&](const std::string& what) { Fail(ap, what); });
+  for (size_t l = lightsBefore; l < seq.lights.size(); ++l)
+    CheckUniqueName(lightNames_, seq.lights[l].name, ap, "light");
+  for (size_t i = objectsBefore; i < seq.objects.size(); ++i) {
+    Object& obj = seq.objects[i];
+    sceneTriangles_ += obj.mesh.triangles.size();
+    double radius = 0.0;
+    for (const Vec3& v : obj.mesh.positions) radius = std::max(radius, double(glm::length(v)));
+    for (size_t k = 0; k < obj.keys.size(); ++k) {
+      const TransformKey& key = obj.keys[k];
+      const double scale = std::max({std::fabs(key.scale.x), std::fabs(key.scale.y), std::fabs(key.scale.z)});
+      if (double(glm::length(key.translate)) + scale * radius > kMaxWorldExtent)
+        Fail(PointerChild(op + "/keyframes", k), "the asset reaches " +
+                                                     FormatNumber(glm::length(key.translate) + scale * radius) +
+                                                     " m from the origin under this key, beyond the limit of 1e8 m");
+    }
+  }
 }
 
 std::vector<TransformKey> Reader::ReadTransformKeys(const Json& list, const std::string& p) {
@@ -632,10 +700,22 @@ std::string SummarizeSequence(const Sequence& seq) {
   out << buf;
 
   out << "materials   " << seq.materials.size() << ":";
+  size_t shown = 0;
   for (const Material& m : seq.materials) {
-    out << " " << m.name << (m.type == MaterialType::kGgx ? " (ggx)" : " (diffuse)");
+    // An asset brings a material per mesh; the first few name the kinds, the count says the rest.
+    if (++shown > 12) {
+      out << " ... (" << seq.materials.size() - 12 << " more)";
+      break;
+    }
+    out << " " << m.name
+        << (m.type == MaterialType::kGgx ? " (ggx)" : m.type == MaterialType::kLayered ? " (layered)" : " (diffuse)");
+    if (m.baseColorTexture >= 0) out << "[textured]";
   }
   out << "\n";
+  if (!seq.textures.empty()) out << "textures    " << seq.textures.size() << "\n";
+  if (seq.skippedPrimitives || seq.skippedZeroAreaEmitters || seq.skippedDarkEmitters)
+    out << "skipped     " << seq.skippedPrimitives << " points and lines, " << seq.skippedZeroAreaEmitters
+        << " zero-area emissive triangles, " << seq.skippedDarkEmitters << " black emissive triangles\n";
 
   size_t triangles = 0, animated = 0;
   for (const Object& o : seq.objects) {
@@ -649,6 +729,10 @@ std::string SummarizeSequence(const Sequence& seq) {
                   seq.materials[o.material].name.c_str(), o.mesh.triangles.size(),
                   o.animated ? "animated" : "static");
     out << buf;
+    if (&o - seq.objects.data() >= 40 && seq.objects.size() > 41) {
+      out << "  ... " << seq.objects.size() - 41 << " more objects\n";
+      break;
+    }
   }
 
   // Grid generators name their lights group[i,j]: summarise per group so the screen stays short.
@@ -661,7 +745,8 @@ std::string SummarizeSequence(const Sequence& seq) {
     for (size_t t = 0; t + 2 < l.vertices.size(); t += 3) {
       const float area = 0.5f * glm::length(glm::cross(l.vertices[t + 1] - l.vertices[t],
                                                        l.vertices[t + 2] - l.vertices[t]));
-      power += kPi * area * Luminance(l.radiance);  // one-sided Lambertian emitter: Φ = π L A
+      const Vec3& radiance = l.triangleRadiance.empty() ? l.radiance : l.triangleRadiance[t / 3];
+      power += kPi * area * Luminance(radiance);  // one-sided Lambertian emitter: Φ = π L A
       ++emitters;
     }
     totalPower += power;

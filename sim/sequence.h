@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/math.h"
+#include "sim/texture.h"
 
 namespace restir {
 
@@ -18,13 +19,18 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class MaterialType { kDiffuse, kGgx };
+// kLayered is the metallic-roughness material of imported assets (glTF, MTL), mapped to core/'s layered BSDF
+// by MaterialBsdf (sim/shading_point.h; docs/sequence-format.md "Material mapping").
+enum class MaterialType { kDiffuse, kGgx, kLayered };
 
 struct Material {
   std::string name;                     // unique name, referenced by objects
   MaterialType type = MaterialType::kDiffuse;
-  Vec3 albedo{0.8f};                    // diffuse reflectance, or the GGX Fresnel F0 colour
-  float roughness = 0.5f;               // GGX alpha = roughness^2 (only for kGgx)
+  Vec3 albedo{0.8f};                    // diffuse reflectance, the GGX Fresnel F0 colour, or kLayered's base colour
+  float roughness = 0.5f;               // GGX alpha = roughness^2 (kGgx and kLayered)
+  float metallic = 0.0f;                // kLayered: glTF metallic factor in [0, 1]
+  float specular = 0.04f;               // kLayered: dielectric reflectance at normal incidence in [0, 1]
+  int32_t baseColorTexture = -1;        // index into Sequence::textures multiplying albedo at the hit; -1: none
 };
 
 // Triangle mesh in object space. Normals are optional per-vertex shading normals (empty: flat shading).
@@ -36,6 +42,7 @@ struct Mesh {
   std::vector<Vec3> positions;
   std::vector<glm::uvec3> triangles;
   std::vector<Vec3> normals;
+  std::vector<Vec2> texcoords;  // per position (v up), or empty; only textured materials read them
 };
 
 enum class Interpolation { kLinear, kSmooth };
@@ -62,6 +69,9 @@ struct Light {
   std::string name;                           // unique
   std::vector<Vec3> vertices;                 // world space, 3 per triangle, counter-clockwise seen from the lit side
   Vec3 radiance{1.0f};                        // colour * intensity
+  // Per triangle when they differ (an imported mesh's emission times its texture's mean over each triangle);
+  // empty: `radiance` for every triangle.
+  std::vector<Vec3> triangleRadiance;
   std::vector<std::pair<int, int>> onRanges;  // frames [first, last) during which it is on; empty: always on
 };
 
@@ -88,11 +98,16 @@ struct Sequence {
   float frameRate = 30.0f;
   uint32_t seed = 1;
   std::vector<Material> materials;
+  std::vector<Texture> textures;     // base-colour textures of imported assets, referenced by materials
   std::vector<Object> objects;
   std::vector<Light> lights;
   std::vector<CameraKey> cameraKeys;  // sorted by frame; at least one
   RenderDefaults defaults;
   std::string contentHash;  // hex hash of the file's bytes and of every mesh file it loads
+  // What importing assets left out, for `validate` (docs/sequence-format.md "What is ignored"): counted, not errors.
+  uint64_t skippedPrimitives = 0;        // points and lines in assets
+  uint64_t skippedZeroAreaEmitters = 0;  // emissive triangles with no area, which cannot emit
+  uint64_t skippedDarkEmitters = 0;      // emissive triangles whose radiance averages to zero over their texture
 };
 
 // Pinhole camera at one frame. Up is +Y.

@@ -2,19 +2,78 @@
 
 #include "core/shadow_ray.h"
 
+#include <stdexcept>
+
 namespace restir {
+
+Bsdf MaterialBsdf(const Material& m, const Vec3& baseColor) {
+  Bsdf b;
+  b.alpha = m.roughness * m.roughness;
+  switch (m.type) {
+    case MaterialType::kDiffuse:
+      b.type = BsdfType::kDiffuse;
+      b.albedo = baseColor;
+      break;
+    case MaterialType::kGgx:
+      b.type = BsdfType::kGgx;
+      b.albedo = baseColor;
+      break;
+    case MaterialType::kLayered: {
+      const float s = m.metallic + m.specular * (1.0f - m.metallic);
+      if (!(s > 0.0f)) {  // no specular lobe at all: plain Lambert
+        b.type = BsdfType::kDiffuse;
+        b.albedo = baseColor;
+        break;
+      }
+      b.type = BsdfType::kLayered;
+      b.albedo = (1.0f - s) * baseColor;
+      b.specular = glm::min(Vec3(1.0f), (m.metallic * baseColor + Vec3(m.specular * (1.0f - m.metallic))) / s);
+      b.specularWeight = s;
+      break;
+    }
+  }
+  return b;
+}
 
 std::vector<Bsdf> MaterialBsdfs(const Sequence& sequence) {
   std::vector<Bsdf> out;
   out.reserve(sequence.materials.size());
-  for (const Material& m : sequence.materials) {
-    Bsdf b;
-    b.type = m.type == MaterialType::kGgx ? BsdfType::kGgx : BsdfType::kDiffuse;
-    b.albedo = m.albedo;
-    b.alpha = m.roughness * m.roughness;
-    out.push_back(b);
-  }
+  for (const Material& m : sequence.materials) out.push_back(MaterialBsdf(m, m.albedo));
   return out;
+}
+
+BsdfSoa FrameBsdfTable(const std::vector<Bsdf>& materialBsdfs, const std::vector<Material>& materials,
+                       const GBuffer& current, const GBuffer* previous) {
+  std::vector<Bsdf> table = materialBsdfs;
+  const size_t m = materialBsdfs.size();
+  std::vector<uint8_t> taken;
+  for (const GBuffer* g : {&current, previous}) {
+    if (!g) continue;
+    for (size_t i = 0; i < g->bsdfId.size(); ++i) {
+      const int32_t id = g->bsdfId[i];
+      if (id < 0 || size_t(id) < m) continue;
+      if (size_t(id) >= table.size()) {
+        table.resize(size_t(id) + 1);
+        taken.resize(size_t(id) + 1, 0);
+      }
+      if (taken[size_t(id)]) throw std::logic_error("FrameBsdfTable: two receivers share a table entry");
+      taken[size_t(id)] = 1;
+      const Material& mat = materials[size_t(g->materialId[i])];
+      table[size_t(id)] = MaterialBsdf(mat, mat.albedo * g->Texel(i));
+    }
+  }
+  return MakeBsdfSoa(table);
+}
+
+ShadingPoint ShadingPointAt(const GBuffer& g, size_t i, const Vec3& eye, const BsdfSoa& table) {
+  ShadingPoint sp;
+  sp.position = g.Position(i);
+  sp.geometricNormal = g.GeometricNormal(i);
+  sp.shadingNormal = g.ShadingNormal(i);
+  sp.wo = ViewDirection(eye, sp.position);
+  sp.bsdf = table.At(static_cast<size_t>(g.bsdfId[i]));
+  sp.errorScale = g.errorScale[i];
+  return sp;
 }
 
 ShadingPoint ShadingPointAt(const GBuffer& g, size_t i, const Vec3& eye, const std::vector<Bsdf>& bsdfs) {
@@ -23,7 +82,7 @@ ShadingPoint ShadingPointAt(const GBuffer& g, size_t i, const Vec3& eye, const s
   sp.geometricNormal = g.GeometricNormal(i);
   sp.shadingNormal = g.ShadingNormal(i);
   sp.wo = ViewDirection(eye, sp.position);
-  sp.bsdf = bsdfs[static_cast<size_t>(g.materialId[i])];
+  sp.bsdf = bsdfs[static_cast<size_t>(g.bsdfId[i])];
   sp.errorScale = g.errorScale[i];
   return sp;
 }

@@ -14,13 +14,28 @@
 
 namespace restir {
 
-// Materials of a sequence as BSDFs (GGX alpha = roughness²).
+// A material as a BSDF, with `baseColor` in place of its albedo (the texel times the albedo on a textured
+// receiver). GGX alpha = roughness². kLayered, the metallic-roughness model (docs/sequence-format.md "Material
+// mapping"), becomes core/'s convex layered BSDF: the specular lobe's share s = metallic + specular (1 - metallic),
+// diffuse albedo (1 - s) baseColor, lobe F0 = (metallic baseColor + specular (1 - metallic)) / s, so the
+// reflectance never exceeds 1 and metallic = 1 is a pure GGX conductor of F0 = baseColor.
+Bsdf MaterialBsdf(const Material& material, const Vec3& baseColor);
+
+// Materials of a sequence as BSDFs (each with its own albedo).
 std::vector<Bsdf> MaterialBsdfs(const Sequence& sequence);
+
+// The BSDF table of a frame, which GBuffer::bsdfId indexes: the materials' entries (`materialBsdfs`), then one
+// entry per textured receiver of `current` and of `previous` (null: none) at the index its bsdfId names. Throws
+// std::logic_error if the two G-buffers' entries collide (they were traced with the same TextureTableOffset).
+BsdfSoa FrameBsdfTable(const std::vector<Bsdf>& materialBsdfs, const std::vector<Material>& materials,
+                       const GBuffer& current, const GBuffer* previous);
 
 // Unit direction from a receiver towards the camera (the ω_o of every target and BSDF evaluation).
 inline Vec3 ViewDirection(const Vec3& eye, const Vec3& position) { return glm::normalize(eye - position); }
 
-// The receiver at a G-buffer pixel, seen from `eye`; valid only where gbuffer.IsSurface(i).
+// The receiver at a G-buffer pixel, seen from `eye`; valid only where gbuffer.IsSurface(i). Its BSDF is
+// table.At(bsdfId); the overload on a plain list serves untextured scenes, where bsdfId = materialId.
+ShadingPoint ShadingPointAt(const GBuffer& gbuffer, size_t i, const Vec3& eye, const BsdfSoa& table);
 ShadingPoint ShadingPointAt(const GBuffer& gbuffer, size_t i, const Vec3& eye, const std::vector<Bsdf>& bsdfs);
 
 // Radiance a primary ray sees directly at pixel i: an emitter's front face, else zero.

@@ -76,7 +76,7 @@ class TargetPairBuffer {
     field_[3][k] = g.posX[p], field_[4][k] = g.posY[p], field_[5][k] = g.posZ[p];
     field_[6][k] = g.ngX[p], field_[7][k] = g.ngY[p], field_[8][k] = g.ngZ[p];
     field_[9][k] = g.nsX[p], field_[10][k] = g.nsY[p], field_[11][k] = g.nsZ[p];
-    material_[k] = g.materialId[p];
+    material_[k] = g.bsdfId[p];  // the BSDF table index (FrameBsdfTable)
     ++size_;
   }
   size_t Size() const { return size_; }

@@ -51,7 +51,7 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
     px.shadingNormal[0] = g.nsX.data() + rowStart, px.shadingNormal[1] = g.nsY.data() + rowStart;
     px.shadingNormal[2] = g.nsZ.data() + rowStart;
     for (int c = 0; c < 3; ++c) px.wo[c] = woRow[c].data();
-    px.materialId = g.materialId.data() + rowStart;
+    px.materialId = g.bsdfId.data() + rowStart;  // the BSDF table index (textured receivers have their own)
     px.active = activeRow.data();
     px.pixelBase = static_cast<uint32_t>(rowStart);
     px.count = rw;

@@ -63,7 +63,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
           for (const auto* a : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth})
             __builtin_prefetch(a->data() + ni);
           __builtin_prefetch(g.objectId.data() + ni);
-          __builtin_prefetch(g.materialId.data() + ni);
+          __builtin_prefetch(g.bsdfId.data() + ni);
           __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni));
           __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni) + sizeof(StoredReservoir) - 1);
         }

@@ -35,7 +35,7 @@ std::vector<Case> LoadCorpus() {
     const size_t tab = line.find('\t');
     if (line.empty() || tab == std::string::npos) continue;
     // EXPECTED.txt gives what follows the sequence's path (":line:col: error at /json/path:"), or for an error
-    // inside a mesh the OBJ file's name relative to the corpus ("bad.obj:5:7: error: ...").
+    // inside a mesh the mesh file's name relative to the corpus ("bad.obj: error: ...": Assimp gives no line).
     const std::string file = line.substr(0, tab), rest = line.substr(tab + 1);
     const bool inSequence = !rest.empty() && (rest[0] == ':' || rest[0] == ' ');
     cases.push_back({file, std::string(kCorpus) + "/" + (inSequence ? file + rest : rest)});

@@ -67,6 +67,7 @@ struct HandMadeFrame {
     g.errorScale[i] = std::max(std::fabs(p.x), std::fabs(p.z));
     g.objectId[i] = 7;
     g.materialId[i] = 0;
+    g.bsdfId[i] = 0;
     g.lightId[i] = -1;
     g.depth[i] = 3.0f;
   }

@@ -31,6 +31,7 @@ TEST(InitialSampling, EverySurfacePixelGetsAReservoirOnTheLightWithItsExactTarge
   test::HandMadeFrame f(8, 6);
   f.gbuffer.objectId[5] = -1;  // one pixel sees no surface
   f.gbuffer.materialId[5] = -1;
+  f.gbuffer.bsdfId[5] = -1;
   ReservoirBuffer out;
   PassStats stats;
   InitialSamplingParams params;

@@ -1,0 +1,262 @@
+// The Assimp half of sim/asset_import.h: one aiScene → ImportedAsset, in whichever process calls it.
+#include "sim/asset_import.h"
+
+#include <assimp/GltfMaterial.h>
+#include <assimp/Importer.hpp>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "sim/input_file.h"
+#include "sim/sequence.h"  // InputError
+#include "sim/text.h"
+
+namespace restir {
+
+namespace {
+
+constexpr size_t kMaxAssetFileBytes = size_t(1) << 30;
+constexpr size_t kMaxTextureFileBytes = size_t(256) << 20;
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+[[noreturn]] void Fail(const std::string& path, const std::string& what) {
+  throw InputError(OneLine(path + ": error: " + what));
+}
+
+// KHR_materials_emissive_strength, which Assimp 5.2 does not read: the strength of each glTF material, by index
+// (1 where absent). The JSON is the .gltf file itself or the .glb's first chunk.
+std::vector<float> GltfEmissiveStrengths(const std::string& path, bool binary) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem)) Fail(path, "cannot read the file (" + problem + ")");
+  std::string_view json = bytes;
+  if (binary) {
+    // GLB header: magic, version, length; then chunk 0: length, type "JSON", data (glTF 2.0 spec, "GLB File Format").
+    auto u32 = [&](size_t at) {
+      uint32_t v = 0;
+      std::memcpy(&v, bytes.data() + at, 4);
+      return v;
+    };
+    if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0) Fail(path, "not a binary glTF file (no 'glTF' header)");
+    const uint32_t chunk = u32(12);
+    if (u32(16) != 0x4E4F534Au || chunk > bytes.size() - 20) Fail(path, "the binary glTF's first chunk is not its JSON");
+    json = std::string_view(bytes).substr(20, chunk);
+  }
+  std::vector<float> strengths;
+  const nlohmann::json doc = nlohmann::json::parse(json.begin(), json.end(), nullptr, false);
+  if (!doc.is_object()) return strengths;  // Assimp will say what is wrong with it
+  const auto materials = doc.find("materials");
+  if (materials == doc.end() || !materials->is_array()) return strengths;
+  for (const nlohmann::json& m : *materials) {
+    float s = 1.0f;
+    if (m.is_object()) {
+      const auto ext = m.find("extensions");
+      if (ext != m.end() && ext->is_object()) {
+        const auto k = ext->find("KHR_materials_emissive_strength");
+        if (k != ext->end() && k->is_object()) {
+          const auto v = k->find("emissiveStrength");
+          if (v != k->end() && v->is_number()) s = v->get<float>();
+        }
+      }
+    }
+    strengths.push_back(s);
+  }
+  return strengths;
+}
+
+class Converter {
+ public:
+  Converter(const std::string& path, const aiScene& scene, const AssetLimits& limits)
+      : path_(path), scene_(scene), limits_(limits) {}
+
+  ImportedAsset Convert(const std::vector<float>& emissiveStrengths, bool gltf) {
+    for (unsigned m = 0; m < scene_.mNumMaterials; ++m)
+      asset_.materials.push_back(ConvertMaterial(*scene_.mMaterials[m], m, emissiveStrengths, gltf));
+    if (asset_.materials.empty()) asset_.materials.push_back(AssetMaterial{});
+    uint64_t triangles = 0;
+    for (unsigned i = 0; i < scene_.mNumMeshes; ++i) {
+      const aiMesh& m = *scene_.mMeshes[i];
+      if (!(m.mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || m.mNumVertices == 0) {
+        asset_.skippedPrimitives += m.mNumFaces;
+        continue;
+      }
+      AssetMesh out;
+      out.name = m.mName.C_Str();
+      out.material = m.mMaterialIndex < asset_.materials.size() ? m.mMaterialIndex : 0;
+      out.positions.reserve(m.mNumVertices);
+      for (unsigned v = 0; v < m.mNumVertices; ++v)
+        out.positions.emplace_back(m.mVertices[v].x, m.mVertices[v].y, m.mVertices[v].z);
+      if (m.mNormals) {
+        for (unsigned v = 0; v < m.mNumVertices; ++v)
+          out.normals.emplace_back(m.mNormals[v].x, m.mNormals[v].y, m.mNormals[v].z);
+      }
+      if (m.mTextureCoords[0]) {
+        for (unsigned v = 0; v < m.mNumVertices; ++v)
+          out.texcoords.emplace_back(m.mTextureCoords[0][v].x, m.mTextureCoords[0][v].y);
+      }
+      for (unsigned f = 0; f < m.mNumFaces; ++f) {
+        const aiFace& face = m.mFaces[f];
+        if (face.mNumIndices != 3) {
+          ++asset_.skippedPrimitives;
+          continue;
+        }
+        for (unsigned k = 0; k < 3; ++k) {
+          if (face.mIndices[k] >= m.mNumVertices)
+            Fail(path_, "mesh '" + out.name + "' (#" + std::to_string(i) + ") face " + std::to_string(f) +
+                            " uses vertex " + std::to_string(face.mIndices[k]) + " of " +
+                            std::to_string(m.mNumVertices));
+        }
+        out.triangles.emplace_back(face.mIndices[0], face.mIndices[1], face.mIndices[2]);
+      }
+      triangles += out.triangles.size();
+      if (triangles > limits_.maxTriangles)
+        Fail(path_, "the asset holds more than " + std::to_string(limits_.maxTriangles) + " triangles");
+      if (!out.triangles.empty()) asset_.meshes.push_back(std::move(out));
+    }
+    return std::move(asset_);
+  }
+
+ private:
+  AssetMaterial ConvertMaterial(const aiMaterial& mat, unsigned index, const std::vector<float>& strengths,
+                                bool gltf) {
+    AssetMaterial out;
+    aiString name;
+    if (mat.Get(AI_MATKEY_NAME, name) == AI_SUCCESS) out.name = name.C_Str();
+    aiColor4D c4;
+    aiColor3D c3;
+    float f = 0.0f;
+    if (gltf) {
+      // glTF 2.0 metallic-roughness: the spec's defaults are base colour 1, metallic 1, roughness 1.
+      out.baseColor = Vec3(1.0f);
+      out.metallic = 1.0f;
+      out.roughness = 1.0f;
+      if (mat.Get(AI_MATKEY_BASE_COLOR, c4) == AI_SUCCESS) out.baseColor = Vec3(c4.r, c4.g, c4.b);
+      else if (mat.Get(AI_MATKEY_COLOR_DIFFUSE, c4) == AI_SUCCESS) out.baseColor = Vec3(c4.r, c4.g, c4.b);
+      if (mat.Get(AI_MATKEY_METALLIC_FACTOR, f) == AI_SUCCESS) out.metallic = f;
+      if (mat.Get(AI_MATKEY_ROUGHNESS_FACTOR, f) == AI_SUCCESS) out.roughness = f;
+      out.specular = 0.04f;
+      out.baseColorTexture = TextureOf(mat, aiTextureType_BASE_COLOR);
+      if (out.baseColorTexture < 0) out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE);
+      if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
+      const float strength = index < strengths.size() ? strengths[index] : 1.0f;
+      out.emission *= strength;
+    } else {
+      // OBJ/MTL and PLY: Kd, Ks, Ns, Ke as the table in docs/sequence-format.md maps them.
+      Vec3 kd(0.6f), ks(0.0f);
+      if (mat.Get(AI_MATKEY_COLOR_DIFFUSE, c3) == AI_SUCCESS) kd = Vec3(c3.r, c3.g, c3.b);
+      if (mat.Get(AI_MATKEY_COLOR_SPECULAR, c3) == AI_SUCCESS) ks = Vec3(c3.r, c3.g, c3.b);
+      float ns = 0.0f;
+      mat.Get(AI_MATKEY_SHININESS, ns);
+      const float kmax = std::max({ks.x, ks.y, ks.z});
+      out.specular = std::isfinite(kmax) ? std::clamp(kmax, 0.0f, 1.0f) : 0.0f;
+      out.metallic = 0.0f;
+      const float diffuseShare = 1.0f - out.specular;
+      out.baseColor = diffuseShare > 0.0f ? kd / diffuseShare : Vec3(0.0f);
+      // Phong exponent to GGX width, alpha = sqrt(2 / (Ns + 2)) (Walter et al. 2007, Sec. 5.2).
+      const float alpha = std::sqrt(2.0f / (std::max(ns, 0.0f) + 2.0f));
+      out.roughness = std::sqrt(alpha);
+      out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE);
+      if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
+    }
+    out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE);
+    return out;
+  }
+
+  // The material's first texture of `type`, decoded once per distinct reference; -1 when it has none.
+  int32_t TextureOf(const aiMaterial& mat, aiTextureType type) {
+    if (mat.GetTextureCount(type) == 0) return -1;
+    aiString ref;
+    if (mat.GetTexture(type, 0, &ref) != AI_SUCCESS) return -1;
+    const std::string key = ref.C_Str();
+    if (auto it = textureIndex_.find(key); it != textureIndex_.end()) return it->second;
+    Texture t;
+    if (const aiTexture* et = scene_.GetEmbeddedTexture(key.c_str())) {
+      const std::string name = path_ + "#" + key + "." + (et->achFormatHint[0] ? et->achFormatHint : "img");
+      if (et->mHeight == 0) {
+        if (!et->pcData) Fail(path_, "embedded texture '" + key + "' has no data");
+        t = DecodeTexture(std::string(reinterpret_cast<const char*>(et->pcData), et->mWidth), name);
+      } else {
+        // Raw BGRA8 texels, sRGB-encoded like every 8-bit colour texture.
+        t.name = name;
+        t.width = static_cast<int>(et->mWidth);
+        t.height = static_cast<int>(et->mHeight);
+        if (et->mWidth > 16384 || et->mHeight > 16384 || !et->pcData) Fail(path_, "embedded texture '" + key + "' is invalid");
+        t.rgb.resize(size_t(t.width) * t.height * 3);
+        for (size_t p = 0; p < size_t(t.width) * t.height; ++p) {
+          const aiTexel& x = et->pcData[p];
+          t.rgb[3 * p] = SrgbToLinear(x.r / 255.0f);
+          t.rgb[3 * p + 1] = SrgbToLinear(x.g / 255.0f);
+          t.rgb[3 * p + 2] = SrgbToLinear(x.b / 255.0f);
+        }
+      }
+    } else {
+      namespace fs = std::filesystem;
+      // Windows separators are common in MTL files ("map_Kd .\\wood.jpg"); a file name never holds a backslash.
+      std::string portable = key;
+      std::replace(portable.begin(), portable.end(), '\\', '/');
+      fs::path file = fs::path(portable);
+      if (file.is_relative()) file = fs::path(path_).parent_path() / file;
+      const std::string resolved = file.lexically_normal().string();
+      std::string bytes, problem;
+      if (!TryReadRegularFile(resolved, kMaxTextureFileBytes, bytes, problem))
+        Fail(path_, "cannot read texture '" + resolved + "' (" + problem + ")");
+      t = DecodeTexture(bytes, resolved);
+    }
+    const int32_t index = static_cast<int32_t>(asset_.textures.size());
+    asset_.textures.push_back(std::move(t));
+    textureIndex_.emplace(key, index);
+    return index;
+  }
+
+  const std::string& path_;
+  const aiScene& scene_;
+  const AssetLimits& limits_;
+  ImportedAsset asset_;
+  std::map<std::string, int32_t> textureIndex_;
+};
+
+}  // namespace
+
+bool IsSupportedAssetExtension(const std::string& e) {
+  const std::string x = Lower(e);
+  return x == ".gltf" || x == ".glb" || x == ".obj" || x == ".ply";
+}
+
+ImportedAsset ImportAssetInProcess(const std::string& path, const AssetLimits& limits) {
+  const std::string ext = Lower(std::filesystem::path(path).extension().string());
+  if (!IsSupportedAssetExtension(ext))
+    Fail(path, "unsupported asset format '" + ext + "' (supported: .gltf, .glb, .obj, .ply)");
+  {
+    // Refuse what is not a regular file before Assimp opens it (a FIFO would block it).
+    std::string probe, problem;
+    if (!TryReadRegularFile(path, kMaxAssetFileBytes, probe, problem)) Fail(path, "cannot read the file (" + problem + ")");
+    if (probe.empty()) Fail(path, "the file is empty");
+  }
+  const bool gltf = ext == ".gltf" || ext == ".glb";
+  const std::vector<float> strengths = gltf ? GltfEmissiveStrengths(path, ext == ".glb") : std::vector<float>{};
+  Assimp::Importer importer;
+  // PreTransformVertices bakes every node's transform into its meshes' vertices (and normals), so the asset
+  // arrives in its root space; SortByPType puts points and lines in meshes of their own, which are skipped.
+  const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_PreTransformVertices |
+                         aiProcess_ValidateDataStructure;
+  const aiScene* scene = importer.ReadFile(path, flags);
+  if (!scene) Fail(path, std::string("cannot import the asset (Assimp: ") + importer.GetErrorString() + ")");
+  if (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) Fail(path, "the asset is incomplete (Assimp flagged it)");
+  ImportedAsset asset = Converter(path, *scene, limits).Convert(strengths, gltf);
+  if (asset.meshes.empty()) Fail(path, "the asset has no triangles");
+  ValidateAsset(asset, path, limits);
+  return asset;
+}
+
+}  // namespace restir

@@ -1,0 +1,119 @@
+#include "sim/texture.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/sequence.h"  // InputError
+#include "sim/text.h"
+
+namespace restir {
+
+namespace {
+
+constexpr int kMaxTextureSide = 16384;
+
+int64_t Wrap(int64_t i, int64_t n) {
+  const int64_t r = i % n;
+  return r < 0 ? r + n : r;
+}
+
+}  // namespace
+
+Vec3 Texture::Texel(int64_t x, int64_t y) const {
+  const size_t i = 3 * (static_cast<size_t>(Wrap(y, height)) * static_cast<size_t>(width) +
+                        static_cast<size_t>(Wrap(x, width)));
+  return Vec3(rgb[i], rgb[i + 1], rgb[i + 2]);
+}
+
+Vec3 SampleBilinear(const Texture& t, float u, float v) {
+  if (t.width <= 0 || t.height <= 0) return Vec3(1.0f);
+  // Non-finite coordinates (a broken asset's UVs) read the first texel rather than index with garbage.
+  if (!std::isfinite(u) || !std::isfinite(v)) return t.Texel(0, 0);
+  // Wrap first, in double, so huge coordinates keep their fraction and the texel index fits.
+  const double fu = double(u) - std::floor(double(u));
+  const double fv = double(v) - std::floor(double(v));
+  const double x = fu * t.width - 0.5;
+  const double y = (1.0 - fv) * t.height - 0.5;
+  const double x0 = std::floor(x), y0 = std::floor(y);
+  const float ax = static_cast<float>(x - x0), ay = static_cast<float>(y - y0);
+  const int64_t ix = static_cast<int64_t>(x0), iy = static_cast<int64_t>(y0);
+  const Vec3 top = t.Texel(ix, iy) * (1.0f - ax) + t.Texel(ix + 1, iy) * ax;
+  const Vec3 bottom = t.Texel(ix, iy + 1) * (1.0f - ax) + t.Texel(ix + 1, iy + 1) * ax;
+  return top * (1.0f - ay) + bottom * ay;
+}
+
+Vec3 MeanOverTriangle(const Texture& t, const Vec2& uv0, const Vec2& uv1, const Vec2& uv2) {
+  auto texels = [&](const Vec2& a, const Vec2& b) {
+    const double du = (double(b.x) - a.x) * t.width, dv = (double(b.y) - a.y) * t.height;
+    return std::sqrt(du * du + dv * dv);
+  };
+  const double edge = std::max({texels(uv0, uv1), texels(uv1, uv2), texels(uv2, uv0)});
+  const int n = std::isfinite(edge) ? static_cast<int>(std::clamp(std::ceil(edge), 1.0, 64.0)) : 1;
+  // Sub-triangles of the n x n subdivision: for cell (i, j), the upright one (i + j < n) and, where it exists,
+  // the inverted one; their centroids in barycentric coordinates (b1, b2) along uv1 - uv0 and uv2 - uv0.
+  const Vec2 e1 = uv1 - uv0, e2 = uv2 - uv0;
+  glm::dvec3 sum(0.0);
+  size_t count = 0;
+  const double inv = 1.0 / n;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; i + j < n; ++j) {
+      for (int inverted = 0; inverted < 2; ++inverted) {
+        if (inverted && i + j + 1 >= n) break;
+        const double b1 = (i + (inverted ? 2.0 : 1.0) / 3.0) * inv;
+        const double b2 = (j + (inverted ? 2.0 : 1.0) / 3.0) * inv;
+        const Vec2 uv = uv0 + static_cast<float>(b1) * e1 + static_cast<float>(b2) * e2;
+        sum += glm::dvec3(SampleBilinear(t, uv.x, uv.y));
+        ++count;
+      }
+    }
+  }
+  return Vec3(sum / double(count));
+}
+
+float SrgbToLinear(float c) {
+  if (!(c > 0.0f)) return 0.0f;
+  if (c >= 1.0f) return 1.0f;
+  return c <= 0.04045f ? c / 12.92f : static_cast<float>(std::pow((double(c) + 0.055) / 1.055, 2.4));
+}
+
+Texture DecodeTexture(const std::string& bytes, const std::string& name) {
+  auto fail = [&](const std::string& what) { throw InputError(OneLine(name + ": error: " + what)); };
+  OIIO::Filesystem::IOMemReader mem(const_cast<char*>(bytes.data()), bytes.size());
+  auto in = OIIO::ImageInput::open(name, nullptr, &mem);
+  if (!in) {
+    const std::string why = OIIO::geterror();
+    fail("not an image OpenImageIO can read" + (why.empty() ? std::string() : " (" + why + ")"));
+  }
+  const OIIO::ImageSpec spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0)
+    fail("the image has no pixels");
+  if (spec.width > kMaxTextureSide || spec.height > kMaxTextureSide)
+    fail("the image is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+         " texels, more than the limit of 16384 on a side");
+  const int channels = std::min(spec.nchannels, 3);
+  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * channels);
+  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
+    fail("cannot decode the image (" + in->geterror() + ")");
+  }
+  const bool srgb = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::UINT16 ||
+                    spec.format.basetype == OIIO::TypeDesc::INT8 || spec.format.basetype == OIIO::TypeDesc::INT16;
+  Texture t;
+  t.name = name;
+  t.width = spec.width;
+  t.height = spec.height;
+  t.rgb.resize(static_cast<size_t>(t.width) * t.height * 3);
+  for (size_t p = 0, n = static_cast<size_t>(t.width) * t.height; p < n; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      float v = pixels[p * channels + std::min(c, channels - 1)];
+      if (srgb) v = SrgbToLinear(v);
+      if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
+      t.rgb[3 * p + c] = v;
+    }
+  }
+  return t;
+}
+
+}  // namespace restir
