@@ -22,7 +22,8 @@
 //
 // Environment (for quick runs): RESTIR_BENCH_WIDTH / _HEIGHT (default 1920x1080), RESTIR_BENCH_REPS (timed frame
 // repetitions, default 2), RESTIR_BENCH_FLOOR_REPS (floor repetitions, default 2), RESTIR_BENCH_PROFILE=1 (only
-// the timed repetitions, nothing else: for perf record) or 2 (the timed repetitions and the 1-thread frame only).
+// the timed repetitions, nothing else: for perf record) or 2 (the timed repetitions and the 1-thread frame only),
+// RESTIR_BENCH_SEQUENCE (a sequence file to measure instead of the flagship).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/blocked_range.h>
@@ -84,8 +85,10 @@ constexpr int kHistoryFrame = 0;   // rendered once: gives the measured frame it
 constexpr int kMeasuredFrame = 1;  // the steady-state frame that is timed, captured and replayed
 constexpr const char* kSequence = RESTIR_SOURCE_DIR "/sequences/window_bars_pan.json";
 
+// The measured sequence: the flagship, or RESTIR_BENCH_SEQUENCE (e.g. issue 17's scale scene, scripts/make_assets.py).
 const Sequence& WindowBars() {
-  static const Sequence seq = LoadSequence(kSequence);
+  static const Sequence seq = LoadSequence(std::getenv("RESTIR_BENCH_SEQUENCE") ? std::getenv("RESTIR_BENCH_SEQUENCE")
+                                                                                 : kSequence);
   return seq;
 }
 

@@ -404,13 +404,20 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // kKeptDistributionBytes; otherwise the main pass builds them again (the same bits).
   const size_t nLights = lightList.size();
   const LightProxies proxies(lightList);
-  const bool keep = pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
+  // Above kMaxPerPixelLights every pixel's distribution is the same (power alone): built once, viewed by all.
+  std::vector<float> shared;
+  if (nLights > kMaxPerPixelLights) {
+    shared.resize(nLights);
+    PixelLightDistribution once;
+    once.Build(ShadingPoint{}, lights, proxies, shared.data());
+  }
+  const bool keep = shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
   std::vector<float> kept(keep ? pixels * nLights : 0);
   auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
       PixelLightDistribution dist;
       SampleBatch batch;
-      std::vector<float> u, local(keep ? 0 : nLights);
+      std::vector<float> u, local(keep || !shared.empty() ? 0 : nLights);
       std::vector<Vec3> values;
       for (int y = range.begin(); y < range.end(); ++y)
         for (int x = 0; x < w; ++x) {
@@ -418,7 +425,9 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
           if (!active[i]) continue;
           const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
           float* cdf = keep ? kept.data() + i * nLights : local.data();
-          if (keep && builtBefore)
+          if (!shared.empty())
+            dist.View(shared.data(), nLights);
+          else if (keep && builtBefore)
             dist.View(cdf, nLights);
           else
             dist.Build(sp, lights, proxies, cdf);
@@ -499,7 +508,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
 }
 
 double ReferenceScratchBytes(double pixels, double lights) {
-  const double kept = pixels * lights * sizeof(float);
+  const double kept = lights > double(kMaxPerPixelLights) ? lights * sizeof(float) : pixels * lights * sizeof(float);
   // active flag, relative variance, per-replicate count, samples per pixel
   const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t);
   return (kept <= double(kKeptDistributionBytes) ? kept : 0.0) + pixels * perPixel;

@@ -197,9 +197,20 @@ Sequence Reader::Read(const Json& root) {
   if (const Json* v = Find(root, "seed"))
     seq.seed = static_cast<uint32_t>(Integer(*v, "/seed", 0, 4294967295ll, "seed"));
 
-  ReadMaterials(AsArray(Need(root, "", "materials"), "/materials", true), "/materials", seq);
+  // A scene made only of assets brings its materials with them; any other object needs a sequence material.
+  const Json& materials = AsArray(Need(root, "", "materials"), "/materials", false);
+  if (materials.empty()) {
+    const Json& objects = Need(root, "", "objects");
+    bool onlyAssets = objects.is_array() && !objects.empty();
+    if (onlyAssets)
+      for (const Json& o : objects) onlyAssets = onlyAssets && o.is_object() && o.contains("asset");
+    if (!onlyAssets) Fail("/materials", "expected a non-empty array (only a scene made entirely of assets may leave it empty)");
+  }
+  ReadMaterials(materials, "/materials", seq);
   ReadObjects(AsArray(Need(root, "", "objects"), "/objects", true), "/objects", seq);
-  ReadLights(AsArray(Need(root, "", "lights"), "/lights", true), "/lights", seq);
+  // Lights may all come from assets' emissive surfaces; the scene needs at least one either way.
+  const size_t assetLights = seq.lights.size();
+  ReadLights(AsArray(Need(root, "", "lights"), "/lights", assetLights == 0), "/lights", seq);
   ReadCamera(AsObject(Need(root, "", "camera"), "/camera"), "/camera", seq);
   if (const Json* v = Find(root, "render")) ReadRender(AsObject(*v, "/render"), "/render", seq);
   seq.contentHash = Hash();
