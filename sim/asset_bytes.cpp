@@ -1,10 +1,12 @@
 // ImportedAsset as bytes (the child-to-parent message of sim/asset_isolation.cpp) and its validation. Everything
-// read is bounds-checked: a child that died half-way, or a hostile byte string, gives InputError, never a crash.
+// read is bounds-checked (sim/checkpoint.h's reader): a child that died half-way, or a hostile byte string, gives
+// InputError, never a crash.
 #include <cmath>
 #include <cstring>
 #include <type_traits>
 
 #include "sim/asset_import.h"
+#include "sim/checkpoint.h"  // BinaryWriter, BinaryReader
 #include "sim/sequence.h"  // InputError
 #include "sim/text.h"
 
@@ -12,68 +14,52 @@ namespace restir {
 
 namespace {
 
-constexpr char kMagic[8] = {'R', 'S', 'A', 'S', 'S', 'E', 'T', '1'};
+constexpr uint64_t kMagic = 0x3154455353415352ull;  // "RSASSET1" as little-endian bytes
 
-class Writer {
- public:
-  template <typename T>
-  void Pod(const T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    out.append(reinterpret_cast<const char*>(&v), sizeof(T));
-  }
-  void String(const std::string& s) {
-    Pod<uint64_t>(s.size());
-    out += s;
-  }
-  template <typename T>
-  void Vector(const std::vector<T>& v) {
-    Pod<uint64_t>(v.size());
-    if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-  }
-  std::string out;
-};
+// A reader sizes the list to the count it read; a writer's asset is const and already has that size.
+template <typename V>
+void Size(V& v, uint64_t n) {
+  if constexpr (!std::is_const_v<V>) v.resize(n);
+}
 
-class Reader {
- public:
-  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
-  template <typename T>
-  T Pod() {
-    T v;
-    Need(sizeof(T));
-    std::memcpy(&v, bytes_.data() + at_, sizeof(T));
-    at_ += sizeof(T);
-    return v;
+// One field list for both directions (sim/checkpoint.h's writer and reader share their method names).
+template <typename IO, typename Asset>
+void Fields(IO& io, Asset& a) {
+  io.Pod(a.skippedPrimitives);
+  uint64_t n = a.materials.size();
+  io.Count(n);
+  Size(a.materials, n);
+  for (auto& m : a.materials) {
+    io.String(m.name);
+    io.Pod(m.baseColor);
+    io.Pod(m.metallic);
+    io.Pod(m.roughness);
+    io.Pod(m.specular);
+    io.Pod(m.baseColorTexture);
+    io.Pod(m.emission);
+    io.Pod(m.emissionTexture);
   }
-  std::string String() {
-    const uint64_t n = Pod<uint64_t>();
-    Need(n);
-    std::string s = bytes_.substr(at_, n);
-    at_ += n;
-    return s;
+  n = a.textures.size();
+  io.Count(n);
+  Size(a.textures, n);
+  for (auto& t : a.textures) {
+    io.String(t.name);
+    io.Pod(t.width);
+    io.Pod(t.height);
+    io.Vector(t.rgb);
   }
-  template <typename T>
-  std::vector<T> Vector() {
-    const uint64_t n = Pod<uint64_t>();
-    if (n > (bytes_.size() - at_) / sizeof(T)) Broken();
-    std::vector<T> v(n);
-    if (n) std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
-    at_ += n * sizeof(T);
-    return v;
+  n = a.meshes.size();
+  io.Count(n);
+  Size(a.meshes, n);
+  for (auto& m : a.meshes) {
+    io.String(m.name);
+    io.Pod(m.material);
+    io.Vector(m.positions);
+    io.Vector(m.normals);
+    io.Vector(m.texcoords);
+    io.Vector(m.triangles);
   }
-  bool AtEnd() const { return at_ == bytes_.size(); }
-  [[noreturn]] void Broken() const {
-    throw InputError(OneLine(path_ + ": error: the importer's result is incomplete or damaged (byte " +
-                             std::to_string(at_) + " of " + std::to_string(bytes_.size()) + ")"));
-  }
-
- private:
-  void Need(uint64_t n) const {
-    if (n > bytes_.size() - at_) Broken();
-  }
-  const std::string& bytes_;
-  const std::string& path_;
-  size_t at_ = 0;
-};
+}
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) {
   throw InputError(OneLine(path + ": error: " + what));
@@ -88,85 +74,31 @@ bool FiniteNonNegative(const Vec3& v) {
 }  // namespace
 
 std::string SerializeAsset(const ImportedAsset& a) {
-  Writer w;
-  w.out.append(kMagic, sizeof(kMagic));
-  w.Pod<uint64_t>(a.skippedPrimitives);
-  w.Pod<uint64_t>(a.materials.size());
-  for (const AssetMaterial& m : a.materials) {
-    w.String(m.name);
-    w.Pod(m.baseColor);
-    w.Pod(m.metallic);
-    w.Pod(m.roughness);
-    w.Pod(m.specular);
-    w.Pod(m.baseColorTexture);
-    w.Pod(m.emission);
-    w.Pod(m.emissionTexture);
-  }
-  w.Pod<uint64_t>(a.textures.size());
-  for (const Texture& t : a.textures) {
-    w.String(t.name);
-    w.Pod(t.width);
-    w.Pod(t.height);
-    w.Vector(t.rgb);
-  }
-  w.Pod<uint64_t>(a.meshes.size());
-  for (const AssetMesh& m : a.meshes) {
-    w.String(m.name);
-    w.Pod(m.material);
-    w.Vector(m.positions);
-    w.Vector(m.normals);
-    w.Vector(m.texcoords);
-    w.Vector(m.triangles);
-  }
-  return std::move(w.out);
+  ByteCounter counter;
+  counter.Pod(kMagic);
+  Fields(counter, a);
+  BinaryWriter w;
+  w.Reserve(counter.Bytes());
+  w.Pod(kMagic);
+  Fields(w, a);
+  return w.Bytes();
 }
 
 ImportedAsset DeserializeAsset(const std::string& bytes, const std::string& path) {
-  Reader r(bytes, path);
-  for (char c : kMagic)
-    if (r.Pod<char>() != c) r.Broken();
   ImportedAsset a;
-  a.skippedPrimitives = r.Pod<uint64_t>();
-  // Every element takes at least one byte, so counts beyond the message's size are damage, not allocations.
-  auto count = [&]() {
-    const uint64_t n = r.Pod<uint64_t>();
-    if (n > bytes.size()) r.Broken();
-    return static_cast<size_t>(n);
-  };
-  const size_t materials = count();
-  for (size_t i = 0; i < materials; ++i) {
-    AssetMaterial m;
-    m.name = r.String();
-    m.baseColor = r.Pod<Vec3>();
-    m.metallic = r.Pod<float>();
-    m.roughness = r.Pod<float>();
-    m.specular = r.Pod<float>();
-    m.baseColorTexture = r.Pod<int32_t>();
-    m.emission = r.Pod<Vec3>();
-    m.emissionTexture = r.Pod<int32_t>();
-    a.materials.push_back(std::move(m));
+  bool whole = false;
+  try {
+    BinaryReader r(bytes);
+    uint64_t magic = 0;
+    r.Pod(magic);
+    if (magic == kMagic) {
+      Fields(r, a);
+      whole = r.AtEnd();
+    }
+  } catch (const std::runtime_error&) {
+    whole = false;
   }
-  const size_t textures = count();
-  for (size_t i = 0; i < textures; ++i) {
-    Texture t;
-    t.name = r.String();
-    t.width = r.Pod<int>();
-    t.height = r.Pod<int>();
-    t.rgb = r.Vector<float>();
-    a.textures.push_back(std::move(t));
-  }
-  const size_t meshes = count();
-  for (size_t i = 0; i < meshes; ++i) {
-    AssetMesh m;
-    m.name = r.String();
-    m.material = r.Pod<uint32_t>();
-    m.positions = r.Vector<Vec3>();
-    m.normals = r.Vector<Vec3>();
-    m.texcoords = r.Vector<Vec2>();
-    m.triangles = r.Vector<glm::uvec3>();
-    a.meshes.push_back(std::move(m));
-  }
-  if (!r.AtEnd()) r.Broken();
+  if (!whole) Fail(path, "the importer's result is incomplete or damaged (" + std::to_string(bytes.size()) + " bytes)");
   return a;
 }
 
