@@ -15,7 +15,7 @@ void GBuffer::Resize(int w, int h) {
   height = h > 0 ? h : 0;
   const size_t n = Size();
   for (auto* v : {&posX, &posY, &posZ, &ngX, &ngY, &ngZ, &nsX, &nsY, &nsZ, &errorScale, &depth}) v->assign(n, 0.0f);
-  for (auto* v : {&texelR, &texelG, &texelB}) v->assign(n, 1.0f);
+  for (auto* v : {&texelR, &texelG, &texelB}) v->clear();  // TracePrimary sizes them for textured scenes only
   bsdfId.assign(n, -1);
   prevX.assign(n, -1.0f);  // -1: not reprojected (Reproject also writes -1 where a point cannot be projected)
   prevY.assign(n, -1.0f);
@@ -38,6 +38,13 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
   }
   const int w = gbuffer.width;
   const float inf = std::numeric_limits<float>::infinity();
+  // The texels cost 12 bytes per pixel: kept only while the scene has textures (issue 6's per-pixel budget).
+  for (auto* v : {&gbuffer.texelR, &gbuffer.texelG, &gbuffer.texelB}) {
+    if (tex)
+      v->assign(gbuffer.Size(), 1.0f);
+    else
+      std::vector<float>().swap(*v);
+  }
   // Every pixel is written by exactly one task and depends only on its own ray, so the partitioning (thread
   // count) cannot change a bit of the output.
   tbb::parallel_for(tbb::blocked_range<int>(0, gbuffer.height), [&](const tbb::blocked_range<int>& rows) {
@@ -58,7 +65,6 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
           gbuffer.objectId[i] = -1;
           gbuffer.materialId[i] = -1;
           gbuffer.bsdfId[i] = -1;
-          gbuffer.texelR[i] = gbuffer.texelG[i] = gbuffer.texelB[i] = 1.0f;
           gbuffer.lightId[i] = -1;
           gbuffer.depth[i] = 0.0f;
           continue;
@@ -84,9 +90,11 @@ void TracePrimary(const EmbreeScene& scene, const Camera& camera, GBuffer& gbuff
             gbuffer.bsdfId[i] = tex->tableOffset + static_cast<int32_t>(i);
           }
         }
-        gbuffer.texelR[i] = texel.x;
-        gbuffer.texelG[i] = texel.y;
-        gbuffer.texelB[i] = texel.z;
+        if (tex) {
+          gbuffer.texelR[i] = texel.x;
+          gbuffer.texelG[i] = texel.y;
+          gbuffer.texelB[i] = texel.z;
+        }
         gbuffer.lightId[i] = h.lightId;
         gbuffer.depth[i] = camera.ViewDepth(h.position);
       }

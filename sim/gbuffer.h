@@ -23,7 +23,8 @@ struct GBuffer {
   // The receiver's entry in the frame's BSDF table (FrameBsdfTable, sim/shading_point.h): materialId, or for a
   // pixel on a textured material its own entry, textureTableOffset + pixel index. -1 where materialId is.
   std::vector<int32_t> bsdfId;
-  std::vector<float> texelR, texelG, texelB;  // base-colour texture at the hit (linear); 1 where untextured
+  // Base-colour texture at the hit (linear; 1 where untextured). Empty unless the scene has textures.
+  std::vector<float> texelR, texelG, texelB;
   std::vector<int32_t> lightId;            // emitter hit: light triangle; else -1
   std::vector<float> depth;                // view depth (distance along the camera's forward axis); 0 on a miss
   std::vector<float> prevX, prevY;         // continuous pixel coordinates of this point in the previous frame
