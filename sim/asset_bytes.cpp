@@ -1,6 +1,7 @@
 // ImportedAsset as bytes (the child-to-parent message of sim/asset_isolation.cpp) and its validation. Everything
 // read is bounds-checked (sim/checkpoint.h's reader): a child that died half-way, or a hostile byte string, gives
 // InputError, never a crash.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <type_traits>
@@ -47,6 +48,15 @@ void Fields(IO& io, Asset& a) {
     io.Pod(t.width);
     io.Pod(t.height);
     io.Vector(t.rgb);
+  }
+  n = a.encodedTextures.size();
+  io.Count(n);
+  Size(a.encodedTextures, n);
+  for (auto& t : a.encodedTextures) {
+    io.String(t.name);
+    io.String(t.bytes);
+    io.Pod(t.rawWidth);
+    io.Pod(t.rawHeight);
   }
   n = a.meshes.size();
   io.Count(n);
@@ -112,7 +122,8 @@ void ValidateAsset(const ImportedAsset& a, const std::string& path, const AssetL
     for (float v : t.rgb)
       if (!std::isfinite(v) || v < 0.0f) Fail(path, "texture '" + t.name + "' has a negative or non-finite texel");
   }
-  auto textureOk = [&](int32_t k) { return k >= -1 && k < static_cast<int32_t>(a.textures.size()); };
+  const size_t textureCount = std::max(a.textures.size(), a.encodedTextures.size());
+  auto textureOk = [&](int32_t k) { return k >= -1 && k < static_cast<int32_t>(textureCount); };
   for (size_t i = 0; i < a.materials.size(); ++i) {
     const AssetMaterial& m = a.materials[i];
     const std::string what = "material '" + m.name + "' (#" + std::to_string(i) + ")";

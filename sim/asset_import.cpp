@@ -173,32 +173,24 @@ class Converter {
     return out;
   }
 
-  // The material's first texture of `type`, decoded once per distinct reference; -1 when it has none.
+  // The material's first texture of `type`, read once per distinct reference; -1 when it has none.
   int32_t TextureOf(const aiMaterial& mat, aiTextureType type) {
     if (mat.GetTextureCount(type) == 0) return -1;
     aiString ref;
     if (mat.GetTexture(type, 0, &ref) != AI_SUCCESS) return -1;
     const std::string key = ref.C_Str();
     if (auto it = textureIndex_.find(key); it != textureIndex_.end()) return it->second;
-    Texture t;
+    EncodedTexture t;
     if (const aiTexture* et = scene_.GetEmbeddedTexture(key.c_str())) {
-      const std::string name = path_ + "#" + key + "." + (et->achFormatHint[0] ? et->achFormatHint : "img");
+      t.name = path_ + "#" + key + "." + (et->achFormatHint[0] ? et->achFormatHint : "img");
+      if (!et->pcData) Fail(path_, "embedded texture '" + key + "' has no data");
       if (et->mHeight == 0) {
-        if (!et->pcData) Fail(path_, "embedded texture '" + key + "' has no data");
-        t = DecodeTexture(std::string(reinterpret_cast<const char*>(et->pcData), et->mWidth), name);
+        t.bytes.assign(reinterpret_cast<const char*>(et->pcData), et->mWidth);
       } else {
-        // Raw BGRA8 texels, sRGB-encoded like every 8-bit colour texture.
-        t.name = name;
-        t.width = static_cast<int>(et->mWidth);
-        t.height = static_cast<int>(et->mHeight);
-        if (et->mWidth > 16384 || et->mHeight > 16384 || !et->pcData) Fail(path_, "embedded texture '" + key + "' is invalid");
-        t.rgb.resize(size_t(t.width) * t.height * 3);
-        for (size_t p = 0; p < size_t(t.width) * t.height; ++p) {
-          const aiTexel& x = et->pcData[p];
-          t.rgb[3 * p] = SrgbToLinear(x.r / 255.0f);
-          t.rgb[3 * p + 1] = SrgbToLinear(x.g / 255.0f);
-          t.rgb[3 * p + 2] = SrgbToLinear(x.b / 255.0f);
-        }
+        if (et->mWidth > 16384 || et->mHeight > 16384) Fail(path_, "embedded texture '" + key + "' is too large");
+        t.rawWidth = static_cast<int>(et->mWidth);
+        t.rawHeight = static_cast<int>(et->mHeight);
+        t.bytes.assign(reinterpret_cast<const char*>(et->pcData), size_t(et->mWidth) * et->mHeight * sizeof(aiTexel));
       }
     } else {
       namespace fs = std::filesystem;
@@ -207,14 +199,13 @@ class Converter {
       std::replace(portable.begin(), portable.end(), '\\', '/');
       fs::path file = fs::path(portable);
       if (file.is_relative()) file = fs::path(path_).parent_path() / file;
-      const std::string resolved = file.lexically_normal().string();
-      std::string bytes, problem;
-      if (!TryReadRegularFile(resolved, kMaxTextureFileBytes, bytes, problem))
-        Fail(path_, "cannot read texture '" + resolved + "' (" + problem + ")");
-      t = DecodeTexture(bytes, resolved);
+      t.name = file.lexically_normal().string();
+      std::string problem;
+      if (!TryReadRegularFile(t.name, kMaxTextureFileBytes, t.bytes, problem))
+        Fail(path_, "cannot read texture '" + t.name + "' (" + problem + ")");
     }
-    const int32_t index = static_cast<int32_t>(asset_.textures.size());
-    asset_.textures.push_back(std::move(t));
+    const int32_t index = static_cast<int32_t>(asset_.encodedTextures.size());
+    asset_.encodedTextures.push_back(std::move(t));
     textureIndex_.emplace(key, index);
     return index;
   }
@@ -233,7 +224,38 @@ bool IsSupportedAssetExtension(const std::string& e) {
   return x == ".gltf" || x == ".glb" || x == ".obj" || x == ".ply";
 }
 
+void DecodeAssetTextures(ImportedAsset& asset) {
+  asset.textures.clear();
+  for (const EncodedTexture& e : asset.encodedTextures) {
+    if (e.rawWidth <= 0) {
+      asset.textures.push_back(DecodeTexture(e.bytes, e.name));
+      continue;
+    }
+    // Raw BGRA8 texels, sRGB-encoded like every 8-bit colour texture.
+    if (e.rawWidth > 16384 || e.rawHeight <= 0 || e.rawHeight > 16384 ||
+        e.bytes.size() != size_t(e.rawWidth) * size_t(e.rawHeight) * 4)
+      throw InputError(OneLine(e.name + ": error: the embedded texture's size does not match its texels"));
+    Texture t;
+    t.name = e.name;
+    t.width = e.rawWidth;
+    t.height = e.rawHeight;
+    t.rgb.resize(size_t(t.width) * t.height * 3);
+    for (size_t p = 0; p < size_t(t.width) * t.height; ++p)
+      for (int c = 0; c < 3; ++c)  // aiTexel is b, g, r, a
+        t.rgb[3 * p + c] = SrgbToLinear(static_cast<unsigned char>(e.bytes[4 * p + 2 - c]) / 255.0f);
+    asset.textures.push_back(std::move(t));
+  }
+  asset.encodedTextures.clear();
+}
+
 ImportedAsset ImportAssetInProcess(const std::string& path, const AssetLimits& limits) {
+  ImportedAsset asset = ImportAssetGeometry(path, limits);
+  DecodeAssetTextures(asset);
+  ValidateAsset(asset, path, limits);
+  return asset;
+}
+
+ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& limits) {
   const std::string ext = Lower(std::filesystem::path(path).extension().string());
   if (!IsSupportedAssetExtension(ext))
     Fail(path, "unsupported asset format '" + ext + "' (supported: .gltf, .glb, .obj, .ply)");
@@ -255,7 +277,6 @@ ImportedAsset ImportAssetInProcess(const std::string& path, const AssetLimits& l
   if (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) Fail(path, "the asset is incomplete (Assimp flagged it)");
   ImportedAsset asset = Converter(path, *scene, limits).Convert(strengths, gltf);
   if (asset.meshes.empty()) Fail(path, "the asset has no triangles");
-  ValidateAsset(asset, path, limits);
   return asset;
 }
 

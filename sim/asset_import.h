@@ -3,8 +3,10 @@
 // hierarchy's transforms applied, one material per mesh, and the textures those materials use, decoded; the
 // sequence reader turns them into objects, materials and emissive triangles (sim/sequence_assets.cpp).
 //
-// Assimp and the image decoders run in a child process (ImportAsset): a file that crashes or hangs them, or asks
-// for more memory than a scene can have, becomes one InputError naming the file, never a crash of the simulator.
+// Assimp runs in a child process (ImportAsset): a file that crashes or hangs it, or asks for more memory than a
+// scene can have, becomes one InputError naming the file, never a crash of the simulator. The child only parses;
+// textures come back as the file holds them and are decoded here by OpenImageIO (libpng, libjpeg, OpenEXR), whose
+// thread pools a forked child could not use.
 #pragma once
 
 #include <cstdint>
@@ -39,10 +41,19 @@ struct AssetMesh {
   std::vector<glm::uvec3> triangles;  // indices into positions, all in range
 };
 
+// A texture as the asset holds it, before decoding: an image file's bytes (rawWidth = 0), or raw BGRA8 texels.
+struct EncodedTexture {
+  std::string name;   // the file it was read from, or "<asset>#<reference>.<format hint>" for an embedded image
+  std::string bytes;  // the encoded image, or rawWidth x rawHeight x 4 bytes
+  int rawWidth = 0;   // > 0: raw texels
+  int rawHeight = 0;
+};
+
 struct ImportedAsset {
   std::vector<AssetMesh> meshes;
   std::vector<AssetMaterial> materials;
-  std::vector<Texture> textures;
+  std::vector<Texture> textures;                // decoded (DecodeAssetTextures), indexed by the materials
+  std::vector<EncodedTexture> encodedTextures;  // the same, before decoding; empty once decoded
   uint64_t skippedPrimitives = 0;  // points and lines, which have no area to render (counted, not an error)
 };
 
@@ -62,8 +73,14 @@ bool IsSupportedAssetExtension(const std::string& extension);
 // importer crashing, hanging or running out of memory.
 ImportedAsset ImportAsset(const std::string& path, const AssetLimits& limits = {});
 
-// The same work in this process, without the isolation (the child's half of ImportAsset; tests).
+// The same work in this process, without the isolation (tests, benchmarks).
 ImportedAsset ImportAssetInProcess(const std::string& path, const AssetLimits& limits = {});
+
+// The child's half: Assimp's parse and the conversion, textures left encoded. Throws InputError.
+ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& limits);
+
+// Decodes encodedTextures into textures (sim/texture.h DecodeTexture); throws InputError naming the texture.
+void DecodeAssetTextures(ImportedAsset& asset);
 
 // The bytes the child sends the parent, and back; DeserializeAsset throws InputError naming `path` on any
 // inconsistency, so a child that dies half-way is caught (sim/asset_bytes.cpp; fuzzed by tests/fuzz/asset_fuzz.cpp).

@@ -54,7 +54,7 @@ bool WriteAll(int fd, const char* data, size_t size) {
 #endif
   std::string message;
   try {
-    message = 'A' + SerializeAsset(ImportAssetInProcess(path, limits));
+    message = 'A' + SerializeAsset(ImportAssetGeometry(path, limits));
   } catch (const InputError& e) {
     message = std::string("E") + e.what();
   } catch (const std::bad_alloc&) {
@@ -121,6 +121,11 @@ ImportedAsset ImportAsset(const std::string& path, const AssetLimits& limits) {
     Fail(path, "the importer stopped without a result (exit status " +
                    std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")");
   ImportedAsset asset = DeserializeAsset(bytes.substr(1), path);
+  try {
+    DecodeAssetTextures(asset);
+  } catch (const InputError& e) {
+    throw InputError(OneLine(std::string(e.what()) + " (a texture of " + path + ")"));
+  }
   ValidateAsset(asset, path, limits);
   return asset;
 }
