@@ -2,10 +2,11 @@
 # Fuzzes the readers of untrusted files for a bounded time with libFuzzer + ASan + UBSan: the sequence parser
 # (tests/fuzz/sequence_fuzz.cpp) for SECONDS, then the reference cache reader (cache_fuzz.cpp) and the metrics.csv
 # reader of report and compare (metrics_csv_fuzz.cpp) for SECONDS/2 each, then the reader of a sweep job's
-# relative-error frames (relative_error_fuzz.cpp) for SECONDS/4. Installs clang if missing, builds the
-# `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any finding (crash, uncaught
-# exception, sanitizer report, timeout, leak, out-of-memory), leaving the input that triggered it in
-# build/fuzz/artifacts/<target>/.
+# relative-error frames (relative_error_fuzz.cpp) and the asset importer (asset_fuzz.cpp: glTF, GLB, OBJ and PLY
+# through Assimp in its forked child, and the child's message to the parent) for SECONDS/4 each. Installs clang if
+# missing, builds the `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any
+# finding (crash, uncaught exception, sanitizer report, timeout, leak, out-of-memory), leaving the input that
+# triggered it in build/fuzz/artifacts/<target>/.
 # Usage: scripts/fuzz.sh [SECONDS]   (default 60; also FUZZ_SECONDS)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -45,3 +46,4 @@ fuzz sequence_fuzz "$seconds" 8192 sequences tests/data/bad_sequences -- -dict=t
 fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 tests/fuzz/cache_seeds
 fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 tests/fuzz/metrics_seeds
 fuzz relative_error_fuzz $(( (seconds + 3) / 4 )) 256 tests/fuzz/relative_error_seeds
+fuzz asset_fuzz $(( (seconds + 3) / 4 )) 16384 tests/fuzz/asset_seeds -- -dict=tests/fuzz/asset.dict

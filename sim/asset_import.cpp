@@ -35,9 +35,19 @@ std::string Lower(std::string s) {
   throw InputError(OneLine(path + ": error: " + what));
 }
 
-// KHR_materials_emissive_strength, which Assimp 5.2 does not read: the strength of each glTF material, by index
-// (1 where absent). The JSON is the .gltf file itself or the .glb's first chunk.
-std::vector<float> GltfEmissiveStrengths(const std::string& path, bool binary) {
+// KHR_materials_emissive_strength, which Assimp 5.2 does not read. Assimp numbers glTF materials in the order its
+// reader first meets them, not the file's, so each file material is kept with what identifies it (its name and
+// factors), and an Assimp material takes the strength of the file materials that look exactly like it.
+struct GltfMaterialKey {
+  std::string name;
+  Vec3 baseColor{1.0f};  // baseColorFactor rgb
+  Vec3 emissive{0.0f};   // emissiveFactor
+  float metallic = 1.0f;
+  float roughness = 1.0f;
+  float strength = 1.0f;  // emissiveStrength, 1 where absent
+};
+
+std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& path, bool binary) {
   std::string bytes, problem;
   if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem)) Fail(path, "cannot read the file (" + problem + ")");
   std::string_view json = bytes;
@@ -53,26 +63,44 @@ std::vector<float> GltfEmissiveStrengths(const std::string& path, bool binary) {
     if (u32(16) != 0x4E4F534Au || chunk > bytes.size() - 20) Fail(path, "the binary glTF's first chunk is not its JSON");
     json = std::string_view(bytes).substr(20, chunk);
   }
-  std::vector<float> strengths;
-  const nlohmann::json doc = nlohmann::json::parse(json.begin(), json.end(), nullptr, false);
-  if (!doc.is_object()) return strengths;  // Assimp will say what is wrong with it
+  using Json = nlohmann::json;
+  std::vector<GltfMaterialKey> keys;
+  const Json doc = Json::parse(json.begin(), json.end(), nullptr, false);
+  if (!doc.is_object()) return keys;  // Assimp will say what is wrong with it
   const auto materials = doc.find("materials");
-  if (materials == doc.end() || !materials->is_array()) return strengths;
-  for (const nlohmann::json& m : *materials) {
-    float s = 1.0f;
-    if (m.is_object()) {
-      const auto ext = m.find("extensions");
-      if (ext != m.end() && ext->is_object()) {
-        const auto k = ext->find("KHR_materials_emissive_strength");
-        if (k != ext->end() && k->is_object()) {
-          const auto v = k->find("emissiveStrength");
-          if (v != k->end() && v->is_number()) s = v->get<float>();
-        }
-      }
+  if (materials == doc.end() || !materials->is_array()) return keys;
+  auto number = [](const Json& o, const char* k, float fallback) {
+    const auto v = o.is_object() ? o.find(k) : o.end();
+    return v != o.end() && v->is_number() ? v->get<float>() : fallback;
+  };
+  auto vec3 = [](const Json& o, const char* k, Vec3 fallback) {
+    const auto v = o.is_object() ? o.find(k) : o.end();
+    if (v == o.end() || !v->is_array() || v->size() < 3) return fallback;
+    for (int c = 0; c < 3; ++c)
+      if (!(*v)[c].is_number()) return fallback;
+    return Vec3((*v)[0].get<float>(), (*v)[1].get<float>(), (*v)[2].get<float>());
+  };
+  static const Json kNone = Json::object();
+  for (const Json& m : *materials) {
+    GltfMaterialKey k;
+    if (!m.is_object()) {
+      keys.push_back(k);
+      continue;
     }
-    strengths.push_back(s);
+    if (m.contains("name") && m["name"].is_string()) k.name = m["name"].get<std::string>();
+    const Json& pbr = m.contains("pbrMetallicRoughness") ? m["pbrMetallicRoughness"] : kNone;
+    k.baseColor = vec3(pbr, "baseColorFactor", Vec3(1.0f));
+    k.metallic = number(pbr, "metallicFactor", 1.0f);
+    k.roughness = number(pbr, "roughnessFactor", 1.0f);
+    k.emissive = vec3(m, "emissiveFactor", Vec3(0.0f));
+    const Json& ext = m.contains("extensions") ? m["extensions"] : kNone;
+    const Json& es = ext.is_object() && ext.contains("KHR_materials_emissive_strength")
+                         ? ext["KHR_materials_emissive_strength"]
+                         : kNone;
+    k.strength = number(es, "emissiveStrength", 1.0f);
+    keys.push_back(k);
   }
-  return strengths;
+  return keys;
 }
 
 class Converter {
@@ -80,9 +108,9 @@ class Converter {
   Converter(const std::string& path, const aiScene& scene, const AssetLimits& limits)
       : path_(path), scene_(scene), limits_(limits) {}
 
-  ImportedAsset Convert(const std::vector<float>& emissiveStrengths, bool gltf) {
+  ImportedAsset Convert(const std::vector<GltfMaterialKey>& gltfMaterials, bool gltf) {
     for (unsigned m = 0; m < scene_.mNumMaterials; ++m)
-      asset_.materials.push_back(ConvertMaterial(*scene_.mMaterials[m], m, emissiveStrengths, gltf));
+      asset_.materials.push_back(ConvertMaterial(*scene_.mMaterials[m], gltfMaterials, gltf));
     if (asset_.materials.empty()) asset_.materials.push_back(AssetMaterial{});
     uint64_t triangles = 0;
     for (unsigned i = 0; i < scene_.mNumMeshes; ++i) {
@@ -128,7 +156,7 @@ class Converter {
   }
 
  private:
-  AssetMaterial ConvertMaterial(const aiMaterial& mat, unsigned index, const std::vector<float>& strengths,
+  AssetMaterial ConvertMaterial(const aiMaterial& mat, const std::vector<GltfMaterialKey>& gltfMaterials,
                                 bool gltf) {
     AssetMaterial out;
     aiString name;
@@ -149,8 +177,7 @@ class Converter {
       out.baseColorTexture = TextureOf(mat, aiTextureType_BASE_COLOR);
       if (out.baseColorTexture < 0) out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE);
       if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
-      const float strength = index < strengths.size() ? strengths[index] : 1.0f;
-      out.emission *= strength;
+      out.emission *= EmissiveStrength(out, gltfMaterials);
     } else {
       // OBJ/MTL and PLY: Kd, Ks, Ns, Ke as the table in docs/sequence-format.md maps them.
       Vec3 kd(0.6f), ks(0.0f);
@@ -171,6 +198,29 @@ class Converter {
     }
     out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE);
     return out;
+  }
+
+  // The strength of the file materials that match `m` exactly (name and factors as Assimp read them); refused when
+  // materials that look the same carry different strengths, since which one Assimp gave this mesh is unknowable.
+  float EmissiveStrength(const AssetMaterial& m, const std::vector<GltfMaterialKey>& keys) const {
+    if (!(std::max({m.emission.x, m.emission.y, m.emission.z}) > 0.0f)) return 1.0f;
+    // By name and factors first; Assimp names an unnamed material itself, so then by factors alone.
+    for (const bool byName : {true, false}) {
+      float strength = 1.0f;
+      bool found = false;
+      for (const GltfMaterialKey& k : keys) {
+        if ((byName && k.name != m.name) || k.baseColor != m.baseColor || k.emissive != m.emission ||
+            k.metallic != m.metallic || k.roughness != m.roughness)
+          continue;
+        if (found && k.strength != strength)
+          Fail(path_, "materials like '" + m.name + "' look the same but carry different emissive strengths; "
+                      "Assimp does not say which is which (give them distinct names or factors)");
+        strength = k.strength;
+        found = true;
+      }
+      if (found) return strength;
+    }
+    return 1.0f;
   }
 
   // The material's first texture of `type`, read once per distinct reference; -1 when it has none.
@@ -266,7 +316,8 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
     if (probe.empty()) Fail(path, "the file is empty");
   }
   const bool gltf = ext == ".gltf" || ext == ".glb";
-  const std::vector<float> strengths = gltf ? GltfEmissiveStrengths(path, ext == ".glb") : std::vector<float>{};
+  const std::vector<GltfMaterialKey> gltfMaterials =
+      gltf ? GltfMaterialKeys(path, ext == ".glb") : std::vector<GltfMaterialKey>{};
   Assimp::Importer importer;
   // PreTransformVertices bakes every node's transform into its meshes' vertices (and normals), so the asset
   // arrives in its root space; SortByPType puts points and lines in meshes of their own, which are skipped.
@@ -275,7 +326,7 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
   const aiScene* scene = importer.ReadFile(path, flags);
   if (!scene) Fail(path, std::string("cannot import the asset (Assimp: ") + importer.GetErrorString() + ")");
   if (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) Fail(path, "the asset is incomplete (Assimp flagged it)");
-  ImportedAsset asset = Converter(path, *scene, limits).Convert(strengths, gltf);
+  ImportedAsset asset = Converter(path, *scene, limits).Convert(gltfMaterials, gltf);
   if (asset.meshes.empty()) Fail(path, "the asset has no triangles");
   return asset;
 }

@@ -77,7 +77,7 @@ class BinaryReader {
     if (n > (bytes_.size() - pos_) / (sizeof(T) ? sizeof(T) : 1)) throw std::runtime_error("checkpoint truncated");
     v.resize(n);
     Need(n * sizeof(T));
-    std::memcpy(v.data(), bytes_.data() + pos_, n * sizeof(T));
+    if (n) std::memcpy(v.data(), bytes_.data() + pos_, n * sizeof(T));  // an empty vector's data() may be null
     pos_ += n * sizeof(T);
   }
   void String(std::string& s) {

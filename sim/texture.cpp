@@ -3,8 +3,11 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "sim/sequence.h"  // InputError
 #include "sim/text.h"
@@ -14,6 +17,7 @@ namespace restir {
 namespace {
 
 constexpr int kMaxTextureSide = 16384;
+constexpr int64_t kMaxTextureTexels = int64_t(1) << 26;
 
 int64_t Wrap(int64_t i, int64_t n) {
   const int64_t r = i % n;
@@ -79,8 +83,49 @@ float SrgbToLinear(float c) {
   return c <= 0.04045f ? c / 12.92f : static_cast<float>(std::pow((double(c) + 0.055) / 1.055, 2.4));
 }
 
+namespace {
+
+// libpng and libjpeg print their own diagnostics on stderr while OpenImageIO decodes; a bad texture must give one
+// message, so stderr goes to a temporary file for the duration and what it caught is folded into the error.
+class StderrCapture {
+ public:
+  StderrCapture() {
+    std::fflush(stderr);
+    file_ = std::tmpfile();
+    saved_ = file_ ? ::dup(2) : -1;
+    if (saved_ >= 0) ::dup2(::fileno(file_), 2);
+  }
+  ~StderrCapture() { Restore(); }
+  // Restores stderr; returns the first line written while captured.
+  std::string Restore() {
+    std::string first;
+    if (saved_ >= 0) {
+      std::fflush(stderr);
+      ::dup2(saved_, 2);
+      ::close(saved_);
+      saved_ = -1;
+      std::rewind(file_);
+      char line[256];
+      if (std::fgets(line, sizeof(line), file_)) first = line;
+      while (!first.empty() && (first.back() == '\n' || first.back() == '\r')) first.pop_back();
+    }
+    if (file_) std::fclose(file_), file_ = nullptr;
+    return first;
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+  int saved_ = -1;
+};
+
+}  // namespace
+
 Texture DecodeTexture(const std::string& bytes, const std::string& name) {
-  auto fail = [&](const std::string& what) { throw InputError(OneLine(name + ": error: " + what)); };
+  StderrCapture capture;
+  auto fail = [&](const std::string& what) {
+    const std::string said = capture.Restore();
+    throw InputError(OneLine(name + ": error: " + what + (said.empty() ? "" : " [" + said + "]")));
+  };
   OIIO::Filesystem::IOMemReader mem(const_cast<char*>(bytes.data()), bytes.size());
   auto in = OIIO::ImageInput::open(name, nullptr, &mem);
   if (!in) {
@@ -90,29 +135,37 @@ Texture DecodeTexture(const std::string& bytes, const std::string& name) {
   const OIIO::ImageSpec spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0)
     fail("the image has no pixels");
-  if (spec.width > kMaxTextureSide || spec.height > kMaxTextureSide)
+  // The header alone decides the allocation, so it is bounded before anything is allocated: 16384 on a side and
+  // 2^26 texels (a 8192 x 8192 texture is 768 MiB as linear float RGB).
+  if (spec.width > kMaxTextureSide || spec.height > kMaxTextureSide ||
+      int64_t(spec.width) * spec.height > kMaxTextureTexels)
     fail("the image is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
-         " texels, more than the limit of 16384 on a side");
+         " texels, more than the limit of 16384 on a side and 67,108,864 in all");
   const int channels = std::min(spec.nchannels, 3);
-  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * channels);
-  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
-    fail("cannot decode the image (" + in->geterror() + ")");
-  }
-  const bool srgb = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::UINT16 ||
-                    spec.format.basetype == OIIO::TypeDesc::INT8 || spec.format.basetype == OIIO::TypeDesc::INT16;
+  const size_t texels = static_cast<size_t>(spec.width) * spec.height;
   Texture t;
   t.name = name;
   t.width = spec.width;
   t.height = spec.height;
-  t.rgb.resize(static_cast<size_t>(t.width) * t.height * 3);
-  for (size_t p = 0, n = static_cast<size_t>(t.width) * t.height; p < n; ++p) {
-    for (int c = 0; c < 3; ++c) {
-      float v = pixels[p * channels + std::min(c, channels - 1)];
-      if (srgb) v = SrgbToLinear(v);
-      if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
-      t.rgb[3 * p + c] = v;
-    }
+  // Decoded straight into the texture when it has three channels (one buffer, converted in place).
+  std::vector<float> narrow;
+  std::vector<float>& pixels = channels == 3 ? t.rgb : narrow;
+  pixels.resize(texels * channels);
+  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data()))
+    fail("cannot decode the image (" + in->geterror() + ")");
+  const bool srgb = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::UINT16 ||
+                    spec.format.basetype == OIIO::TypeDesc::INT8 || spec.format.basetype == OIIO::TypeDesc::INT16;
+  if (channels != 3) {
+    t.rgb.resize(texels * 3);
+    for (size_t p = 0; p < texels; ++p)
+      for (int c = 0; c < 3; ++c) t.rgb[3 * p + c] = narrow[p * channels + std::min(c, channels - 1)];
+    std::vector<float>().swap(narrow);
   }
+  for (float& v : t.rgb) {
+    if (srgb) v = SrgbToLinear(v);
+    if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
+  }
+  capture.Restore();  // a decoder's warnings on an image it did decode are not ours to print
   return t;
 }
 

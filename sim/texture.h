@@ -38,7 +38,8 @@ float SrgbToLinear(float encoded);
 
 // Decodes an image (PNG, JPEG, EXR, HDR, ... whatever OpenImageIO reads) from memory into linear RGB: 8- and
 // 16-bit integer images are taken as sRGB, float images as linear; grey is replicated, alpha dropped. Throws
-// InputError "<name>: error: ..." when the bytes are not an image, or the image is larger than 16384 x 16384.
+// InputError "<name>: error: ..." (with the decoder's own diagnostic, which never reaches stderr) when the bytes
+// are not an image or the image is beyond 16384 texels on a side or 2^26 in all (bounded before allocating).
 Texture DecodeTexture(const std::string& bytes, const std::string& name);
 
 }  // namespace restir

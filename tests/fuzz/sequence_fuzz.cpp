@@ -2,14 +2,23 @@
 // parse or throw InputError. Anything else (a crash, another exception, a hang, an ASan/UBSan report, a huge
 // allocation) is a bug that libFuzzer reports. Built by the `fuzz` preset, run by scripts/fuzz.sh.
 //
-// Relative mesh paths resolve against the repository's data/ directory, so inputs derived from the shipped
-// sequences ("meshes/tetra.obj") also exercise the OBJ reader. The parser itself refuses anything that is not
-// a regular file, so a mutated path such as "/dev/zero" cannot block the run.
+// Relative mesh and asset paths resolve against the repository's data/ directory, so inputs derived from the
+// shipped sequences ("meshes/tetra.obj") also exercise the importer (Assimp in a forked child,
+// sim/asset_import.h; importer_child.h keeps libFuzzer's handlers out of that child). The parser itself
+// refuses anything that is not a regular file, so a mutated path such as "/dev/zero" cannot block the run.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
+#include "importer_child.h"
 #include "sim/sequence.h"
+
+RESTIR_FUZZ_SANITIZER_DEFAULTS
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  restir::fuzz::InstallImporterChildHandler();
+  return 0;
+}
 
 #ifndef RESTIR_FUZZ_DATA_DIR
 #define RESTIR_FUZZ_DATA_DIR "data"
