@@ -8,8 +8,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
+#include "core/bsdf.h"
 #include "core/light.h"
 #include "sim/flip.h"
 #include "sim/gbuffer.h"
@@ -22,12 +24,21 @@ namespace restir {
 
 namespace {
 
-double GBufferBytesPerPixel() {
+// The texel arrays exist only in textured scenes (TracePrimary), so they count only there.
+double GBufferBytesPerPixel(bool textures) {
   GBuffer g;
+  const void* texels[] = {&g.texelR, &g.texelG, &g.texelB};
   double bytes = 0.0;
-  GBuffer::ForEachArray(g, [&](auto& v) { bytes += sizeof(typename std::decay_t<decltype(v)>::value_type); });
+  GBuffer::ForEachArray(g, [&](auto& v) {
+    if (!textures && std::find(std::begin(texels), std::end(texels), static_cast<const void*>(&v)) != std::end(texels))
+      return;
+    bytes += sizeof(typename std::decay_t<decltype(v)>::value_type);
+  });
   return bytes;
 }
+
+// One BsdfSoa entry (core/bsdf.h): type, albedo, alpha, specular, specular weight.
+constexpr double kBsdfEntry = sizeof(int32_t) + 3 * sizeof(float) + sizeof(float) + 3 * sizeof(float) + sizeof(float);
 
 constexpr double kRgb = sizeof(Vec3);               // one ImageRgb pixel
 constexpr double kReservoir = sizeof(StoredReservoir);
@@ -50,13 +61,16 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double px = double(s.width) * double(s.height);
   const double presets = double(std::max<int64_t>(1, s.presets));
   const double members = double(std::max<int64_t>(1, s.members));
-  const double gbuffer = GBufferBytesPerPixel();
+  const double gbuffer = GBufferBytesPerPixel(s.textures);
   MemoryEstimate e;
   auto add = [&](const std::string& name, double bytes) { e.parts.emplace_back(name, bytes); };
 
   // Long-lived: what every frame holds.
   add("G-buffers (current and previous)", px * 2.0 * gbuffer);
   add("disocclusion ages and masks", px * (sizeof(uint16_t) + 2.0));
+  // Textured scenes: the frame's BSDF table has an entry per pixel of this frame's and last frame's G-buffer,
+  // built as a list of Bsdf and then as its SoA (FrameBsdfTable).
+  if (s.textures) add("BSDF table of textured receivers", px * 2.0 * (sizeof(Bsdf) + kBsdfEntry));
   // Per member: this frame's and last frame's reservoirs, the spatial pass's output buffer and its image.
   add("reservoirs", px * presets * members * 3.0 * kReservoir);
   // Per preset: the estimate, the previous estimate, the accumulation sum and mean, FLIP's map, the temporal mask;
