@@ -47,9 +47,8 @@ struct GltfMaterialKey {
   float strength = 1.0f;  // emissiveStrength, 1 where absent
 };
 
-std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& path, bool binary) {
-  std::string bytes, problem;
-  if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem)) Fail(path, "cannot read the file (" + problem + ")");
+// `bytes` is the file at `path` (read once by the caller, which Assimp then reads again itself).
+std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const std::string& path, bool binary) {
   std::string_view json = bytes;
   if (binary) {
     // GLB header: magic, version, length; then chunk 0: length, type "JSON", data (glTF 2.0 spec, "GLB File Format").
@@ -309,15 +308,15 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
   const std::string ext = Lower(std::filesystem::path(path).extension().string());
   if (!IsSupportedAssetExtension(ext))
     Fail(path, "unsupported asset format '" + ext + "' (supported: .gltf, .glb, .obj, .ply)");
-  {
-    // Refuse what is not a regular file before Assimp opens it (a FIFO would block it).
-    std::string probe, problem;
-    if (!TryReadRegularFile(path, kMaxAssetFileBytes, probe, problem)) Fail(path, "cannot read the file (" + problem + ")");
-    if (probe.empty()) Fail(path, "the file is empty");
-  }
+  // Refuse what is not a regular file before Assimp opens it (a FIFO would block it); glTF's JSON is read from
+  // these bytes too.
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem)) Fail(path, "cannot read the file (" + problem + ")");
+  if (bytes.empty()) Fail(path, "the file is empty");
   const bool gltf = ext == ".gltf" || ext == ".glb";
   const std::vector<GltfMaterialKey> gltfMaterials =
-      gltf ? GltfMaterialKeys(path, ext == ".glb") : std::vector<GltfMaterialKey>{};
+      gltf ? GltfMaterialKeys(bytes, path, ext == ".glb") : std::vector<GltfMaterialKey>{};
+  if (!gltf) std::string().swap(bytes);  // only glTF needs them; Assimp reads the file itself
   Assimp::Importer importer;
   // PreTransformVertices bakes every node's transform into its meshes' vertices (and normals), so the asset
   // arrives in its root space; SortByPType puts points and lines in meshes of their own, which are skipped.

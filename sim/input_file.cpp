@@ -13,25 +13,46 @@
 
 namespace restir {
 
-bool TryReadRegularFile(const std::string& path, size_t maxBytes, std::string& bytes, std::string& problem) {
+namespace {
+
+// An open descriptor of a regular file of at most maxBytes (its size in `size`), or -1 with `problem` set.
+int OpenRegularFile(const std::string& path, size_t maxBytes, size_t& size, std::string& problem) {
   // O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below as not a regular file.
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
     problem = errno == ENOENT ? "no such file" : std::strerror(errno);
-    return false;
+    return -1;
   }
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     problem = S_ISDIR(st.st_mode) ? "a directory, not a file" : "not a regular file";
     ::close(fd);
-    return false;
+    return -1;
   }
   if (static_cast<unsigned long long>(st.st_size) > maxBytes) {
     problem = "larger than " + FormatBytes(double(maxBytes));
     ::close(fd);
-    return false;
+    return -1;
   }
-  bytes.resize(static_cast<size_t>(st.st_size));
+  size = static_cast<size_t>(st.st_size);
+  return fd;
+}
+
+}  // namespace
+
+bool IsReadableRegularFile(const std::string& path, size_t maxBytes, std::string& problem) {
+  size_t size = 0;
+  const int fd = OpenRegularFile(path, maxBytes, size, problem);
+  if (fd < 0) return false;
+  ::close(fd);
+  return true;
+}
+
+bool TryReadRegularFile(const std::string& path, size_t maxBytes, std::string& bytes, std::string& problem) {
+  size_t size = 0;
+  const int fd = OpenRegularFile(path, maxBytes, size, problem);
+  if (fd < 0) return false;
+  bytes.resize(size);
   size_t done = 0;
   for (;;) {
     if (done == bytes.size()) {

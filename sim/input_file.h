@@ -11,6 +11,9 @@ namespace restir {
 // 16 MiB", or the system's reason). Never blocks on a FIFO, never reads past maxBytes.
 bool TryReadRegularFile(const std::string& path, size_t maxBytes, std::string& bytes, std::string& problem);
 
+// The same checks without reading: for a file another reader (Assimp) will open itself.
+bool IsReadableRegularFile(const std::string& path, size_t maxBytes, std::string& problem);
+
 // The same, throwing InputError "<path>: error: cannot read <what> (<problem>)".
 std::string ReadInputFile(const std::string& path, size_t maxBytes, const std::string& what);
 

@@ -370,8 +370,8 @@ ImportedAsset Reader::LoadAsset(const std::string& file, const std::string& p) {
   if (resolved.is_relative()) resolved = fs::path(baseDir_.empty() ? "." : baseDir_) / resolved;
   const std::string path = resolved.lexically_normal().string();
   if (auto it = assetCache_.find(path); it != assetCache_.end()) return it->second;
-  std::string bytes, problem;
-  if (!TryReadRegularFile(path, kMaxMeshBytes, bytes, problem))
+  std::string problem;
+  if (!IsReadableRegularFile(path, kMaxMeshBytes, problem))
     Fail(p, "cannot read file '" + path + "' (" + problem + ")");
   if (!IsSupportedAssetExtension(fs::path(path).extension().string()))
     Fail(p, "'" + path + "' is not a supported asset (supported: .gltf, .glb, .obj, .ply)");

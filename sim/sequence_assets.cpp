@@ -76,9 +76,9 @@ void AddAsset(ImportedAsset asset, const AssetPlacement& place, const AssetBudge
 
   for (size_t i = 0; i < asset.meshes.size(); ++i) {
     AssetMesh& am = asset.meshes[i];
-    const AssetMaterial& am_mat = asset.materials[am.material];
+    const AssetMaterial& material = asset.materials[am.material];
     const std::string base = place.name + "/" + std::to_string(i) + (am.name.empty() ? "" : ":" + am.name);
-    const Vec3 emission = am_mat.emission * place.emissionScale;
+    const Vec3 emission = material.emission * place.emissionScale;
     const bool emits = place.emissionScale > 0.0f && std::max({emission.x, emission.y, emission.z}) > 0.0f;
     Mesh mesh;
     mesh.positions = std::move(am.positions);
@@ -92,7 +92,7 @@ void AddAsset(ImportedAsset asset, const AssetPlacement& place, const AssetBudge
              "(give the object one key, or set \"emissionScale\": 0)");
       // Each emissive triangle becomes a light triangle, in world space under the (single) key; it leaves the
       // object's geometry, since emitters are their own geometry (sim/embree_scene.h).
-      const Texture* tex = am_mat.emissionTexture >= 0 ? &asset.textures[size_t(am_mat.emissionTexture)] : nullptr;
+      const Texture* tex = material.emissionTexture >= 0 ? &asset.textures[size_t(material.emissionTexture)] : nullptr;
       Light light;
       light.name = base + "/emission";
       light.radiance = emission;
