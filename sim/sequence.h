@@ -3,11 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/math.h"
+#include "core/sky.h"
 #include "sim/texture.h"
 
 namespace restir {
@@ -75,6 +77,40 @@ struct Light {
   std::vector<std::pair<int, int>> onRanges;  // frames [first, last) during which it is on; empty: always on
 };
 
+// The light at infinity (docs/sequence-format.md "Sky"; DESIGN §8): an environment and a sun, each animated by
+// keyframes and switched on and off like the lights.
+struct EnvironmentKey {
+  int frame = 0;
+  float intensity = 1.0f;        // multiplies the map's (or the colour's) radiance
+  float rotationDegrees = 0.0f;  // rotation of the map about +Y (counter-clockwise seen from above)
+  Interpolation interpolation = Interpolation::kLinear;
+};
+
+struct Environment {
+  bool present = false;
+  EnvironmentMap map;                          // linear RGB radiance (core/sky.h); a constant sky is 1x1
+  std::string file;                            // the map's file as the sequence names it, or empty for a colour
+  std::vector<EnvironmentKey> keys;            // sorted by frame; at least one when present
+  std::vector<std::pair<int, int>> onRanges;   // frames [first, last) during which it is on; empty: always on
+  // The importance sampler of `map`, built once (sim/sky_frame.h PrepareEnvironment) and shared by every frame.
+  std::shared_ptr<const EnvironmentSampler> sampler;
+};
+
+struct SunKey {
+  int frame = 0;
+  Vec3 direction{0.0f, 1.0f, 0.0f};  // unit, from the scene towards the sun
+  float intensity = 1.0f;            // multiplies Sun::radiance
+  Interpolation interpolation = Interpolation::kLinear;
+};
+
+struct Sun {
+  bool present = false;
+  Vec3 radiance{0.0f};                       // inside the disc (given, or from the illuminance at normal incidence)
+  float angularDiameterDegrees = 0.53f;      // the disc's apparent diameter
+  std::vector<SunKey> keys;                  // sorted by frame; at least one when present
+  std::vector<std::pair<int, int>> onRanges; // frames [first, last) during which it is on; empty: always on
+};
+
 struct CameraKey {
   int frame = 0;
   Vec3 position{0.0f};
@@ -101,6 +137,8 @@ struct Sequence {
   std::vector<Texture> textures;     // base-colour textures of imported assets, referenced by materials
   std::vector<Object> objects;
   std::vector<Light> lights;
+  Environment environment;           // the sky's environment, if any
+  Sun sun;                           // the sun, if any
   std::vector<CameraKey> cameraKeys;  // sorted by frame; at least one
   RenderDefaults defaults;
   std::string contentHash;  // hex hash of the file's bytes and of every mesh file it loads
@@ -135,6 +173,11 @@ struct FrameState {
   Camera camera;
   std::vector<Mat4> objectToWorld;  // one per Sequence::objects
   std::vector<uint8_t> lightOn;     // one per Sequence::lights
+  // The sky at this frame (zero radiance where the sequence has none or it is switched off).
+  float environmentIntensity = 0.0f;   // 0 when off or absent
+  float environmentRotationDegrees = 0.0f;
+  Vec3 sunDirection{0.0f, 1.0f, 0.0f};  // unit
+  float sunIntensity = 0.0f;            // multiplies Sun::radiance; 0 when off or absent
 };
 
 // Reads and validates a sequence file. Throws InputError with file:line:column and JSON path on any problem

@@ -95,6 +95,14 @@ Vec3 DirectEmission(const GBuffer& g, size_t i, const std::vector<LightTriangle>
   return glm::dot(t.normal, g.GeometricNormal(i)) > 0.0f ? t.radiance : Vec3(0.0f);
 }
 
+Vec3 DirectEmission(const GBuffer& g, size_t i, const std::vector<LightTriangle>& lights, const Sky& sky,
+                    const Camera& camera) {
+  if (g.objectId[i] >= 0 || g.lightId[i] >= 0) return DirectEmission(g, i, lights);
+  if (sky.Empty()) return Vec3(0.0f);
+  const int x = static_cast<int>(i % static_cast<size_t>(g.width)), y = static_cast<int>(i / static_cast<size_t>(g.width));
+  return sky.Radiance(camera.RayDirection(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+}
+
 bool ShadowRayOccluded(const EmbreeScene& scene, const ShadingPoint& sp, const Vec3& lightPosition,
                        const Vec3& lightNormal, float lightErrorScale, SceneFrame frame) {
   const ShadowRaySegment ray =

@@ -40,6 +40,10 @@ ShadingPoint ShadingPointAt(const GBuffer& gbuffer, size_t i, const Vec3& eye, c
 
 // Radiance a primary ray sees directly at pixel i: an emitter's front face, else zero.
 Vec3 DirectEmission(const GBuffer& gbuffer, size_t i, const std::vector<LightTriangle>& lights);
+// The same, plus the sky where the primary ray escaped (no hit at pixel i): its radiance towards the ray through
+// the pixel's centre, as sim/gbuffer.cpp traced it.
+Vec3 DirectEmission(const GBuffer& gbuffer, size_t i, const std::vector<LightTriangle>& lights, const Sky& sky,
+                    const Camera& camera);
 
 // True when the segment from the receiver to a light point (on an emitter of normal lightNormal and error scale
 // lightErrorScale) is blocked: core/shadow_ray.h ShadowRaySetup, both ends spawned off their surfaces.
