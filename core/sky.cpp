@@ -53,9 +53,19 @@ Vec3 EnvironmentSampler::Sample(float uSelect, float uCoin, float uPhi, float uL
       kPi - 2.0f * kPi * (static_cast<float>(column) + uPhi) / static_cast<float>(map_.width);
   const float sinTop = static_cast<float>(std::sin(RowEdgeLatitude(row, map_.height)));
   const float sinBottom = static_cast<float>(std::sin(RowEdgeLatitude(row + 1, map_.height)));
-  const float y = std::clamp(sinTop + (sinBottom - sinTop) * uLatitude, -1.0f, 1.0f);
-  const float r = std::sqrt(std::max(0.0f, 1.0f - y * y));
-  const Vec3 w(r * std::sin(longitude), y, r * std::cos(longitude));
+  auto direction = [&](float longitude, float uLat) {
+    const float y = std::clamp(sinTop + (sinBottom - sinTop) * uLat, -1.0f, 1.0f);
+    const float r = std::sqrt(std::max(0.0f, 1.0f - y * y));
+    return Vec3(r * std::sin(longitude), y, r * std::cos(longitude));
+  };
+  Vec3 w = direction(longitude, uLatitude);
+  // Rounding can put a draw within an ulp of the texel's edge into its neighbour (a 2^-24 chance per draw), whose
+  // density may be 0: such a draw takes the texel's centre instead, so every sample lies in the texel it chose.
+  // The mass moved is at most 2^-24 of the texel's.
+  int c, rr;
+  EnvironmentTexelOf(map_, w, c, rr);
+  if (c != column || rr != row)
+    w = direction(kPi - 2.0f * kPi * (static_cast<float>(column) + 0.5f) / static_cast<float>(map_.width), 0.5f);
   // The density of the texel the direction lands in: float rounding can move a direction sampled at a texel's
   // edge into its neighbour, and Pdf() must agree with Sample() for every direction it returns.
   pdf = Pdf(w);
@@ -101,7 +111,13 @@ Vec3 SampleSunDisc(const SunDisc& s, float u0, float u1) {
   const float phi = 2.0f * kPi * u1;
   Vec3 t, b;
   OrthonormalBasis(s.direction, t, b);
-  return glm::normalize(sinTheta * std::cos(phi) * t + sinTheta * std::sin(phi) * b + cosTheta * s.direction);
+  Vec3 w = glm::normalize(sinTheta * std::cos(phi) * t + sinTheta * std::sin(phi) * b + cosTheta * s.direction);
+  // Float rounding of w (~1e-7) can put a draw at the rim outside InSunDisc, where the sun has no radiance and
+  // SunDiscPdf is 0 (for the 0.1° sun about 1e-5 of draws): such a draw is pulled towards the centre by 0.1% of
+  // its offset until it is inside. The distribution moves by 1e-3 of the radius on a set of probability ~1e-5.
+  for (float pull = 0.999f; !InSunDisc(s, w) && pull > 0.5f; pull -= 0.05f)
+    w = glm::normalize(s.direction + pull * (w - s.direction));
+  return w;
 }
 
 Vec3 Sky::ToMap(const Vec3& w) const {
