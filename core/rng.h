@@ -14,6 +14,7 @@ enum class RngPass : uint32_t {
   kShade = 4,
   kReference = 5,
   kReferencePilot = 6,
+  kInitialSources = 7,  // initial sampling's sun, environment and BSDF candidates (sim/passes/candidate_sources.h)
   kTest = 100,
 };
 

@@ -2,6 +2,7 @@
 
 #include "sim/clock.h"
 #include "sim/shading_point.h"
+#include "sim/sky_frame.h"
 
 namespace restir {
 
@@ -48,7 +49,9 @@ FrameInputs FrameLoop::Inputs(uint32_t seed) const {
   if (!sequence_.textures.empty()) in.sceneMaterials = &sequence_.materials;
   in.seed = seed;
   in.frame = static_cast<uint32_t>(state_.frame);
+  in.sky = MakeSky(sequence_, state_);
   if (hasPrevious_) {
+    in.previousSky = MakeSky(sequence_, previousState_);
     in.previousState = &previousState_;
     in.previousGbuffer = &previous_;
     in.previousLights = &previousLights_;

@@ -24,6 +24,9 @@ FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {
   v.previousLights = in.previousLights;
   v.eye = in.state->camera.position;
   if (in.previousState) v.previousEye = in.previousState->camera.position;
+  v.sky = in.sky;
+  v.previousSky = in.previousSky;
+  v.camera = &in.state->camera;
   v.materials = &materials;
   v.seed = in.seed;
   v.frame = in.frame;

@@ -39,6 +39,8 @@ struct FrameInputs {
   const FrameState* previousState = nullptr;       // null on the first frame of a run
   const GBuffer* previousGbuffer = nullptr;        // null on the first frame of a run
   const std::vector<LightTriangle>* previousLights = nullptr;  // the previous frame's light list
+  Sky sky;                                         // this frame's sky (sim/sky_frame.h MakeSky); empty: none
+  Sky previousSky;                                 // the previous frame's
   uint32_t seed = 0;
   uint32_t frame = 0;
 };

@@ -104,6 +104,10 @@ const std::vector<Field>& Fields() {
       RESTIR_ENUM_FIELD("initial.lightSelection", initial.lightSelection, kSelNames),
       RESTIR_FIELD("initial.visibility", initial.visibility),
       RESTIR_FIELD("initial.countCandidates", initial.countCandidates),
+      RESTIR_FIELD("initial.sunCandidates", initial.sunCandidates),
+      RESTIR_FIELD("initial.environmentCandidates", initial.environmentCandidates),
+      RESTIR_FIELD("initial.brdfCandidates", initial.brdfCandidates),
+      RESTIR_FIELD("initial.brdfCutoff", initial.brdfCutoff),
       RESTIR_FIELD("temporal.enabled", temporal.enabled),
       RESTIR_ENUM_FIELD("temporal.mis", temporal.mis, kMisNames),
       RESTIR_ENUM_FIELD("temporal.bias", temporal.bias, kBiasNames),
@@ -150,6 +154,13 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
         throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
                          " spatial neighbours");
       if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
+      const InitialSamplingParams& in = settings.initial;
+      for (int count : {in.candidates, in.sunCandidates, in.environmentCandidates, in.brdfCandidates})
+        if (count < 0 || count > kMaxCandidatesPerSource)
+          throw InputError("--set: error at " + key + ": candidate counts must be in [0, " +
+                           std::to_string(kMaxCandidatesPerSource) + "]");
+      if (!(in.brdfCutoff >= 0.0f && in.brdfCutoff < 1.0f))
+        throw InputError("--set: error at " + key + ": brdfCutoff must be in [0, 1)");
       const StochasticPairwiseParams& sp = settings.spatial.stochastic;
       if (sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
           sp.canonicalDraws > kMaxGrisInputs - 1)

@@ -112,7 +112,10 @@ void TargetEvaluator::Resolve(uint64_t& rays) {
   for (const Pending& e : pending_) {
     const DomainFrame& v = views_[e.c->view[e.j]];
     const LightSample& y = e.c->samples[e.i];
-    pairs_.Add(v.eye, *v.gbuffer, e.c->domainPixel[e.j], y.position, y.normal, (*v.lights)[y.lightId].radiance);
+    const size_t p = e.c->domainPixel[e.j];
+    LightPoint lp;
+    LightPointAt(v.gbuffer->Position(p), y.lightId, y.position, y.normal, *v.lights, v.sky, lp);
+    pairs_.Add(v.eye, *v.gbuffer, p, lp.position, lp.normal, lp.radiance);
   }
   values_.resize(n);
   pairs_.Evaluate(*materials_, values_.data());
@@ -124,18 +127,23 @@ void TargetEvaluator::Resolve(uint64_t& rays) {
     const DomainFrame& v = views_[e.c->view[e.j]];
     const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
     const LightSample& y = e.c->samples[e.i];
-    rays_[f].Add(*v.gbuffer, e.c->domainPixel[e.j], y.position, y.normal, (*v.lights)[y.lightId].errorScale);
+    const size_t p = e.c->domainPixel[e.j];
+    LightPoint lp;
+    LightPointAt(v.gbuffer->Position(p), y.lightId, y.position, y.normal, *v.lights, nullptr, lp);
+    rays_[f].Add(*v.gbuffer, p, lp.position, lp.normal, lp.errorScale);
     rayRefs_[f].push_back(static_cast<int64_t>(k));
   }
   for (size_t k = 0; k < visibilityPending_.size(); ++k) {
     const Pending& e = visibilityPending_[k];
     const DomainFrame& v = views_[e.c->view[0]];
     const LightSample& y = e.c->samples[e.i];
-    if (y.lightId >= v.lights->size()) {  // a light removed in that frame: nothing to see
-      e.c->inputs[e.i].visibility = 0.0f;
+    const size_t p = e.c->domainPixel[0];
+    LightPoint lp;
+    if (!LightPointAt(v.gbuffer->Position(p), y.lightId, y.position, y.normal, *v.lights, nullptr, lp)) {
+      e.c->inputs[e.i].visibility = 0.0f;  // a light removed in that frame: nothing to see
       continue;
     }
-    rays_[0].Add(*v.gbuffer, e.c->domainPixel[0], y.position, y.normal, (*v.lights)[y.lightId].errorScale);
+    rays_[0].Add(*v.gbuffer, p, lp.position, lp.normal, lp.errorScale);
     rayRefs_[0].push_back(-1 - static_cast<int64_t>(k));
   }
   for (int f = 0; f < 2; ++f) {

@@ -54,6 +54,7 @@ struct DomainFrame {
   Vec3 eye{0.0f};
   const std::vector<LightTriangle>* lights = nullptr;
   SceneFrame scene = SceneFrame::kCurrent;
+  const Sky* sky = nullptr;  // that frame's sky (null or empty: none), for samples that are directions
 };
 
 // (receiver, light point) pairs gathered structure-of-arrays for the target kernel (core/target_kernel.h).
@@ -98,8 +99,12 @@ class ShadowRayBatch {
   void Clear() { size_ = 0; }
   // The segment from G-buffer pixel `pixel` to light point y on an emitter of normal lightNormal.
   void Add(const GBuffer& g, size_t pixel, const Vec3& y, const Vec3& lightNormal, float lightErrorScale);
+  // The segment to a stored sample (a direction goes to its far point, core/sky.h SkyPointFor). The sample's light
+  // must be in `lights` (or be the sky).
   void Add(const GBuffer& g, size_t pixel, const StoredReservoir& r, const std::vector<LightTriangle>& lights) {
-    Add(g, pixel, r.position, r.normal, lights[r.lightId].errorScale);
+    LightPoint y;
+    LightPointAt(g.Position(pixel), r.lightId, r.position, r.normal, lights, nullptr, y);
+    Add(g, pixel, y.position, y.normal, y.errorScale);
   }
   size_t Size() const { return size_; }
   // Traces every ray added since Clear; occluded[k] answers the k-th.
@@ -164,7 +169,7 @@ class TargetEvaluator {
     if (c.state[j][i] != Entry::kUnknown) return;
     c.state[j][i] = Entry::kQueued;
     const DomainFrame& v = views_[c.view[j]];
-    if (c.samples[i].lightId >= v.lights->size()) {  // a light removed in that frame
+    if (!IsSkySample(c.samples[i].lightId) && c.samples[i].lightId >= v.lights->size()) {  // removed that frame
       c.target[j][i] = 0.0f;
       c.state[j][i] = Entry::kKnown;
       return;

@@ -13,6 +13,7 @@
 #include "core/light.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
+#include "core/sky.h"
 #include "sim/embree_scene.h"
 #include "sim/gbuffer.h"
 
@@ -41,13 +42,48 @@ struct FrameView {
   const std::vector<LightTriangle>* previousLights = nullptr;  // last frame's light list (null with no history)
   Vec3 eye{0.0f};                            // this frame's camera position
   Vec3 previousEye{0.0f};                    // last frame's camera position
+  Sky sky;                                   // this frame's light at infinity (empty: none)
+  Sky previousSky;                           // last frame's (meaningful with history)
+  const Camera* camera = nullptr;            // this frame's camera: the sky seen through escaped primary rays
   const BsdfSoa* materials = nullptr;        // the sequence's materials as the kernels read them
   uint32_t seed = 0;                         // RngKey::seed
   uint32_t frame = 0;                        // RngKey::frame
 
   bool HasHistory() const { return previousGbuffer != nullptr && previousLights != nullptr; }
   const std::vector<LightTriangle>& Lights() const { return lights->Lights(); }
+  // Something to sample: local lights or a sky.
+  bool HasLight() const { return !lights->Empty() || !sky.Empty(); }
 };
+
+// A stored sample as a light point seen from a receiver at x (DESIGN §4): a point on a local light is itself; a
+// direction on the sky is its far point from x (core/sky.h SkyPointFor), so every receiver sees the same direction
+// (the shift is the identity on ω). The radiance is the frame's: zero for a light switched off or a sky that is
+// gone.
+struct LightPoint {
+  Vec3 position;         // p_y (the far point for a direction)
+  Vec3 normal;           // n_y (-ω for a direction)
+  Vec3 radiance;         // L_e(y) in this frame (L(ω) R² for a direction, see SkyPointFor)
+  float errorScale = 0;  // y's error scale for spawning the shadow ray's far end
+};
+// False when the sample's light is not in this frame's list (removed); `sky` may be null (no sky that frame).
+inline bool LightPointAt(const Vec3& x, uint32_t lightId, const Vec3& position, const Vec3& normal,
+                         const std::vector<LightTriangle>& lights, const Sky* sky, LightPoint& out) {
+  if (IsSkySample(lightId)) {
+    const LightSample y = SkyPointFor(x, position, sky ? sky->Radiance(position) : Vec3(0.0f));
+    out.position = y.position;
+    out.normal = y.normal;
+    out.radiance = y.radiance;
+    out.errorScale = 0.0f;
+    return true;
+  }
+  if (lightId >= lights.size()) return false;
+  const LightTriangle& t = lights[lightId];
+  out.position = position;
+  out.normal = normal;
+  out.radiance = t.radiance;
+  out.errorScale = t.errorScale;
+  return true;
+}
 
 // A reservoir as the passes store it between passes and frames (issue 6 memory budget): the sample's light id,
 // point and normal, and the reservoir's scalars. The emitted radiance is looked up from the light list of

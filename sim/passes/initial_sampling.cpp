@@ -1,12 +1,15 @@
 #include "sim/passes/initial_sampling.h"
 
 #include <tbb/combinable.h>
+
+#include <optional>
 #include <tbb/enumerable_thread_specific.h>
 
 #include "core/ris_kernel.h"
 #include "core/rng.h"
 #include "sim/clock.h"
 #include "sim/passes/batching.h"
+#include "sim/passes/candidate_sources.h"
 #include "sim/shading_point.h"
 
 namespace restir {
@@ -19,7 +22,18 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
   out.assign(g.Size(), StoredReservoir{});
   const std::vector<LightTriangle>& lights = view.Lights();
   const RisParams risParams{view.seed, view.frame, static_cast<uint32_t>(RngPass::kInitial), params.candidates};
-  const bool haveLights = !view.lights->Empty();
+  // The frame's sampler selects lights by power; a uniform selection gets its own sampler (a pass over the lights).
+  std::optional<LightSampler> uniformLights;
+  if (params.lightSelection == LightSelection::kUniform) uniformLights.emplace(lights, LightSelection::kUniform);
+  const LightSampler& sampler = uniformLights ? *uniformLights : *view.lights;
+  const bool haveLights = !sampler.Empty();
+  const CandidateCounts counts = EffectiveCounts(params, view);
+  const bool mixed = NeedsCandidateSources(counts);
+  // With BSDF candidates a local point's density needs p_bsdf, which the kernel does not compute: the local
+  // candidates are then streamed with the other sources.
+  const bool runKernel = haveLights && counts.brdf == 0;
+  const float confidence = params.countCandidates ? static_cast<float>(mixed ? counts.Total() : params.candidates)
+                                                  : 1.0f;
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> risPixels([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
@@ -35,7 +49,7 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
     std::vector<uint8_t> activeRow(rw, 0);
     for (size_t x = 0; x < rw; ++x) {
       const size_t i = rowStart + x;
-      if (!g.IsSurface(i) || !haveLights) continue;
+      if (!g.IsSurface(i) || !view.HasLight()) continue;
       activeRow[x] = 1;
       const Vec3 wo = ViewDirection(view.eye, g.Position(i));
       for (int c = 0; c < 3; ++c) woRow[c][x] = wo[c];
@@ -65,7 +79,7 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
     ro.pdfArea = outF[9].data();
     ro.weightSum = outF[10].data();
     ro.targetPdf = outF[11].data();
-    if (haveLights) RisInitialSampling(px, view.lights->Soa(), *view.materials, risParams, ro);
+    if (runKernel) RisInitialSampling(px, sampler.Soa(), *view.materials, risParams, ro);
     risPixels.local() += static_cast<uint64_t>(std::count(activeRow.begin(), activeRow.end(), uint8_t{1}));
     std::vector<Reservoir> row(rw);
     ShadowRayBatch& shadowRays = shadowRayBatches.local();
@@ -74,18 +88,28 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
     for (size_t x = 0; x < rw; ++x) {
       if (!activeRow[x]) continue;
       Reservoir& r = row[x];
-      r.sample.lightId = static_cast<uint32_t>(outId[x]);
-      r.sample.position = Vec3(outF[0][x], outF[1][x], outF[2][x]);
-      r.sample.normal = Vec3(outF[3][x], outF[4][x], outF[5][x]);
-      r.sample.radiance = Vec3(outF[6][x], outF[7][x], outF[8][x]);
-      r.sample.pdfArea = outF[9][x];
-      r.weightSum = outF[10][x];
-      r.targetPdf = outF[11][x];
-      FinalizeRis(r, static_cast<float>(params.candidates));
+      if (runKernel) {
+        r.sample.lightId = static_cast<uint32_t>(outId[x]);
+        r.sample.position = Vec3(outF[0][x], outF[1][x], outF[2][x]);
+        r.sample.normal = Vec3(outF[3][x], outF[4][x], outF[5][x]);
+        r.sample.radiance = Vec3(outF[6][x], outF[7][x], outF[8][x]);
+        r.sample.pdfArea = outF[9][x];
+        r.weightSum = outF[10][x];
+        r.targetPdf = outF[11][x];
+      }
+      if (mixed) {
+        const ShadingPoint sp = ShadingPointAt(g, rowStart + x, view.eye, *view.materials);
+        r = SampleCandidateSources(view, sampler, counts, params.brdfCutoff, sp, static_cast<uint32_t>(rowStart + x),
+                                   runKernel ? &r : nullptr, rays.local());
+      } else {
+        FinalizeRis(r, static_cast<float>(params.candidates));
+      }
       // An initial reservoir counts one frame of history (DESIGN §4), or its candidates (seed 003).
-      if (!params.countCandidates) r.confidence = 1.0f;
+      r.confidence = confidence;
       if (params.visibility && r.HasSample()) {
-        shadowRays.Add(g, rowStart + x, r.sample.position, r.sample.normal, lights[r.sample.lightId].errorScale);
+        LightPoint y;
+        LightPointAt(g.Position(rowStart + x), r.sample.lightId, r.sample.position, r.sample.normal, lights, nullptr, y);
+        shadowRays.Add(g, rowStart + x, y.position, y.normal, y.errorScale);
         rayPixel.push_back(static_cast<uint32_t>(x));
       }
     }
@@ -101,7 +125,7 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
       if (!FiniteReservoir(r)) {
         guarded.local() += 1;
         r = Reservoir{};
-        r.confidence = params.countCandidates ? static_cast<float>(params.candidates) : 1.0f;
+        r.confidence = confidence;
       }
       out[rowStart + x] = Store(r);
     }

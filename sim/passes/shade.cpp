@@ -38,8 +38,11 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
     for (int x = 0; x < w; ++x) {
       const size_t i = rowStart + static_cast<size_t>(x);
       const StoredReservoir& r = reservoirs[i];
-      if (!(g.IsSurface(i) && r.HasSample() && r.lightId < lights.size())) continue;
-      sc.pairs.Add(view.eye, g, i, r.position, r.normal, lights[r.lightId].radiance);
+      LightPoint y;
+      if (!(g.IsSurface(i) && r.HasSample() &&
+            LightPointAt(g.Position(i), r.lightId, r.position, r.normal, lights, &view.sky, y)))
+        continue;
+      sc.pairs.Add(view.eye, g, i, y.position, y.normal, y.radiance);
       sc.pixelOf.push_back(static_cast<uint32_t>(x));
     }
     const size_t m = sc.pixelOf.size();
@@ -63,7 +66,7 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
     size_t k = 0;
     for (int x = 0; x < w; ++x) {
       const size_t i = rowStart + static_cast<size_t>(x);
-      Vec3 c = DirectEmission(g, i, lights);
+      Vec3 c = view.camera ? DirectEmission(g, i, lights, view.sky, *view.camera) : DirectEmission(g, i, lights);
       if (k < m && sc.pixelOf[k] == static_cast<uint32_t>(x)) {
         const StoredReservoir& r = reservoirs[i];
         Vec3 fx(sc.f[0][k], sc.f[1][k], sc.f[2][k]);

@@ -27,7 +27,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
   const MisFamily family = EffectiveFamily(params.mis, params.bias);
   const VisibilityCarry carry = CarryFor(visibility);
   const bool carryVisibility = visibility != VisibilityReuse::kNone;
-  const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent}};
+  const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky}};
   for (int iteration = 0; iteration < params.iterations; ++iteration) {
     const ReservoirBuffer& input = reservoirs;
     ReservoirBuffer& output = spare;

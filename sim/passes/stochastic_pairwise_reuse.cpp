@@ -183,7 +183,7 @@ void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibi
   tbb::enumerable_thread_specific<CellBatchScratch> scratch;
   const VisibilityCarry carry = CarryFor(visibility);
   const bool carryVisibility = visibility != VisibilityReuse::kNone;
-  const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent}};
+  const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky}};
   for (int iteration = 0; iteration < params.iterations; ++iteration) {
     const ReservoirBuffer& input = reservoirs;
     ReservoirBuffer& output = spare;

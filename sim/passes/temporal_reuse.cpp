@@ -42,8 +42,8 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
   const uint32_t permBits = params.permutation ? (RandomBits(frameKey, 0) & 3u) : 0u;
   const MisFamily family = EffectiveFamily(params.mis, params.bias);
   const GBuffer& pg = *view.previousGbuffer;
-  const DomainFrame frames[2] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent},
-                                 {&pg, view.previousEye, view.previousLights, SceneFrame::kPrevious}};
+  const DomainFrame frames[2] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky},
+                                 {&pg, view.previousEye, view.previousLights, SceneFrame::kPrevious, &view.previousSky}};
   ForEachBatch(w, h, [&](int y, int x0, int x1) {
     uint64_t& localRays = rays.local();
     BatchScratch& sc = scratch.local();

@@ -224,14 +224,18 @@ TEST_F(SimdDeterminism, ImageHashesEqualTheGoldenHashes) {
 TEST_F(SimdDeterminism, BatchedPassesTraceExactlyTheRaysOfThePixelByPixelCode) {
   for (int threads : {1, 2}) {
     const RunResult r = restir::Run(SmokeAllPresets("restir-simd-rays-t" + std::to_string(threads), threads));
-    ASSERT_EQ(r.rows.size(), PreBatchingRays().size());
+    // The presets that existed before batching (later ones, such as rtxdi-defaults, have no pre-batching count).
+    size_t compared = 0;
     for (const FrameMetricsRow& row : r.rows) {
       const std::string key = row.preset + ":" + std::to_string(row.frame);
+      if (!PreBatchingRays().count(key)) continue;
+      ++compared;
       double rays = -1.0;
       for (const auto& [name, value] : row.values)
         if (name == "rays") rays = value;
       EXPECT_EQ(rays, PreBatchingRays().at(key)) << key << " with " << threads << " threads";
     }
+    EXPECT_EQ(compared, PreBatchingRays().size());
   }
 }
 

@@ -1,0 +1,36 @@
+// Initial sampling's candidate sources beyond the RIS kernel's local lights (issue 18; DESIGN §4 "Candidate
+// sources"): the sun, the environment map and BSDF rays, combined with the local lights by multiple-importance
+// RIS (core/candidates.h). Scalar, per pixel: the kernel keeps the local-light-only configurations at SIMD speed and
+// to their old bits; these sources add a few candidates per pixel, and a BSDF ray each.
+#pragma once
+
+#include <cstdint>
+
+#include "core/candidates.h"
+#include "core/reservoir.h"
+#include "core/shading.h"
+#include "sim/passes/frame_view.h"
+
+namespace restir {
+
+struct InitialSamplingParams;
+
+// The effective counts of a frame: a source with nothing to sample draws nothing (core/candidates.h).
+CandidateCounts EffectiveCounts(const InitialSamplingParams& params, const FrameView& view);
+
+// True when the frame needs the mixed path: a sky to sample or BSDF candidates. Otherwise initial sampling is the
+// RIS kernel alone, bit for bit as before the sky existed.
+bool NeedsCandidateSources(const CandidateCounts& counts);
+
+// The candidates of one receiver (G-buffer pixel `pixel`) into a reservoir, finalised (W = Σ w / p̂(Y); the
+// confidence is left to the caller). `kernelLocal` is the RIS kernel's streamed local-light reservoir (weights
+// p̂ / p_area over counts.local candidates) when counts.brdf == 0: it enters as one candidate group of weight
+// wSum / M_l, since with no BSDF source a local point's mixed density is M_l p_area. With BSDF candidates it must
+// be null: local points then need p_bsdf in their density, and are streamed here. The random numbers come from
+// RngPass::kInitialSources (and the BSDF rays' from their own dimensions), so they never meet the kernel's.
+// `lights` is the local-light source distribution (power or uniform, InitialSamplingParams::lightSelection).
+Reservoir SampleCandidateSources(const FrameView& view, const LightSampler& lights, const CandidateCounts& counts,
+                                 float brdfCutoff, const ShadingPoint& sp, uint32_t pixel,
+                                 const Reservoir* kernelLocal, uint64_t& rays);
+
+}  // namespace restir
