@@ -105,6 +105,42 @@ TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int fra
   return k;
 }
 
+EnvironmentKey InterpolateEnvironment(const std::vector<EnvironmentKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const EnvironmentKey& a = keys[i];
+  const EnvironmentKey& b = keys[i + 1];
+  EnvironmentKey k = a;
+  k.frame = frame;
+  k.intensity = glm::mix(a.intensity, b.intensity, t);
+  k.rotationDegrees = glm::mix(a.rotationDegrees, b.rotationDegrees, t);
+  return k;
+}
+
+SunKey InterpolateSun(const std::vector<SunKey>& keys, int frame) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  const SunKey& a = keys[i];
+  const SunKey& b = keys[i + 1];
+  SunKey k = a;
+  k.frame = frame;
+  k.intensity = glm::mix(a.intensity, b.intensity, t);
+  const Vec3 d = glm::mix(a.direction, b.direction, t);
+  const float length = glm::length(d);
+  if (length > kMinSunLerp) k.direction = d / length;
+  return k;
+}
+
+bool IsOn(const std::vector<std::pair<int, int>>& onRanges, int frame) {
+  bool on = onRanges.empty();
+  for (const auto& [first, last] : onRanges) on = on || (frame >= first && frame < last);
+  return on;
+}
+
 Camera MakeCamera(const CameraKey& key, int width, int height) {
   Camera cam;
   cam.position = key.position;
@@ -143,10 +179,18 @@ FrameState Evaluate(const Sequence& sequence, int frame, int width, int height) 
     state.objectToWorld.push_back(TransformMatrix(k.translate, k.rotateDegrees, k.scale));
   }
   state.lightOn.reserve(sequence.lights.size());
-  for (const Light& light : sequence.lights) {
-    bool on = light.onRanges.empty();
-    for (const auto& [first, last] : light.onRanges) on = on || (frame >= first && frame < last);
-    state.lightOn.push_back(on ? 1 : 0);
+  for (const Light& light : sequence.lights) state.lightOn.push_back(IsOn(light.onRanges, frame) ? 1 : 0);
+  const Environment& environment = sequence.environment;
+  if (environment.present && !environment.keys.empty()) {
+    const EnvironmentKey k = InterpolateEnvironment(environment.keys, frame);
+    state.environmentIntensity = IsOn(environment.onRanges, frame) ? k.intensity : 0.0f;
+    state.environmentRotationDegrees = k.rotationDegrees;
+  }
+  const Sun& sun = sequence.sun;
+  if (sun.present && !sun.keys.empty()) {
+    const SunKey k = InterpolateSun(sun.keys, frame);
+    state.sunIntensity = IsOn(sun.onRanges, frame) ? k.intensity : 0.0f;
+    state.sunDirection = k.direction;
   }
   return state;
 }

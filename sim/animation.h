@@ -2,6 +2,7 @@
 // transforms and the camera basis. Evaluate itself is declared in sim/sequence.h.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include "sim/sequence.h"
@@ -17,6 +18,15 @@ Mat4 TransformMatrix(const Vec3& translate, const Vec3& rotateDegrees, const Vec
 // The keys at `frame`: linear or smoothstep between the keys around it, clamped outside the keyed range.
 CameraKey InterpolateCamera(const std::vector<CameraKey>& keys, int frame);
 TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int frame);
+// Intensity and rotation each interpolated as a number.
+EnvironmentKey InterpolateEnvironment(const std::vector<EnvironmentKey>& keys, int frame);
+// Intensity as a number; the direction as normalize(lerp) of the two keys' directions, or the earlier key's where
+// the lerp is shorter than kMinSunLerp (opposite keys half-way), which has no direction to normalise.
+SunKey InterpolateSun(const std::vector<SunKey>& keys, int frame);
+inline constexpr float kMinSunLerp = 1e-6f;
+
+// Whether a light, the environment or the sun with these [first, last) ranges is on at `frame` (empty: always).
+bool IsOn(const std::vector<std::pair<int, int>>& onRanges, int frame);
 
 // The camera of a key: forward towards lookAt, right = forward x +Y (or x +-Z looking straight up or down).
 Camera MakeCamera(const CameraKey& key, int width, int height);

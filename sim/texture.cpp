@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "sim/sequence.h"  // InputError
+#include "sim/texture_decode.h"
 #include "sim/text.h"
 
 namespace restir {
@@ -120,30 +121,32 @@ class StderrCapture {
 
 }  // namespace
 
-Texture DecodeTexture(const std::string& bytes, const std::string& name) {
+bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
   StderrCapture capture;
   auto fail = [&](const std::string& what) {
     const std::string said = capture.Restore();
-    throw InputError(OneLine(name + ": error: " + what + (said.empty() ? "" : " [" + said + "]")));
+    problem = OneLine(what + (said.empty() ? "" : " [" + said + "]"));
+    t = Texture{};
+    return false;
   };
   OIIO::Filesystem::IOMemReader mem(const_cast<char*>(bytes.data()), bytes.size());
   auto in = OIIO::ImageInput::open(name, nullptr, &mem);
   if (!in) {
     const std::string why = OIIO::geterror();
-    fail("not an image OpenImageIO can read" + (why.empty() ? std::string() : " (" + why + ")"));
+    return fail("not an image OpenImageIO can read" + (why.empty() ? std::string() : " (" + why + ")"));
   }
   const OIIO::ImageSpec spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0)
-    fail("the image has no pixels");
+    return fail("the image has no pixels");
   // The header alone decides the allocation, so it is bounded before anything is allocated: 16384 on a side and
   // 2^26 texels (a 8192 x 8192 texture is 768 MiB as linear float RGB).
   if (spec.width > kMaxTextureSide || spec.height > kMaxTextureSide ||
       int64_t(spec.width) * spec.height > kMaxTextureTexels)
-    fail("the image is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
-         " texels, more than the limit of 16384 on a side and 67,108,864 in all");
+    return fail("the image is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+                " texels, more than the limit of 16384 on a side and 67,108,864 in all");
   const int channels = std::min(spec.nchannels, 3);
   const size_t texels = static_cast<size_t>(spec.width) * spec.height;
-  Texture t;
+  t = Texture{};
   t.name = name;
   t.width = spec.width;
   t.height = spec.height;
@@ -152,7 +155,7 @@ Texture DecodeTexture(const std::string& bytes, const std::string& name) {
   std::vector<float>& pixels = channels == 3 ? t.rgb : narrow;
   pixels.resize(texels * channels);
   if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data()))
-    fail("cannot decode the image (" + in->geterror() + ")");
+    return fail("cannot decode the image (" + in->geterror() + ")");
   const bool srgb = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::UINT16 ||
                     spec.format.basetype == OIIO::TypeDesc::INT8 || spec.format.basetype == OIIO::TypeDesc::INT16;
   if (channels != 3) {
@@ -161,11 +164,18 @@ Texture DecodeTexture(const std::string& bytes, const std::string& name) {
       for (int c = 0; c < 3; ++c) t.rgb[3 * p + c] = narrow[p * channels + std::min(c, channels - 1)];
     std::vector<float>().swap(narrow);
   }
-  for (float& v : t.rgb) {
-    if (srgb) v = SrgbToLinear(v);
-    if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
-  }
+  if (srgb)
+    for (float& v : t.rgb) v = SrgbToLinear(v);
   capture.Restore();  // a decoder's warnings on an image it did decode are not ours to print
+  return true;
+}
+
+Texture DecodeTexture(const std::string& bytes, const std::string& name) {
+  Texture t;
+  std::string problem;
+  if (!TryDecodeLinearImage(bytes, name, t, problem)) throw InputError(OneLine(name + ": error: " + problem));
+  for (float& v : t.rgb)
+    if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
   return t;
 }
 

@@ -1,0 +1,18 @@
+// Decoding an image's bytes without judging its values, for readers that refuse what DecodeTexture
+// (sim/texture.h) repairs: a texture's negative or non-finite texels read as black, an environment map's are
+// errors naming the texel (docs/sequence-format.md "Sky"). Kept out of sim/texture.h, which sim/sequence.h and so
+// most of the program include, because only those two readers need it.
+#pragma once
+
+#include <string>
+
+#include "sim/texture.h"
+
+namespace restir {
+
+// DecodeTexture's decoding (sRGB for integer images, linear for float ones; grey replicated, alpha dropped; the
+// same size limits) with the texels left as the file has them, possibly negative or non-finite. False with
+// `problem` (one line, without the name) when the bytes are not an image or the image is too large.
+bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& image, std::string& problem);
+
+}  // namespace restir
