@@ -88,7 +88,7 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
   const double exr = s.writeImages ? px * (kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float)) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
-  const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles)) : 0.0;
+  const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), s.sky) : 0.0;
   const double transient = std::max({checkpoint, flip, exr, cacheEntry, referenceRender});
   add(transient == checkpoint        ? "checkpoint"
       : transient == flip            ? "FLIP"

@@ -24,6 +24,7 @@ struct RunShape {
   int64_t sceneTriangles = 0;    // object triangles, for Embree's BVH
   int64_t lightTriangles = 0;    // emitter triangles
   bool textures = false;         // the scene has base-colour textures: texels in the G-buffers, a per-pixel BSDF table
+  bool sky = false;              // an environment or a sun: the reference keeps a light mixture per pixel
   double processBytes = 0.0;     // what the process holds already (libraries, the parsed sequence)
 };
 

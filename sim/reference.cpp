@@ -23,13 +23,17 @@
 #include "sim/hash.h"
 #include "sim/input_file.h"
 #include "sim/reference_cache.h"
+#include "sim/reference_sky.h"
 #include "sim/shading_point.h"
+#include "sim/sky_frame.h"
 
 namespace restir {
 
 namespace {
 
-// Bump when the renderer changes what it computes: old cache entries then stop matching.
+// Bump when the renderer changes what it computes: old cache entries then stop matching. (The sky did not bump
+// it: a skyless frame's reference is the same bits as before, and a frame with a sky hashes its sky into the key,
+// HashFrameState, so no entry written before the sky existed can match it.)
 constexpr uint32_t kReferenceVersion = 7;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
@@ -41,6 +45,12 @@ constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 // independent replicate means gives an honest standard error (Owen 2013, "Monte Carlo theory, methods and
 // examples", ch. 17: randomized QMC).
 constexpr int kSampleDims = 5;  // light selection, two area coordinates, two BSDF coordinates
+// Under a sky: the same five (light selection doubling as the environment's texel selection, the two area
+// coordinates as the direction's in the sun's cone or the texel), then the strategy choice and the environment's
+// alias-table coin. A skyless frame keeps kSampleDims, so its points, and its image, do not change.
+constexpr int kStrategyDim = 5;
+constexpr int kCoinDim = 6;
+constexpr int kSkySampleDims = 7;
 constexpr int kReplicates = 16;
 
 double LuminanceD(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
@@ -111,6 +121,7 @@ class PixelLightDistribution {
         total += work_[l];
       }
     }
+    const double estimate = n <= kMaxPerPixelLights ? total : -1.0;
     const double mix = total > 0.0 ? kDefensivePowerShare : 1.0;
     double c = 0.0;
     for (size_t l = 0; l < n; ++l) {
@@ -123,11 +134,13 @@ class PixelLightDistribution {
       cdf[l] = static_cast<float>(running / c);
     }
     View(cdf, n);
+    estimate_ = estimate;
   }
   // Views a distribution Build wrote earlier.
   void View(const float* cdf, size_t n) {
     cdf_ = cdf;
     n_ = n;
+    estimate_ = -1.0;  // a viewed distribution carries no estimate (the shared one, or one kept by the pilot)
   }
   // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified).
   uint32_t Sample(float u) const {
@@ -146,6 +159,11 @@ class PixelLightDistribution {
   }
   // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
   float Pmf(uint32_t l) const { return (cdf_[l] - (l ? cdf_[l - 1] : 0.0f)) / cdf_[n_ - 1]; }
+  // What the last Build estimated the lights give the receiver together, Σ u_l × albedo / π (the luminance of
+  // the reflected radiance, unshadowed; for a diffuse receiver exact but for the point estimates' O((size/d)²)),
+  // or -1 where it did not estimate it (above kMaxPerPixelLights). Sets the local lights' share of the light
+  // mixture under a sky (sim/reference_sky.h).
+  double Estimate() const { return estimate_; }
 
  private:
   // u_l, the light's unshadowed contribution at the receiver without the albedo, for every light at once. It
@@ -185,6 +203,7 @@ class PixelLightDistribution {
 
   std::vector<double> work_;
   std::vector<float> point_;
+  double estimate_ = -1.0;
   const float* cdf_ = nullptr;
   size_t n_ = 0;
 };
@@ -199,54 +218,92 @@ struct SampleBatch {
   std::vector<uint8_t> occluded;
 };
 
-// `count` direct-lighting samples at a receiver from the points u[k * kSampleDims ...]: light sampling, plus
-// BSDF sampling with the power heuristic on glossy surfaces (pbrt-v4 PathIntegrator::SampleLd style, restricted
-// to direct light). out[k] is sample k's value.
+// The sky of a frame (null in a skyless one) and one receiver's light mixture, as DirectSamples needs them.
+struct SkySampling {
+  const Sky* sky = nullptr;  // null: a skyless frame, sampled exactly as before the sky existed
+  LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
+};
+
+// `count` direct-lighting samples at a receiver from the points u[k * dims ...] (dims = kSampleDims in a skyless
+// frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's mixture, then a light point
+// or a sky direction from it), plus BSDF sampling with the power heuristic (pbrt-v4 PathIntegrator::SampleLd
+// style, restricted to direct light) on glossy surfaces, and on every surface under a sky (a BSDF ray that escapes
+// is the only way to reach the sky's directions the light mixture samples rarely). out[k] is sample k's value.
 void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-                   const PixelLightDistribution& dist, const float* u, size_t count, SampleBatch& b, Vec3* out,
-                   uint64_t& rays) {
-  const bool glossy = sp.bsdf.type != BsdfType::kDiffuse;
+                   const PixelLightDistribution& dist, const SkySampling& sky, const float* u, int dims,
+                   size_t count, SampleBatch& b, Vec3* out, uint64_t& rays) {
+  const bool bsdfSampling = sp.bsdf.type != BsdfType::kDiffuse || sky.sky != nullptr;
+  const LightMixture& mix = sky.mixture;
   b.lightTerm.assign(count, Vec3(0.0f));
   b.bsdfTerm.assign(count, Vec3(0.0f));
   b.rays.clear();
   b.rayOf.clear();
   for (size_t k = 0; k < count; ++k) {
-    const float* uk = u + k * kSampleDims;
-    LightSample y;
-    y.lightId = dist.Sample(uk[0]);
-    const LightTriangle& lt = lights[y.lightId];
-    y.position = SampleTrianglePoint(lt, uk[1], uk[2]);
-    y.normal = lt.normal;
-    y.radiance = lt.radiance;
-    y.pdfArea = dist.Pmf(y.lightId) / lt.area;
-    const Vec3 f = UnshadowedContribution(sp, y);
-    if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
-      float weight = 1.0f;
-      if (glossy) {
-        const LightPath path = ConnectToLight(sp, y.position, y.normal);
-        const float cosY = -glm::dot(y.normal, path.wi);
-        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
-        weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
+    const float* uk = u + k * static_cast<size_t>(dims);
+    // A skyless frame has one strategy and reads no strategy coordinate.
+    const LightStrategy strategy =
+        sky.sky != nullptr ? ChooseLightStrategy(mix, uk[kStrategyDim]) : LightStrategy::kLocal;
+    if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
+      LightSample y;
+      y.lightId = dist.Sample(uk[0]);
+      const LightTriangle& lt = lights[y.lightId];
+      y.position = SampleTrianglePoint(lt, uk[1], uk[2]);
+      y.normal = lt.normal;
+      y.radiance = lt.radiance;
+      // mix.local is 1 in a skyless frame, and x · 1 is x: the same bits as before the sky.
+      y.pdfArea = dist.Pmf(y.lightId) * mix.local / lt.area;
+      const Vec3 f = UnshadowedContribution(sp, y);
+      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
+        float weight = 1.0f;
+        if (bsdfSampling) {
+          const LightPath path = ConnectToLight(sp, y.position, y.normal);
+          const float cosY = -glm::dot(y.normal, path.wi);
+          const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+          weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
+        }
+        b.lightTerm[k] = f * (weight / y.pdfArea);
+        const ShadowRaySegment s =
+            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
+        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+        b.rayOf.push_back(static_cast<uint32_t>(k));
       }
-      b.lightTerm[k] = f * (weight / y.pdfArea);
-      const ShadowRaySegment s =
-          ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
-      b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
-      b.rayOf.push_back(static_cast<uint32_t>(k));
+    } else if (strategy != LightStrategy::kLocal) {
+      // A sky direction: the integrand is Sky::Radiance(ω) f_r cos θ, evaluated through the far point that stands
+      // for ω (core/sky.h SkyPointFor), its density the mixture's over every sky strategy (sim/reference_sky.h).
+      const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk[0], uk[kCoinDim], uk[1], uk[2]);
+      const float pLight = SkyLightPdf(mix, *sky.sky, w);
+      const LightSample y = SkyPointFor(sp.position, w, sky.sky->Radiance(w));
+      const Vec3 f = UnshadowedContribution(sp, y);
+      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && pLight > 0.0f) {
+        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, w));
+        b.lightTerm[k] = f * (weight / pLight);
+        // The far point's own error scale is its distance, which ShadowRaySetup adds already.
+        const ShadowRaySegment s =
+            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, 0.0f);
+        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+        b.rayOf.push_back(static_cast<uint32_t>(k));
+      }
     }
-    if (glossy) {
+    if (bsdfSampling) {
       const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, uk[3], uk[4]);
       if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
         ++rays;
         const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
                                                bs.wi, std::numeric_limits<float>::infinity());
-        if (hit.hit && hit.lightId >= 0 && hit.frontFace) {
+        const float cosX = glm::dot(sp.shadingNormal, bs.wi);
+        if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
+          // An emitter: the light technique's density of this point, converted to solid angle.
           const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
           const float cosY = -glm::dot(t.normal, bs.wi);
-          const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) / t.area * hit.t * hit.t / cosY;
-          const float cosX = glm::dot(sp.shadingNormal, bs.wi);
+          const float pLight =
+              dist.Pmf(static_cast<uint32_t>(hit.lightId)) * mix.local / t.area * hit.t * hit.t / cosY;
           const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
           if (cosY > 0.0f) b.bsdfTerm[k] = t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+        } else if (!hit.hit && sky.sky != nullptr) {
+          // Escaped: the sky, at the density with which the light mixture draws this direction.
+          const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
+          const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+          b.bsdfTerm[k] = sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
         }
       }
     }
@@ -337,7 +394,15 @@ uint64_t HashFrameState(const FrameState& state) {
   uint64_t h = Fnv1a(camera, sizeof(camera));
   h = Fnv1a(size, sizeof(size), h);
   for (const Mat4& m : state.objectToWorld) h = Fnv1a(&m, sizeof(Mat4), h);
-  return Fnv1a(state.lightOn.data(), state.lightOn.size(), h);
+  h = Fnv1a(state.lightOn.data(), state.lightOn.size(), h);
+  // The sky's state only where the frame has a sky: a skyless frame's hash, hence its reference's random numbers
+  // and cache key, stay what they were before the sky existed.
+  if (state.environmentIntensity > 0.0f || state.sunIntensity > 0.0f) {
+    const float sky[6] = {state.environmentIntensity, state.environmentRotationDegrees, state.sunDirection.x,
+                          state.sunDirection.y,       state.sunDirection.z,             state.sunIntensity};
+    h = Fnv1a(sky, sizeof(sky), h);
+  }
+  return h;
 }
 
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params) {
@@ -388,6 +453,14 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const LightSampler lights(lightList, LightSelection::kPower);
   const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
   static const RobertsSequence<kSampleDims> rd;
+  static const RobertsSequence<kSkySampleDims> rdSky;
+  // The sky (issue 18): light sampling becomes a per-pixel mixture of the local lights, the sun and the
+  // environment (sim/reference_sky.h), and every surface gets BSDF sampling. A skyless frame takes none of it.
+  const Sky sky = MakeSky(sequence, state);
+  const bool hasSky = !sky.Empty();
+  const SkySummary skySummary = hasSky ? SummarizeSky(sky) : SkySummary{};
+  const int dims = hasSky ? kSkySampleDims : kSampleDims;
+  const bool hasLocal = !lights.Empty();
   // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
   // get the same reference, bit for bit, and share one cache entry.
   const uint64_t stateHash = HashFrameState(state);
@@ -395,8 +468,9 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const size_t pixels = static_cast<size_t>(w) * h;
   std::vector<uint8_t> active(pixels, 0);
   for (size_t i = 0; i < pixels; ++i) {
-    ref.mean.pixels[i] = DirectEmission(g, i, lightList);
-    active[i] = g.IsSurface(i) && !lights.Empty();
+    // Where the primary ray escaped, the sky it sees (zero in a skyless frame).
+    ref.mean.pixels[i] = DirectEmission(g, i, lightList, sky, state.camera);
+    active[i] = g.IsSurface(i) && (hasLocal || hasSky);
   }
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> samples([] { return uint64_t{0}; });
@@ -406,32 +480,53 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const LightProxies proxies(lightList);
   // Above kMaxPerPixelLights every pixel's distribution is the same (power alone): built once, viewed by all.
   std::vector<float> shared;
-  if (nLights > kMaxPerPixelLights) {
+  if (hasLocal && nLights > kMaxPerPixelLights) {
     shared.resize(nLights);
     PixelLightDistribution once;
     once.Build(ShadingPoint{}, lights, proxies, shared.data());
   }
-  const bool keep = shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
+  // Without local lights (none, or all switched off) under a sky, no pixel has a light distribution.
+  const bool keep = hasLocal && shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
   std::vector<float> kept(keep ? pixels * nLights : 0);
+  // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
+  std::vector<LightMixture> mixtures(hasSky ? pixels : 0);
   auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
       PixelLightDistribution dist;
       SampleBatch batch;
-      std::vector<float> u, local(keep || !shared.empty() ? 0 : nLights);
+      std::vector<float> u, local(!hasLocal || keep || !shared.empty() ? 0 : nLights);
       std::vector<Vec3> values;
       for (int y = range.begin(); y < range.end(); ++y)
         for (int x = 0; x < w; ++x) {
           const size_t i = static_cast<size_t>(y) * w + x;
           if (!active[i]) continue;
           const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
-          float* cdf = keep ? kept.data() + i * nLights : local.data();
-          if (!shared.empty())
-            dist.View(shared.data(), nLights);
-          else if (keep && builtBefore)
-            dist.View(cdf, nLights);
-          else
-            dist.Build(sp, lights, proxies, cdf);
-          perPixel(i, sp, dist, batch, u, values);
+          if (hasLocal) {
+            float* cdf = keep ? kept.data() + i * nLights : local.data();
+            if (!shared.empty())
+              dist.View(shared.data(), nLights);
+            else if (keep && builtBefore)
+              dist.View(cdf, nLights);
+            else
+              dist.Build(sp, lights, proxies, cdf);
+          }
+          SkySampling skySampling;
+          if (hasSky) {
+            skySampling.sky = &sky;
+            if (!builtBefore) {
+              // The local lights' estimate where the distribution has one; where it has none (above
+              // kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the draws.
+              const float sunEstimate = SunEstimate(sp, sky, skySummary);
+              const float environmentEstimate = EnvironmentEstimate(sp, sky, skySummary);
+              const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
+              const float localEstimate = !hasLocal ? -1.0f
+                                          : dist.Estimate() >= 0.0 ? static_cast<float>(dist.Estimate())
+                                                                   : skyEstimate;
+              mixtures[i] = MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+            }
+            skySampling.mixture = mixtures[i];
+          }
+          perPixel(i, sp, dist, skySampling, batch, u, values);
         }
     });
   };
@@ -439,13 +534,15 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // Pilot: independent uniform samples (their own RNG pass), only their relative variance is kept.
   std::vector<float> relVar(pixels, -1.0f);
   forEachActiveRow(false, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
-                              SampleBatch& batch, std::vector<float>& u, std::vector<Vec3>& values) {
+                              const SkySampling& skySampling, SampleBatch& batch, std::vector<float>& u,
+                              std::vector<Vec3>& values) {
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
                      static_cast<uint32_t>(RngPass::kReferencePilot)};
-    u.resize(kPilotSamples * kSampleDims);
+    u.resize(static_cast<size_t>(kPilotSamples) * dims);
     for (size_t d = 0; d < u.size(); ++d) u[d] = UniformFloat(key, static_cast<uint32_t>(d));
     values.resize(kPilotSamples);
-    DirectSamples(sp, scene, lightList, dist, u.data(), kPilotSamples, batch, values.data(), rays.local());
+    DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, kPilotSamples, batch, values.data(),
+                  rays.local());
     samples.local() += kPilotSamples;
     double sum = 0.0, sumSq = 0.0;
     for (const Vec3& v : values) {
@@ -465,20 +562,22 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
   // points each.
   forEachActiveRow(true, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
-                             SampleBatch& batch, std::vector<float>& u, std::vector<Vec3>& values) {
+                             const SkySampling& skySampling, SampleBatch& batch, std::vector<float>& u,
+                             std::vector<Vec3>& values) {
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kReference)};
     const int m = static_cast<int>(perReplicate[i]);
     const size_t n = static_cast<size_t>(m) * kReplicates;
-    u.resize(n * kSampleDims);
+    u.resize(n * dims);
     for (int rep = 0; rep < kReplicates; ++rep) {
-      double shift[kSampleDims];
-      for (int j = 0; j < kSampleDims; ++j) shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * kSampleDims + j));
+      double shift[kSkySampleDims];
+      for (int j = 0; j < dims; ++j) shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
       for (int k = 0; k < m; ++k)
-        for (int j = 0; j < kSampleDims; ++j)
-          u[(static_cast<size_t>(rep) * m + k) * kSampleDims + j] = rd.Coordinate(shift[j], k, j);
+        for (int j = 0; j < dims; ++j)
+          u[(static_cast<size_t>(rep) * m + k) * dims + j] =
+              hasSky ? rdSky.Coordinate(shift[j], k, j) : rd.Coordinate(shift[j], k, j);
     }
     values.resize(n);
-    DirectSamples(sp, scene, lightList, dist, u.data(), n, batch, values.data(), rays.local());
+    DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, n, batch, values.data(), rays.local());
     samples.local() += n;
     glm::dvec3 replicateMean[kReplicates];
     for (int rep = 0; rep < kReplicates; ++rep) {
@@ -507,10 +606,10 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   return ref;
 }
 
-double ReferenceScratchBytes(double pixels, double lights) {
+double ReferenceScratchBytes(double pixels, double lights, bool sky) {
   const double kept = lights > double(kMaxPerPixelLights) ? lights * sizeof(float) : pixels * lights * sizeof(float);
-  // active flag, relative variance, per-replicate count, samples per pixel
-  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t);
+  // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture
+  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) : 0.0);
   return (kept <= double(kKeptDistributionBytes) ? kept : 0.0) + pixels * perPixel;
 }
 

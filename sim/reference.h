@@ -1,8 +1,10 @@
 // The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with per-pixel light
 // selection, uniform area sampling and one shadow ray per sample (traced in packets), combined by MIS with BSDF
-// sampling on glossy surfaces. A pilot pass estimates each pixel's relative variance; the main pass spends the
-// samples in proportion to it. Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the
-// reference also reports an honest per-pixel standard error. Cached on disk.
+// sampling on glossy surfaces. Under a sky (an environment, a sun: issue 18) light sampling is a per-pixel
+// mixture of the local lights, the sun and the environment (sim/reference_sky.h), BSDF sampling runs on every
+// surface, and pixels whose primary ray escaped show the sky. A pilot pass estimates each pixel's relative
+// variance; the main pass spends the samples in proportion to it. Samples are randomised quasi-Monte Carlo in 16
+// independent replicates, so the reference also reports an honest per-pixel standard error. Cached on disk.
 #pragma once
 
 #include <cstdint>
@@ -44,7 +46,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
                                const GBuffer& gbuffer, const ReferenceParams& params);
 
 // A hash of everything in a frame state that changes the image: camera (with resolution), object transforms,
-// light states.
+// light states, and the sky's intensities, rotation and sun direction when the frame has a sky (a skyless frame
+// hashes as it did before the sky existed).
 uint64_t HashFrameState(const FrameState& state);
 
 // The cache key: a hash of everything that changes the reference image (sequence content, frame state, samples,
@@ -52,9 +55,9 @@ uint64_t HashFrameState(const FrameState& state);
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
 // The most RenderReference allocates while it runs beyond its result, for a frame of `pixels` pixels and `lights`
-// light triangles (the kept per-pixel light distributions, capped, and the pilot's per-pixel state); for the run's
-// memory estimate (sim/memory_estimate.h).
-double ReferenceScratchBytes(double pixels, double lights);
+// light triangles (the kept per-pixel light distributions, capped, and the pilot's per-pixel state, with each
+// pixel's light mixture when the frame has a sky); for the run's memory estimate (sim/memory_estimate.h).
+double ReferenceScratchBytes(double pixels, double lights, bool sky = false);
 
 // Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
 // reference's own relative noise.
