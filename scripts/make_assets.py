@@ -5,6 +5,9 @@
                                   32 x 24 small square lamps (1,536 emissive triangles), each lamp's colour from
                                   one cell of an emissive texture, strength by KHR_materials_emissive_strength.
                                   sequences/asset_table.json hangs it over a table of third-party assets.
+  make_assets.py lamp-strip DIR   data/assets/lamp_strip.gltf + lamp_strip_emission.png: the same panel with 8 x 3
+                                  larger lamps (48 emissive triangles); sequences/sun_street_pan.json lights its
+                                  cafe with it (a reference's per-pixel light choice costs per emitter triangle).
   make_assets.py scale DIR [--triangles N] [--emitters M]
                                   DIR/scale.glb and DIR/scale.json: the load-and-run test of issue 17 (default
                                   1,000,000 scene triangles in a rippled floor and 100,000 emissive triangles in
@@ -102,8 +105,7 @@ def write_atomic(path, data):
     os.replace(tmp, path)
 
 
-def lamp_panel(out):
-    nx, nz, size, pitch = 32, 24, 0.035, 0.06
+def lamp_panel(out, name="lamp_panel", nx=32, nz=24, size=0.035, pitch=0.06):
     g = Gltf()
     # The emissive texture: one texel per lamp, warm to cool across the panel, dimmer towards its edges.
     rows = []
@@ -115,8 +117,8 @@ def lamp_panel(out):
             warm, cool = (255, 196, 140), (170, 205, 255)
             row += [round((warm[c] * (1 - t) + cool[c] * t) * edge) for c in range(3)]
         rows.append(row)
-    write_atomic(os.path.join(out, "lamp_panel_emission.png"), png_bytes(nx, nz, rows))
-    g.doc["images"] = [{"uri": "lamp_panel_emission.png"}]
+    write_atomic(os.path.join(out, name + "_emission.png"), png_bytes(nx, nz, rows))
+    g.doc["images"] = [{"uri": name + "_emission.png"}]
     g.doc["samplers"] = [{"magFilter": 9728, "minFilter": 9728}]
     g.doc["textures"] = [{"source": 0, "sampler": 0}]
     g.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
@@ -138,8 +140,8 @@ def lamp_panel(out):
             # Facing down (-y): counter-clockwise seen from below.
             tris += [(b, b + 1, b + 2), (b, b + 2, b + 3)]
     g.mesh("lamps", positions, tris, lamp, uvs)
-    g.write_gltf(os.path.join(out, "lamp_panel.gltf"))
-    print("wrote %s: %d emissive triangles" % (os.path.join(out, "lamp_panel.gltf"), len(tris)))
+    g.write_gltf(os.path.join(out, name + ".gltf"))
+    print("wrote %s: %d emissive triangles" % (os.path.join(out, name + ".gltf"), len(tris)))
 
 
 def scale(out, triangles, emitters):
@@ -187,6 +189,8 @@ def main():
     sub = p.add_subparsers(dest="what", required=True)
     a = sub.add_parser("lamp-panel")
     a.add_argument("dir")
+    a2 = sub.add_parser("lamp-strip")
+    a2.add_argument("dir")
     b = sub.add_parser("scale")
     b.add_argument("dir")
     b.add_argument("--triangles", type=int, default=1_000_000)
@@ -195,6 +199,8 @@ def main():
     os.makedirs(args.dir, exist_ok=True)
     if args.what == "lamp-panel":
         lamp_panel(args.dir)
+    elif args.what == "lamp-strip":
+        lamp_panel(args.dir, "lamp_strip", nx=8, nz=3, size=0.12, pitch=0.2)
     else:
         scale(args.dir, args.triangles, args.emitters)
 
