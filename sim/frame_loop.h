@@ -85,6 +85,10 @@ void FrameLoop::Transfer(Io& io) {
   io.Pod(previousState_.camera);
   io.Vector(previousState_.objectToWorld);
   io.Vector(previousState_.lightOn);
+  io.Pod(previousState_.environmentIntensity);
+  io.Pod(previousState_.environmentRotationDegrees);
+  io.Pod(previousState_.sunDirection);
+  io.Pod(previousState_.sunIntensity);
   io.Vector(previousLights_);
   io.Vector(disocclusionAge_);
   io.Pod(hasPrevious_);

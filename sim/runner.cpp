@@ -67,7 +67,10 @@ nlohmann::json SettingsJson(const PipelineSettings& s) {
 bool SameSceneState(const FrameState& a, const FrameState& b) {
   const Camera &ca = a.camera, &cb = b.camera;
   return ca.position == cb.position && ca.forward == cb.forward && ca.up == cb.up &&
-         ca.vfovDegrees == cb.vfovDegrees && a.objectToWorld == b.objectToWorld && a.lightOn == b.lightOn;
+         ca.vfovDegrees == cb.vfovDegrees && a.objectToWorld == b.objectToWorld && a.lightOn == b.lightOn &&
+         a.environmentIntensity == b.environmentIntensity &&
+         a.environmentRotationDegrees == b.environmentRotationDegrees && a.sunDirection == b.sunDirection &&
+         a.sunIntensity == b.sunIntensity;
 }
 
 
@@ -97,7 +100,7 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x34544B43'52545352ull;  // "RSTRCKT4"
+constexpr uint64_t kCheckpointMagic = 0x35544B43'52545352ull;  // "RSTRCKT5" (5: the previous frame's sky)
 
 // What a preset carries from frame to frame besides its pipelines' reservoirs.
 struct PresetState {

@@ -78,27 +78,32 @@ std::string CsvWithoutTimings(const fs::path& p) {
   return out;
 }
 
-std::vector<std::string> RunArgs(const fs::path& out, bool resume) {
-  std::vector<std::string> a = {SimBinary(), "run", "sequences/smoke.json", "--preset", "ris,restir-unbiased",
+std::vector<std::string> RunArgs(const std::string& sequence, const fs::path& out, bool resume) {
+  std::vector<std::string> a = {SimBinary(), "run", sequence, "--preset", "ris,restir-unbiased",
                                 "--resolution", "192x108", "--reference-spp", "32", "--out", out.string(),
                                 "--cache-dir", (out / "cache").string(), "--no-progress"};
   if (resume) a.push_back("--resume");
   return a;
 }
 
-TEST(Resume, KilledAndResumedRunIsBitIdenticalToUninterrupted) {
-  const fs::path base = fs::path(::testing::TempDir()) / "restir-resume-test";
+// Both sequences have 6 frames; the second has a sky whose sun, map rotation and intensity change every frame, which
+// the checkpoint must carry for the previous frame (temporal reuse evaluates targets under last frame's sky).
+class Resume : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Resume, KilledAndResumedRunIsBitIdenticalToUninterrupted) {
+  const std::string sequence = GetParam();
+  const fs::path base = fs::path(::testing::TempDir()) / ("restir-resume-test-" + fs::path(sequence).stem().string());
   fs::remove_all(base);
   const fs::path full = base / "full", killed = base / "killed";
 
-  const int status = Wait(Spawn(RunArgs(full, false)));
+  const int status = Wait(Spawn(RunArgs(sequence, full, false)));
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
   const int totalRows = CsvRows(full / "metrics.csv");
   ASSERT_EQ(totalRows, 2 * 6);
   EXPECT_FALSE(fs::exists(full / "checkpoint.bin"));  // removed when the run completes
 
   // Kill once two frames are done (4 rows), wherever the third frame's work stands.
-  const pid_t pid = Spawn(RunArgs(killed, false));
+  const pid_t pid = Spawn(RunArgs(sequence, killed, false));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (CsvRows(killed / "metrics.csv") < 4 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -109,7 +114,7 @@ TEST(Resume, KilledAndResumedRunIsBitIdenticalToUninterrupted) {
   ASSERT_LT(rowsAtKill, totalRows);
   ASSERT_TRUE(fs::exists(killed / "checkpoint.bin"));
 
-  const int resumed = Wait(Spawn(RunArgs(killed, true)));
+  const int resumed = Wait(Spawn(RunArgs(sequence, killed, true)));
   ASSERT_TRUE(WIFEXITED(resumed) && WEXITSTATUS(resumed) == 0);
   EXPECT_EQ(CsvWithoutTimings(full / "metrics.csv"), CsvWithoutTimings(killed / "metrics.csv"));
   int compared = 0;
@@ -125,5 +130,10 @@ TEST(Resume, KilledAndResumedRunIsBitIdenticalToUninterrupted) {
   for (const auto& e : fs::recursive_directory_iterator(killed))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
+
+INSTANTIATE_TEST_SUITE_P(Sequences, Resume, ::testing::Values("sequences/smoke.json", "tests/data/sky_smoke.json"),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return fs::path(info.param).stem().string();
+                         });
 
 }  // namespace
