@@ -15,7 +15,7 @@
 // seeds, not across frames). Per seed, the frame mean ratio Σ value / Σ truth over the floor's pixels; the t-test of
 // its mean against 1 (31 dof) at a two-sided 1e-4 per configuration (about 80 configurations over the four presets:
 // a family false-failure rate under 1e-2), and, where the seeds resolve it (standard error under 0.1%), |mean − 1| <
-// 0.5%. Per 8×8 block of floor pixels, z = (mean over seeds − truth) / standard error: no |z| past the Student-t
+// 0.5%. Per 16×16 block of floor pixels, z = (mean over seeds − truth) / standard error: no |z| past the Student-t
 // quantile of 1e-3 / blocks (Bonferroni; family under 0.1 over every configuration).
 #include <gtest/gtest.h>
 
@@ -205,10 +205,10 @@ void RunCase(const Case& c) {
   // closed form's own float inputs).
   const double t = (ratio.mean - 1.0) / std::max(ratio.StdError(), 2e-5);
   const double tBound = test::StudentTQuantileTwoSided(1e-4, kSeeds - 1);
-  // Per 8×8 block of pixels: a pixel's seeds can be strongly skewed (a rare candidate with a large weight, such as a
+  // Per 16×16 block of pixels: a pixel's seeds can be strongly skewed (a rare candidate with a large weight, such as a
   // lamp near a far pixel's horizon), which a t-test of 32 seeds does not tolerate; a block's mean is close enough
-  // to normal. Blocks with fewer than 16 floor pixels are left to the frame mean.
-  constexpr int kBlock = 8;
+  // to normal. Blocks with fewer than 64 floor pixels are left to the frame mean.
+  constexpr int kBlock = 16;
   std::vector<double> zs;
   for (int by = 0; by < kSize / kBlock; ++by)
     for (int bx = 0; bx < kSize / kBlock; ++bx) {
@@ -216,7 +216,7 @@ void RunCase(const Case& c) {
       for (int y = by * kBlock; y < (by + 1) * kBlock; ++y)
         for (int x = bx * kBlock; x < (bx + 1) * kBlock; ++x)
           if (floor[size_t(y) * kSize + x]) in.push_back(size_t(y) * kSize + x);
-      if (in.size() < 16) continue;
+      if (in.size() < 64) continue;
       double blockTruth = 0.0;
       for (size_t i : in) blockTruth += truth[i];
       test::RunningStats b;
