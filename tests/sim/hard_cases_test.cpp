@@ -1,7 +1,7 @@
 // The hard-case sequences (sequences/hard/ and moving_occluder) under every preset, at a small resolution so CI
 // runs them all: nothing non-finite reaches an image, guarded events are counted, and the unbiased presets stay
 // unbiased across the 1e8 radiance range, 20,000 emitters, grazing light, toggled lights, a camera cut and
-// 1000 frames of history. The table printed here (max relmse, guarded events, luma ratio per case and preset)
+// 1000 frames of history, a near-mirror floor and a moving sun and sky. The table printed here (max relmse, guarded events, luma ratio per case and preset)
 // is what the project reports for its hard cases.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -35,7 +35,8 @@ const std::vector<std::string>& HardCases() {
       "sequences/hard/glossy_orbit.json",   "sequences/hard/grazing.json",
       "sequences/hard/light_toggle.json",   "sequences/hard/long_static.json",
       "sequences/hard/many_lights.json",    "sequences/hard/tiny_bright.json",
-      "sequences/moving_occluder.json"};
+      "sequences/moving_occluder.json",     "sequences/hard/glossy_floor.json",
+      "tests/data/sky_smoke.json"};
   return files;
 }
 
