@@ -3,7 +3,7 @@
 # restir-biased on the disocclusion sequences at 640x360, run as one sweep (docs/sweep-format.md), then the
 # generated document.
 # Usage: [SEEDS=N] [SLURM=1] scripts/window_bars_study.sh [SEQUENCE.json ...]
-#   (default: the flagship and the camera cut; SEEDS: seeds per configuration from each sequence's own, default 1,
+#   (default: the flagship, the camera cut and the exterior flagship; SEEDS: seeds per configuration from each sequence's own, default 1,
 #   with 2 or more relmse_disocc gets its interval; SLURM=1: run the jobs as Slurm arrays through
 #   scripts/slurm/submit.sh and wait for the merge — docs/cluster.md — instead of in this process)
 set -euo pipefail
@@ -13,6 +13,7 @@ seqs=("$@")
 if [ ${#seqs[@]} -eq 0 ]; then
   seqs=(sequences/window_bars_pan.json)
   [ -f sequences/hard/camera_cut.json ] && seqs+=(sequences/hard/camera_cut.json)
+  seqs+=(sequences/sun_street_pan.json)
 fi
 out=out/study
 mkdir -p "$out"
