@@ -73,66 +73,52 @@ void FindSegment(const std::vector<Key>& keys, int frame, size_t& i, float& t) {
   if (keys[i].interpolation == Interpolation::kSmooth) t = t * t * (3.0f - 2.0f * t);  // smoothstep
 }
 
+// The key in effect at `frame`: a key itself, or a copy of its segment's first key at `frame` whose interpolated
+// fields `blend(k, a, b, t)` fills from the segment's keys a and b.
+template <typename Key, typename Blend>
+Key InterpolateKeys(const std::vector<Key>& keys, int frame, Blend blend) {
+  size_t i;
+  float t;
+  FindSegment(keys, frame, i, t);
+  if (t == 0.0f) return keys[i];
+  Key k = keys[i];
+  k.frame = frame;
+  blend(k, keys[i], keys[i + 1], t);
+  return k;
+}
+
 }  // namespace
 
 CameraKey InterpolateCamera(const std::vector<CameraKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const CameraKey& a = keys[i];
-  const CameraKey& b = keys[i + 1];
-  CameraKey k = a;
-  k.frame = frame;
-  k.position = glm::mix(a.position, b.position, t);
-  k.lookAt = glm::mix(a.lookAt, b.lookAt, t);
-  k.vfovDegrees = glm::mix(a.vfovDegrees, b.vfovDegrees, t);
-  return k;
+  return InterpolateKeys(keys, frame, [](CameraKey& k, const CameraKey& a, const CameraKey& b, float t) {
+    k.position = glm::mix(a.position, b.position, t);
+    k.lookAt = glm::mix(a.lookAt, b.lookAt, t);
+    k.vfovDegrees = glm::mix(a.vfovDegrees, b.vfovDegrees, t);
+  });
 }
 
 TransformKey InterpolateTransform(const std::vector<TransformKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const TransformKey& a = keys[i];
-  const TransformKey& b = keys[i + 1];
-  TransformKey k = a;
-  k.frame = frame;
-  k.translate = glm::mix(a.translate, b.translate, t);
-  k.rotateDegrees = glm::mix(a.rotateDegrees, b.rotateDegrees, t);
-  k.scale = glm::mix(a.scale, b.scale, t);
-  return k;
+  return InterpolateKeys(keys, frame, [](TransformKey& k, const TransformKey& a, const TransformKey& b, float t) {
+    k.translate = glm::mix(a.translate, b.translate, t);
+    k.rotateDegrees = glm::mix(a.rotateDegrees, b.rotateDegrees, t);
+    k.scale = glm::mix(a.scale, b.scale, t);
+  });
 }
 
 EnvironmentKey InterpolateEnvironment(const std::vector<EnvironmentKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const EnvironmentKey& a = keys[i];
-  const EnvironmentKey& b = keys[i + 1];
-  EnvironmentKey k = a;
-  k.frame = frame;
-  k.intensity = glm::mix(a.intensity, b.intensity, t);
-  k.rotationDegrees = glm::mix(a.rotationDegrees, b.rotationDegrees, t);
-  return k;
+  return InterpolateKeys(keys, frame, [](EnvironmentKey& k, const EnvironmentKey& a, const EnvironmentKey& b, float t) {
+    k.intensity = glm::mix(a.intensity, b.intensity, t);
+    k.rotationDegrees = glm::mix(a.rotationDegrees, b.rotationDegrees, t);
+  });
 }
 
 SunKey InterpolateSun(const std::vector<SunKey>& keys, int frame) {
-  size_t i;
-  float t;
-  FindSegment(keys, frame, i, t);
-  if (t == 0.0f) return keys[i];
-  const SunKey& a = keys[i];
-  const SunKey& b = keys[i + 1];
-  SunKey k = a;
-  k.frame = frame;
-  k.intensity = glm::mix(a.intensity, b.intensity, t);
-  const Vec3 d = glm::mix(a.direction, b.direction, t);
-  const float length = glm::length(d);
-  if (length > kMinSunLerp) k.direction = d / length;
-  return k;
+  return InterpolateKeys(keys, frame, [](SunKey& k, const SunKey& a, const SunKey& b, float t) {
+    k.intensity = glm::mix(a.intensity, b.intensity, t);
+    const Vec3 d = glm::mix(a.direction, b.direction, t);
+    const float length = glm::length(d);
+    if (length > kMinSunLerp) k.direction = d / length;
+  });
 }
 
 bool IsOn(const std::vector<std::pair<int, int>>& onRanges, int frame) {
