@@ -38,6 +38,7 @@ def summarize(run_dir):
             "preset": p,
             "frames": len(pr),
             "relmse": mean([float(r["relmse"]) for r in pr]),
+            "flip": mean([float(r["flip"]) for r in pr]),
             # With the reference's own noise taken out (docs/metrics.md, "Reference noise").
             "relmse_c": mean([float(r.get("relmse_corrected", "nan")) for r in pr]),
             "luma_rmse": mean([float(r["luma_rmse"]) for r in pr]),
@@ -97,7 +98,7 @@ def main(argv):
             print(f"Reference: {run['reference']['samplesPerPixel']} spp, mean relative standard error over lit "
                   f"pixels {100 * rows[0]['ref_stderr']:.2f}%. Disoccluded fraction per frame: "
                   f"{100 * min(rows[0]['disocc']):.2f}%–{100 * max(rows[0]['disocc']):.2f}%.\n")
-        head = ("| preset | relmse | relmse_corrected | luma_rmse | rmspe | stability_luma_rmse | flicker | "
+        head = ("| preset | relmse | relmse_corrected | luma_rmse | rmspe | flip | stability_luma_rmse | flicker | "
                 "accumulated luma ratio | "
                 + ("accum_rmse | accum_rmse_corrected | accum_rmspe | " if static else "")
                 + "temporal acceptance | rays/px | ms/frame |")
@@ -106,10 +107,17 @@ def main(argv):
         for r in rows:
             acc = f"{r['accum_rmse']:.4f} | {r['accum_rmse_c']:.4f} | {r['accum_rmspe']:.4f} | " if static else ""
             print(f"| `{r['preset']}` | {r['relmse']:.4f} | {r['relmse_c']:.4f} | {r['luma_rmse']:.4f} | {r['rmspe']:.4f} | "
+                  f"{r['flip']:.4f} | "
                   f"{r['stability']:.4f} | {r['flicker']:.4f} | {r['accum_luma_ratio']:.4f} | {acc}"
                   f"{r['acceptance']:.3f} | {r['rays']:.2f} | {r['ms']:.0f} |")
         print()
         lines = []
+        if not is_candidate_count_run(run) and rows[0]["ref_stderr"] > 0.10:
+            lines.append(f"The reference's mean relative standard error is {100 * rows[0]['ref_stderr']:.1f}%: relmse "
+                         f"and rmspe, which divide by the reference, are dominated by the pixels it resolves worst "
+                         f"(where its samples found no light, it is 0 and has no replicate spread for "
+                         f"relmse_corrected to remove); compare presets by luma_rmse and flip here "
+                         f"(scripts/results_notes.md).")
         if "ris" in by and "temporal" in by:
             a, b = by["temporal"], by["ris"]
             dl, ds = pct(a['luma_rmse'], b['luma_rmse']), pct(a['stability'], b['stability'])
@@ -128,6 +136,11 @@ def main(argv):
         if "restir-biased" in by:
             r = by["restir-biased"]["accum_luma_ratio"]
             lines.append(f"restir-biased: accumulated luma ratio {r:.4f} ({'darkens' if r < 1 else 'does not darken'}).")
+        if "rtxdi-defaults" in by:
+            r = by["rtxdi-defaults"]["accum_luma_ratio"]
+            lines.append(f"rtxdi-defaults: accumulated luma ratio {r:.4f} ("
+                         f"{'darkens' if r < 0.99 else 'within 1% of 1'}: RTXDI's Basic bias correction weighs with "
+                         f"unshadowed targets after initial visibility zeroed occluded samples).")
         if "restir-vis" in by and "restir-wisvis" in by:
             a, b = by["restir-wisvis"], by["restir-vis"]
             line = (f"restir-wisvis vs restir-vis: relmse {pct(a['relmse'], b['relmse']):+.1f}%, "
