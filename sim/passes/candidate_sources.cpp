@@ -8,12 +8,11 @@ namespace restir {
 
 namespace {
 
-// Dimensions of RngPass::kInitialSources per candidate: a local point takes 5 (uSelect, uCoin, uPoint0, uPoint1,
-// uStream), a sun direction 3, an environment direction 5, a BSDF direction 3. Each source starts at its own
-// multiple of kSourceStride, so changing one count never moves another source's numbers.
+// Dimensions of RngPass::kInitialSources per candidate: a sun direction takes 3, an environment direction 5, a
+// BSDF direction 3. Each source starts at its own multiple of kSourceStride, so changing one count never moves
+// another source's numbers (the local lights' come from the RIS kernel's own pass).
 constexpr uint32_t kSourceStride = 1u << 16;
-constexpr uint32_t kLocalBase = 0, kSunBase = kSourceStride, kEnvironmentBase = 2 * kSourceStride,
-                   kBrdfBase = 3 * kSourceStride;
+constexpr uint32_t kSunBase = kSourceStride, kEnvironmentBase = 2 * kSourceStride, kBrdfBase = 3 * kSourceStride;
 
 // p_bsdf of the direction to a light point (0 when the BSDF cannot produce it).
 float BsdfPdfTowards(const ShadingPoint& sp, const Vec3& wi) { return PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, wi); }
@@ -78,19 +77,21 @@ Reservoir SampleCandidateSources(const FrameView& view, const LightSampler& ligh
   auto u = [&](uint32_t d) { return UniformFloat(key, d); };
   const Sky& sky = view.sky;
   Reservoir r;
-  // Local lights: the kernel's reservoir as one group (its weights p̂ / p_area, over M_l candidates, are p̂ / (M_l
-  // p_area) times M_l), or each point here with p_bsdf in its density.
-  if (kernelLocal != nullptr) {
-    if (kernelLocal->weightSum > 0.0f && m.local > 0) {
-      r.sample = kernelLocal->sample;
-      r.targetPdf = kernelLocal->targetPdf;
+  // Local lights: the kernel's reservoir as one GRIS input (seed 000 Eq. 1-2; Lin et al. 2022). Its sample X has
+  // the unbiased contribution weight W_l = wSum / (M_l p̂(X)); it enters with the MIS weight m_l(X) = M_l p_area(X) /
+  // (M_l p_area(X) + M_b p_bsdf(X)), each BSDF candidate y with m_b(y) = p_bsdf(y) / (M_l p_area(y) + M_b p_bsdf(y)):
+  // a partition of unity over the inputs that can produce a point (m_l + M_b m_b = 1), so the combination stays
+  // unbiased, and p_bsdf is needed at one local point per pixel, not at every candidate. Its resampling weight
+  // m_l(X) p̂(X) W_l = wSum p_area(X) / (M_l p_area(X) + M_b p_bsdf(X)), which is wSum / M_l without BSDF candidates.
+  if (kernelLocal != nullptr && kernelLocal->weightSum > 0.0f && m.local > 0) {
+    r.sample = kernelLocal->sample;
+    r.targetPdf = kernelLocal->targetPdf;
+    if (m.brdf == 0) {
       r.weightSum = kernelLocal->weightSum / static_cast<float>(m.local);
-    }
-  } else {
-    for (int j = 0; j < m.local; ++j) {
-      const uint32_t d = kLocalBase + 5u * static_cast<uint32_t>(j);
-      LightSample y = lights.Sample(u(d), u(d + 1), u(d + 2), u(d + 3));
-      Stream(r, sp, y, PointPdf(sp, m, brdfCutoff, lights, y.lightId, y.position, y.normal), u(d + 4));
+    } else {
+      const LightSample& x = kernelLocal->sample;
+      const float mixed = PointPdf(sp, m, brdfCutoff, lights, x.lightId, x.position, x.normal);
+      r.weightSum = mixed > 0.0f ? kernelLocal->weightSum * (lights.PdfArea(x.lightId) / mixed) : 0.0f;
     }
   }
   for (int j = 0; j < m.sun; ++j) {

@@ -24,10 +24,9 @@ bool NeedsCandidateSources(const CandidateCounts& counts);
 
 // The candidates of one receiver (G-buffer pixel `pixel`) into a reservoir, finalised (W = Σ w / p̂(Y); the
 // confidence is left to the caller). `kernelLocal` is the RIS kernel's streamed local-light reservoir (weights
-// p̂ / p_area over counts.local candidates) when counts.brdf == 0: it enters as one candidate group of weight
-// wSum / M_l, since with no BSDF source a local point's mixed density is M_l p_area. With BSDF candidates it must
-// be null: local points then need p_bsdf in their density, and are streamed here. The random numbers come from
-// RngPass::kInitialSources (and the BSDF rays' from their own dimensions), so they never meet the kernel's.
+// p̂ / p_area over counts.local candidates): it enters as one GRIS input whose MIS weight against the BSDF source is
+// evaluated at its selected point only (see the .cpp); null when the frame has no local lights. The random numbers
+// come from RngPass::kInitialSources, so they never meet the kernel's.
 // `lights` is the local-light source distribution (power or uniform, InitialSamplingParams::lightSelection).
 Reservoir SampleCandidateSources(const FrameView& view, const LightSampler& lights, const CandidateCounts& counts,
                                  float brdfCutoff, const ShadingPoint& sp, uint32_t pixel,

@@ -29,9 +29,9 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
   const bool haveLights = !sampler.Empty();
   const CandidateCounts counts = EffectiveCounts(params, view);
   const bool mixed = NeedsCandidateSources(counts);
-  // With BSDF candidates a local point's density needs p_bsdf, which the kernel does not compute: the local
-  // candidates are then streamed with the other sources.
-  const bool runKernel = haveLights && counts.brdf == 0;
+  // The kernel streams the local candidates in every configuration; with other sources its reservoir is one input
+  // of their combination (sim/passes/candidate_sources.cpp).
+  const bool runKernel = haveLights;
   const float confidence = params.countCandidates ? static_cast<float>(mixed ? counts.Total() : params.candidates)
                                                   : 1.0f;
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });

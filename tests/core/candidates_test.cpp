@@ -52,6 +52,9 @@ std::vector<Case> Cases() {
   const Bsdf diffuse{BsdfType::kDiffuse, Vec3(0.7f)};
   const Bsdf rough{BsdfType::kGgx, Vec3(0.9f), 0.5f};
   const Bsdf glossy{BsdfType::kGgx, Vec3(0.9f), 0.05f};
+  // roughness 0.08. (At a grazing view, cos theta_o = 0.12, the rays hit a light half in this lobe 5% more often
+  // than the density says: not resolved here, see the closing note of issue 18.)
+  const Bsdf nearMirror{BsdfType::kGgx, Vec3(0.9f), 0.0064f};
   Bsdf layered{BsdfType::kLayered, Vec3(0.4f), 0.1f};
   layered.specular = Vec3(0.04f);
   layered.specularWeight = 0.5f;
@@ -63,6 +66,7 @@ std::vector<Case> Cases() {
       {"rough GGX, light in the lobe", rough, tilted, mirror(tilted, 1.5f), 0.6f, 0.0f},
       {"glossy GGX, light in the lobe", glossy, tilted, mirror(tilted, 1.5f), 0.3f, 0.0f},
       {"glossy GGX, grazing view", glossy, grazing, mirror(grazing, 2.0f), 0.4f, 0.0f},
+      {"near-mirror GGX, light in the lobe", nearMirror, tilted, mirror(tilted, 1.5f) + Vec3(0.0f, 0.0f, 0.3f), 0.3f, 0.0f},
       {"layered, light in the lobe", layered, tilted, mirror(tilted, 1.2f), 0.4f, 0.0f},
       {"diffuse, cutoff 1e-4, far light", diffuse, tilted, Vec3(0.0f, 40.0f, 0.0f), 20.0f, 1e-4f},
       {"rough GGX, cutoff 0.02 across it", rough, tilted, mirror(tilted, 3.0f), 4.0f, 0.02f},
@@ -113,7 +117,8 @@ TEST(Candidates, BrdfAreaDensityIntegratesToTheProbabilityThatABsdfRayHitsTheLig
     const RngKey key{7, static_cast<uint32_t>(k), 0, static_cast<uint32_t>(RngPass::kTest)};
     for (int r = 0; r < kRays; ++r) {
       const BsdfSample s = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, UniformFloat(key, 2u * r), UniformFloat(key, 2u * r + 1));
-      if (!(s.pdf > 0.0f)) continue;
+      // A direction below the surface is no candidate (the pass's test), whatever it would hit.
+      if (!(s.pdf > 0.0f) || !(glm::dot(sp.geometricNormal, s.wi) > 0.0f)) continue;
       const double t = HitDistance(sp.position, s.wi, lt);
       if (t > 0.0 && t <= BrdfRayMaxDistance(c.cutoff, s.pdf)) ++hits;
     }
