@@ -1,7 +1,7 @@
 // Initial sampling's candidate sources beyond the RIS kernel's local lights (issue 18; DESIGN §4 "Candidate
 // sources"): the sun, the environment map and BSDF rays, combined with the local lights by multiple-importance
-// RIS (core/candidates.h). Scalar, per pixel: the kernel keeps the local-light-only configurations at SIMD speed and
-// to their old bits; these sources add a few candidates per pixel, and a BSDF ray each.
+// RIS (core/candidates.h). Scalar, per pixel, after the RIS kernel has streamed the local lights at SIMD speed (a
+// frame without these sources keeps the kernel's old bits); they add a few candidates per pixel and a BSDF ray each.
 #pragma once
 
 #include <cstdint>
