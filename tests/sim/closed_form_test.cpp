@@ -356,13 +356,7 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
 }
 
 INSTANTIATE_TEST_SUITE_P(UnbiasedPresets, ClosedFormPreset,
-                         ::testing::Values("ris", "restir-unbiased", "restir-balance", "restir-spmis"),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param;
-                           for (char& ch : name)
-                             if (ch == '-') ch = '_';
-                           return name;
-                         });
+                         ::testing::ValuesIn(test::kUnbiasedPresets), test::PresetTestName());
 
 }  // namespace
 }  // namespace restir

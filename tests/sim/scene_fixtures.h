@@ -1,9 +1,25 @@
 // Small scenes built in code for sim/ tests (no JSON parser involved).
 #pragma once
 
+#include <string>
+
 #include "sim/sequence.h"
 
 namespace restir::test {
+
+// The presets the closed-form tests hold to their answers (the unbiased ones).
+inline const std::string kUnbiasedPresets[] = {"ris", "restir-unbiased", "restir-balance", "restir-spmis"};
+
+// A preset name as a GoogleTest parameter name, which may not contain '-'.
+struct PresetTestName {
+  template <typename Info>
+  std::string operator()(const Info& info) const {
+    std::string name = info.param;
+    for (char& ch : name)
+      if (ch == '-') ch = '_';
+    return name;
+  }
+};
 
 // Adds a quad (two triangles, corners c ± u ± v) as an object with the given material.
 inline void AddQuadObject(Sequence& seq, const std::string& name, uint32_t material, const Vec3& c, const Vec3& u,
