@@ -10,6 +10,7 @@
 #include "sim/flip.h"
 #include "sim/image.h"
 #include "sim/passes/frame_view.h"
+#include "sim/reservoir_diagnostics.h"
 
 namespace restir {
 
@@ -99,7 +100,8 @@ struct FrameMeasurement {
   const ImageRgb* image = nullptr;                 // the preset's estimate
   const ImageRgb* previousImage = nullptr;         // its estimate of the previous frame (null: first frame)
   uint64_t guarded = 0;                            // FrameResult counters
-  double temporalAcceptance = 0.0, meanConfidence = 0.0;
+  double temporalAcceptance = 0.0;
+  ReservoirDiagnostics diagnostics;                // FrameResult::diagnostics
   uint64_t crossObjectReuse = 0;
   double disoccFraction = 0.0, recentFraction = 0.0;  // G-buffer disocclusion and its 4-frame window
   // The reference and what is measured against it:

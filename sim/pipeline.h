@@ -16,6 +16,7 @@
 #include "sim/passes/spatial_reuse.h"
 #include "sim/passes/stochastic_pairwise_reuse.h"
 #include "sim/passes/temporal_reuse.h"
+#include "sim/reservoir_diagnostics.h"
 #include "sim/sequence.h"
 
 namespace restir {
@@ -43,6 +44,9 @@ struct FrameInputs {
   Sky previousSky;                                 // the previous frame's
   uint32_t seed = 0;
   uint32_t frame = 0;
+  // Pixels whose contributing fractions FrameResult::diagnostics also reports apart (the runner passes its
+  // 4-frame disocclusion window); null: none. Never changes the image.
+  const std::vector<uint8_t>* diagnosticsRegion = nullptr;
 };
 
 struct FrameResult {
@@ -50,7 +54,7 @@ struct FrameResult {
   std::vector<PassStats> passes;
   uint64_t guardedEvents = 0;      // non-finite values caught and reset (DESIGN §10)
   double temporalAcceptance = 0;   // fraction of surface pixels whose previous reservoir entered the combination
-  double meanConfidence = 0;       // mean output confidence over surface pixels
+  ReservoirDiagnostics diagnostics;  // the reservoirs after each pass and at the end (issue 20)
   uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
 };

@@ -70,7 +70,8 @@ const std::vector<std::string>& ReportPlotMetrics() {
       "relmse",         "luma_rmse",           "rmspe",           "flip",
       "luma_ratio",     "flicker",             "stability_luma_rmse", "accum_rmse",
       "relmse_disocc",  "flip_disocc",         "ms_frame",        "temporal_acceptance",
-      "disocc_fraction", "disocc_recent_fraction", "mean_confidence"};
+      "disocc_fraction", "disocc_recent_fraction", "mean_confidence", "contrib_initial",
+      "contrib_spatial", "contrib_shaded", "contrib_spatial_disocc", "sample_age", "duplicate_fraction"};
   return kMetrics;
 }
 
@@ -580,6 +581,31 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
            "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";
   }
   o << "</p>\n";
+
+  // What the reservoirs held (issue 20): the regime a sequence puts the estimators in.
+  if (t.Column("contrib_initial") >= 0) {
+    const char* columns[] = {"contrib_initial", "contrib_temporal", "contrib_spatial", "contrib_shaded",
+                             "mean_confidence", "confidence_sd", "sample_age", "duplicate_fraction"};
+    o << "<h2 id=\"reservoirs\">Reservoirs (means over frames)</h2>\n<table class=\"reservoirs\">\n<tr><th>preset</th>";
+    for (const char* c : columns) o << "<th>" << c << "</th>";
+    o << "<th>contrib_initial_disocc / contrib_spatial_disocc (post-reveal)</th></tr>\n";
+    for (const PresetSummary& s : sums) {
+      o << "<tr class=\"reservoir-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name)
+        << "</td>";
+      for (const char* c : columns) o << "<td class=\"num\">" << Fmt(SummaryMean(t, s, c)) << "</td>";
+      double initial = NAN, spatial = NAN;
+      for (const auto& [n, v] : s.postReveal) {
+        if (n == "contrib_initial_disocc") initial = v;
+        if (n == "contrib_spatial_disocc") spatial = v;
+      }
+      o << "<td class=\"num\">" << Fmt(initial) << " / " << Fmt(spatial) << "</td></tr>\n";
+    }
+    o << "</table>\n<p class=\"note\">contrib_*: the fraction of surface pixels whose reservoir holds a sample with "
+         "p̂ W &gt; 0 after each pass, and (contrib_shaded) whose shaded sample reaches the image, visibility "
+         "included; *_disocc: the same among pixels revealed in the last 4 frames. sample_age: frames since the "
+         "sample was drawn; duplicate_fraction: how often the pixels of a 5×5 window hold the very same sample "
+         "(docs/metrics.md, \"Reservoir diagnostics\").</p>\n";
+  }
 
   // Plots.
   o << "<h2 id=\"plots\">Per-frame metrics</h2>\n<div class=\"plots\">\n";

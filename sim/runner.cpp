@@ -100,7 +100,7 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x35544B43'52545352ull;  // "RSTRCKT5" (5: the previous frame's sky)
+constexpr uint64_t kCheckpointMagic = 0x36544B43'52545352ull;  // "RSTRCKT6" (6: reservoirs carry their age)
 
 // What a preset carries from frame to frame besides its pipelines' reservoirs.
 struct PresetState {
@@ -364,7 +364,9 @@ RunResult Run(const RunOptions& opt) {
       PresetState& ps = presets[p];
       progress.Show(frame - opt.frameBegin,
                     ps.preset.name + " (" + std::to_string(p + 1) + "/" + std::to_string(presets.size()) + ")");
-      FrameResult fr = ps.members[0]->RenderFrame(loop.Inputs(seed));
+      FrameInputs inputs = loop.Inputs(seed);
+      inputs.diagnosticsRegion = &recentMask;
+      FrameResult fr = ps.members[0]->RenderFrame(inputs);
       // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
       ImageRgb ensembleBias, ensembleVariance;
       EnsembleStats ens;
@@ -395,7 +397,7 @@ RunResult Run(const RunOptions& opt) {
       m.previousImage = hasPrevious ? &ps.previousImage : nullptr;
       m.guarded = fr.guardedEvents;
       m.temporalAcceptance = fr.temporalAcceptance;
-      m.meanConfidence = fr.meanConfidence;
+      m.diagnostics = fr.diagnostics;
       m.crossObjectReuse = fr.crossObjectReuse;
       m.disoccFraction = MaskFraction(current.disoccluded);
       m.recentFraction = MaskFraction(recentMask);

@@ -97,9 +97,12 @@ struct StoredReservoir {
   float W = 0.0f;           // Reservoir::W
   float confidence = 0.0f;  // Reservoir::confidence
   float visibility = 1.0f;  // Reservoir::visibility
+  // Frames since the sample was drawn by initial sampling: temporal reuse adds one when it takes the previous
+  // frame's sample, spatial reuse carries the neighbour's (issue 20's diagnostics; RTXDI's reservoir age).
+  uint32_t age = 0;
   bool HasSample() const { return W > 0.0f; }
 };
-static_assert(sizeof(StoredReservoir) == 44);
+static_assert(sizeof(StoredReservoir) == 48);
 using ReservoirBuffer = std::vector<StoredReservoir>;  // one per pixel, row-major
 
 StoredReservoir Store(const Reservoir& r);
@@ -124,6 +127,9 @@ struct PassStats {
   uint64_t combinations = 0;  // combinations through the GRIS kernel (core/gris_kernel.h)
   uint64_t guarded = 0;       // non-finite values caught and reset (DESIGN §10)
   uint64_t crossObjectReuse = 0;  // temporal inputs whose previous surface had another object id (must be 0)
+  // Shading only: surface pixels whose reservoir reaches the image, f(Y) V(Y) W > 0 in some channel (seed 004's
+  // "contributing path"; visibility included, unlike the reservoirs' p̂ W > 0).
+  uint64_t contributing = 0;
 };
 
 }  // namespace restir

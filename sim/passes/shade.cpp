@@ -20,6 +20,7 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
   tbb::combinable<uint64_t> targets([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> contributing([] { return uint64_t{0}; });
   struct RowScratch {
     TargetPairBuffer pairs;
     std::vector<float> target, f[3];
@@ -71,7 +72,9 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
         const StoredReservoir& r = reservoirs[i];
         Vec3 fx(sc.f[0][k], sc.f[1][k], sc.f[2][k]);
         if (carryVisibility) fx *= r.visibility;
-        c += fx * r.W;
+        const Vec3 e = fx * r.W;
+        if (e.x > 0.0f || e.y > 0.0f || e.z > 0.0f) contributing.local() += 1;
+        c += e;
         ++k;
       }
       if (!IsFinite(c)) {
@@ -86,6 +89,7 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
   stats.rays = rays.combine(std::plus<uint64_t>());
   stats.targets = targets.combine(std::plus<uint64_t>());
   stats.guarded = guarded.combine(std::plus<uint64_t>());
+  stats.contributing = contributing.combine(std::plus<uint64_t>());
 }
 
 }  // namespace restir

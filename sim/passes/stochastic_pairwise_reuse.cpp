@@ -90,6 +90,7 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
   c.AddDomain(0, static_cast<uint32_t>(i));
   c.samples[0] = SampleOf(self);
   c.inputs[0] = InputOf(self, self.confidence);
+  c.age[0] = self.age;
   for (int d = 0; d < params.draws; ++d) {
     const float u = s.Next();
     if (k == 0) continue;
@@ -104,6 +105,7 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
       c.AddInput();
       c.samples[slot] = SampleOf(r);
       c.inputs[slot] = InputOf(r, r.confidence * draws.scale);
+      c.age[slot] = r.age;
       c.AddDomain(0, p);
     }
     draws.multiplicity[slot] += 1.0f;

@@ -79,6 +79,8 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       c.samples[1] = SampleOf(prev);
       c.inputs[0] = InputOf(cur, cur.confidence);
       c.inputs[1] = InputOf(prev, std::min(prev.confidence, params.maxHistory));
+      c.age[0] = cur.age;
+      c.age[1] = prev.age + 1;  // a frame older than when the previous frame stored it
       const RngKey key{view.seed, view.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
       c.u[0] = UniformFloat(key, 0);
       c.u[1] = UniformFloat(key, 1);

@@ -1,7 +1,7 @@
 // The k-neighbour spatial pass alone on a hand-made frame (sim/passes/spatial_reuse.h): each pixel's output
 // confidence is its own plus that of the similar neighbours it combined, and its sample comes from itself or one
 // of them: never from a pixel whose surface differs (another normal), never from outside the radius; where
-// temporal reuse failed, more neighbours are drawn.
+// temporal reuse failed, more neighbours are drawn. A reused sample keeps its age.
 #include "sim/passes/spatial_reuse.h"
 
 #include <gtest/gtest.h>
@@ -20,6 +20,7 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
   ReservoirBuffer reservoirs, spare;
   PassStats stats;
   InitialSampling(InitialSamplingParams{}, f.View(3), reservoirs, stats);
+  for (size_t i = 0; i < reservoirs.size(); ++i) reservoirs[i].age = static_cast<uint32_t>(1000 + i);
   const ReservoirBuffer input = reservoirs;
   SpatialParams params;
   params.enabled = true;
@@ -42,6 +43,7 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
     for (size_t j = 0; j < input.size(); ++j)
       if (input[j].position == reservoirs[i].position && input[j].lightId == reservoirs[i].lightId) source = int(j);
     ASSERT_GE(source, 0) << i;
+    EXPECT_EQ(reservoirs[i].age, input[source].age) << "a reused sample keeps the age it had at pixel " << source;
     const int sx = source % 24, sy = source / 24;
     EXPECT_EQ(sx >= 12, x >= 12) << "pixel " << i << " took its sample from the other half, pixel " << source;
     EXPECT_LE(std::hypot(sx - x, sy - y), params.radius + 0.71) << "pixel " << i << " from pixel " << source;

@@ -1,6 +1,7 @@
 // The temporal-reuse pass alone on a hand-made frame (sim/passes/temporal_reuse.h): with a previous frame every
 // pixel combines its reservoir with the one it reprojects onto, the previous confidence capped at maxHistory;
-// pixels whose reprojection failed, and every pixel without a previous frame, keep their reservoir untouched.
+// pixels whose reprojection failed, and every pixel without a previous frame, keep their reservoir untouched. A
+// sample taken from the previous frame is a frame older.
 #include "sim/passes/temporal_reuse.h"
 
 #include <gtest/gtest.h>
@@ -33,6 +34,7 @@ TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
   test::HandMadeFrame f(9, 5);
   f.gbuffer.prevValid[4] = 0;  // reprojection failed here
   Buffers b = Initial(f, 50.0f);
+  for (StoredReservoir& r : b.previous) r.age = 7;
   const ReservoirBuffer before = b.current;
   TemporalParams params;
   params.enabled = true;
@@ -58,6 +60,9 @@ TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
     // The selected sample is one of the two inputs.
     EXPECT_TRUE(SameSample(b.current[i], before[i]) || SameSample(b.current[i], b.previous[i])) << i;
     fromPrevious += SameSample(b.current[i], b.previous[i]);
+    // Initial samples are distinct points, so the age says which input won: 0 for this frame's, 7 + 1 for the
+    // previous frame's.
+    EXPECT_EQ(b.current[i].age, SameSample(b.current[i], b.previous[i]) ? 8u : 0u) << i;
   }
   // With 20 : 1 confidence, nearly every pixel keeps the previous sample.
   EXPECT_GT(fromPrevious, (b.current.size() - 1) * 3 / 4);
