@@ -128,9 +128,9 @@ const std::vector<Preset>& AllPresets() {
       Make("rtxdi-defaults",
            "RTXDI 3.1's library defaults where they map: 8 uniformly chosen local-light, 1 sun, 1 environment and 1 "
            "BSDF candidates (BRDF cutoff 1e-4), initial visibility; temporal reuse (history 20, permutation "
-           "sampling) and 1 spatial neighbour (8 where temporal reuse failed, radius 32 px), both with the "
-           "balance weights and unshadowed targets of RTXDI's Basic bias correction, normal 0.5 / depth 0.1 "
-           "thresholds; final shadow ray. Not modelled: ReGIR, the boiling filter, final-visibility reuse",
+           "sampling, boiling filter at strength 0.2) and 1 spatial neighbour (8 where temporal reuse failed, "
+           "radius 32 px), both with the balance weights and unshadowed targets of RTXDI's Basic bias correction, "
+           "normal 0.5 / depth 0.1 thresholds; final shadow ray. Not modelled: ReGIR, final-visibility reuse",
            "RTXDI 3.1 rtxdi-sdk ReSTIRDI.cpp GetDefaultReSTIRDI*Params (docs/architecture.md, \"rtxdi-defaults\")",
            [](PipelineSettings& s) {
              s.initial.candidates = 8;
@@ -145,6 +145,7 @@ const std::vector<Preset>& AllPresets() {
              s.temporal.bias = BiasCorrection::kBasic;
              s.temporal.maxHistory = 20.0f;
              s.temporal.permutation = true;
+             s.temporal.boilingFilterStrength = 0.2f;
              s.spatial.enabled = true;
              s.spatial.mis = MisFamily::kBalance;
              s.spatial.bias = BiasCorrection::kBasic;

@@ -115,6 +115,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("temporal.sampleChecks", temporal.sampleChecks),
       RESTIR_FIELD("temporal.targetRatioClamp", temporal.targetRatioClamp),
       RESTIR_FIELD("temporal.permutation", temporal.permutation),
+      RESTIR_FIELD("temporal.boilingFilterStrength", temporal.boilingFilterStrength),
       RESTIR_FIELD("spatial.enabled", spatial.enabled),
       RESTIR_ENUM_FIELD("spatial.mis", spatial.mis, kMisNames),
       RESTIR_ENUM_FIELD("spatial.bias", spatial.bias, kBiasNames),
@@ -124,6 +125,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("spatial.iterations", spatial.iterations),
       RESTIR_FIELD("spatial.normalThreshold", spatial.normalThreshold),
       RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
+      RESTIR_FIELD("spatial.discountNaiveSamples", spatial.discountNaiveSamples),
       RESTIR_FIELD("spatial.draws", spatial.stochastic.draws),
       RESTIR_FIELD("spatial.canonicalDraws", spatial.stochastic.canonicalDraws),
       RESTIR_FIELD("spatial.cellTile", spatial.stochastic.cellTile),
@@ -159,6 +161,8 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
         if (count < 0 || count > kMaxCandidatesPerSource)
           throw InputError("--set: error at " + key + ": candidate counts must be in [0, " +
                            std::to_string(kMaxCandidatesPerSource) + "]");
+      if (!(settings.temporal.boilingFilterStrength >= 0.0f && settings.temporal.boilingFilterStrength <= 1.0f))
+        throw InputError("--set: error at " + key + ": boilingFilterStrength must be in [0, 1] (0: off)");
       if (!(in.brdfCutoff >= 0.0f && in.brdfCutoff < 1.0f))
         throw InputError("--set: error at " + key + ": brdfCutoff must be in [0, 1)");
       const StochasticPairwiseParams& sp = settings.spatial.stochastic;

@@ -88,6 +88,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
             continue;
           const StoredReservoir& nr = input[ni];
           if (!FiniteReservoir(nr)) continue;
+          if (params.discountNaiveSamples && nr.HasSample() && nr.confidence <= kNaiveConfidence) continue;
           const int slot = c.AddInput();
           c.AddDomain(0, static_cast<uint32_t>(ni));
           c.samples[slot] = SampleOf(nr);

@@ -25,8 +25,14 @@ struct SpatialParams {
   int iterations = 1;                            // passes, each reading a copy of the previous one's output
   float normalThreshold = 0.9f;                  // minimum dot of the neighbour's and the pixel's normals
   float depthThreshold = 0.1f;                   // maximum relative view-depth difference
+  // RTXDI's discountNaiveSamples (rtxdi-runtime DI/SpatialResampling.hlsli): a neighbour whose reservoir holds a
+  // sample but has confidence <= kNaiveConfidence (RTXDI_NAIVE_SAMPLING_M_THRESHOLD: this frame's candidates with
+  // at most a frame of history) is skipped, so fresh samples are not spread. k-neighbour pass only.
+  bool discountNaiveSamples = false;
   StochasticPairwiseParams stochastic;           // the cell pass's own settings (mis = stochastic-pairwise)
 };
+
+inline constexpr float kNaiveConfidence = 2.0f;
 
 // params.iterations passes over `reservoirs` (updated in place); `spare` is a second buffer the iterations
 // alternate with (its contents are lost). `temporalAccepted` (null: temporal reuse is off) marks the pixels whose

@@ -1,7 +1,12 @@
 #include "sim/passes/temporal_reuse.h"
 
 #include <tbb/combinable.h>
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "core/rng.h"
 #include "sim/clock.h"
@@ -29,6 +34,8 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
   stats.name = "temporal";
   const bool haveHistory = view.HasHistory() && previous.size() == n && view.previousGbuffer->Size() == n;
   if (!haveHistory) {
+    // RTXDI filters whatever its temporal pass outputs, the first frame's initial reservoirs included.
+    BoilingFilter(params.boilingFilterStrength, w, h, current);
     stats.ms = MsSince(t0);
     return;
   }
@@ -119,8 +126,43 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       accepted[i] = 1;
     }
   });
+  BoilingFilter(params.boilingFilterStrength, w, h, current);
   stats.crossObjectReuse = crossObject.combine(std::plus<uint64_t>());
   FinishReusePass("temporal", t0, rays, guarded, scratch, stats);
+}
+
+size_t BoilingFilter(float strength, int width, int height, ReservoirBuffer& reservoirs) {
+  if (!(strength > 0.0f) || reservoirs.size() != static_cast<size_t>(width) * height) return 0;
+  // Utils/BoilingFilter.hlsli: 10 / clamp(strength, 1e-6, 1) - 9.
+  const float multiplier = 10.0f / std::clamp(strength, 1e-6f, 1.0f) - 9.0f;
+  const int tilesX = (width + kBoilingFilterTile - 1) / kBoilingFilterTile;
+  const int tilesY = (height + kBoilingFilterTile - 1) / kBoilingFilterTile;
+  tbb::combinable<size_t> emptied([] { return size_t{0}; });
+  // Tiles are independent and each is summed in its own pixel order: the same bits whatever the thread count.
+  tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY), [&](const tbb::blocked_range<int>& range) {
+    for (int t = range.begin(); t < range.end(); ++t) {
+      const int x0 = (t % tilesX) * kBoilingFilterTile, y0 = (t / tilesX) * kBoilingFilterTile;
+      const int x1 = std::min(width, x0 + kBoilingFilterTile), y1 = std::min(height, y0 + kBoilingFilterTile);
+      double sum = 0.0;
+      size_t count = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          const float W = reservoirs[static_cast<size_t>(y) * width + x].W;
+          if (W > 0.0f && std::isfinite(W)) sum += W, ++count;
+        }
+      if (count == 0) continue;
+      const float threshold = static_cast<float>(sum / double(count)) * multiplier;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          StoredReservoir& r = reservoirs[static_cast<size_t>(y) * width + x];
+          if (r.W > threshold) {
+            r = StoredReservoir{};  // RTXDI_EmptyDIReservoir: no sample, W = 0, M = 0
+            emptied.local() += 1;
+          }
+        }
+    }
+  });
+  return emptied.combine(std::plus<size_t>());
 }
 
 }  // namespace restir

@@ -19,7 +19,21 @@ struct TemporalParams {
                                // (they depend on the sample, so unbiased presets turn them off)
   bool targetRatioClamp = false;  // also reject unless p̂_c(Y_prev) / p̂_prev(Y_prev) is in [0.1, 10]
   bool permutation = false;       // RTXDI permutation sampling: read a per-frame XOR-permuted previous pixel
+  // RTXDI's boiling filter, run on the pass's output (rtxdi-runtime DI/BoilingFilter.hlsli, Utils/BoilingFilter.hlsli):
+  // in each kBoilingFilterTile² tile, a reservoir whose W exceeds the tile's mean nonzero W times 10/s − 9 is
+  // emptied. s in (0, 1]; 0 turns it off. RTXDI's default is 0.2 (a threshold of 41× the mean). Biased by design:
+  // it removes rare, heavy samples before spatial reuse spreads them into a flash.
+  float boilingFilterStrength = 0.0f;
 };
+
+// RTXDI's boiling-filter group: the 16×16 thread group its temporal pass runs in (RTXDI_BOILING_FILTER_GROUP_SIZE).
+inline constexpr int kBoilingFilterTile = 16;
+
+// The boiling filter on `reservoirs` (one per pixel of a width × height frame, row-major): tiles of
+// kBoilingFilterTile² pixels from the top-left corner (partial at the right and bottom edges); per tile, the mean
+// m of the W > 0 among its reservoirs (summed in pixel order), then every reservoir with W > m (10/s − 9) emptied.
+// Returns the number emptied. Does nothing for strength <= 0.
+size_t BoilingFilter(float strength, int width, int height, ReservoirBuffer& reservoirs);
 
 // Combines `current` (this frame's reservoirs, updated in place) with `previous` (last frame's output, one per
 // pixel of the previous G-buffer). `accepted` (resized to the frame) marks the pixels whose previous reservoir

@@ -76,3 +76,43 @@ TEST(SpatialReuse, WhereTemporalReuseFailedMoreNeighboursAreCombined) {
 
 }  // namespace
 }  // namespace restir
+
+namespace restir {
+namespace {
+
+// RTXDI's discountNaiveSamples: a neighbour with a sample and confidence <= 2 never enters the combination, so no
+// pixel takes its sample and its confidence is not added; without the setting the same neighbours are combined.
+TEST(SpatialReuse, DiscountingNaiveSamplesSkipsNeighboursWithoutHistory) {
+  test::HandMadeFrame f(24, 12);
+  ReservoirBuffer initial, spare;
+  PassStats stats;
+  InitialSampling(InitialSamplingParams{}, f.View(4), initial, stats);
+  // Every third pixel is naive (confidence 1 or 2); the others carry history (confidence 3, RTXDI's M > 2).
+  for (size_t i = 0; i < initial.size(); ++i) initial[i].confidence = i % 3 == 0 ? float(1 + i % 2) : 3.0f;
+  SpatialParams params;
+  params.enabled = true;
+  params.mis = MisFamily::kUniform;
+  params.neighbours = 8;
+  params.radius = 4.0f;
+  for (bool discount : {false, true}) {
+    params.discountNaiveSamples = discount;
+    ReservoirBuffer reservoirs = initial;
+    SpatialReuse(params, VisibilityReuse::kNone, f.View(4), nullptr, reservoirs, spare, stats);
+    int fromNaive = 0;
+    for (size_t i = 0; i < reservoirs.size(); ++i) {
+      if (!reservoirs[i].HasSample()) continue;
+      for (size_t j = 0; j < initial.size(); ++j)
+        if (j != i && initial[j].position == reservoirs[i].position && initial[j].lightId == reservoirs[i].lightId)
+          fromNaive += initial[j].confidence <= kNaiveConfidence;
+      // Confidence is its own plus whole neighbours' confidences: with the discount, only multiples of 3 are added.
+      if (discount) EXPECT_EQ(std::fmod(reservoirs[i].confidence - initial[i].confidence, 3.0f), 0.0f) << i;
+    }
+    if (discount)
+      EXPECT_EQ(fromNaive, 0);
+    else
+      EXPECT_GT(fromNaive, 10);  // without it, naive neighbours' samples are taken
+  }
+}
+
+}  // namespace
+}  // namespace restir
