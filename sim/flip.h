@@ -68,6 +68,8 @@ float FlipAcesToneMap(float value, double exposure);
 
 // Exposures HDR-FLIP evaluates: start = log2(x_max / Y_max), stop = log2(x_max / Y_median), where Y is the
 // reference's luminance and x_max solves tonemap(x) = 0.85; count = max(2, ceil(stop - start)), evenly spaced.
+// Y_median is the luminance at index n / 2 in sorted order (the upper middle one for an even n), as NVIDIA's FLIP
+// takes it: tests/sim/flip_nvidia_test.cpp holds the two to 1e-5 in the mean.
 struct FlipExposureRange {
   double start = 0.0;
   double stop = 0.0;

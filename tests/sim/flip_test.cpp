@@ -196,6 +196,19 @@ TEST(Flip, HdrFlipTakesItsExposureRangeFromTheReference) {
   EXPECT_FALSE(BitIdentical(m1, m2));
 }
 
+TEST(Flip, HdrFlipStopExposureTakesTheUpperMiddleLuminanceOfAnEvenCount) {
+  // As NVIDIA's FLIP: with Y = 1, 2, 4, 8 the median is 4 (index n / 2 of the sorted values), not 3.
+  ImageRgb ref(4, 1);
+  for (int i = 0; i < 4; ++i) ref.pixels[size_t(i)] = Vec3(float(1 << (3 - i)));
+  const FlipExposureRange r = FlipExposures(ref);
+  EXPECT_NEAR(r.stop - r.start, std::log2(8.0 / 4.0), 1e-12);
+  // Odd count: the middle value.
+  ImageRgb odd(3, 1);
+  for (int i = 0; i < 3; ++i) odd.pixels[size_t(i)] = Vec3(float(1 << i));
+  const FlipExposureRange o = FlipExposures(odd);
+  EXPECT_NEAR(o.stop - o.start, std::log2(4.0 / 2.0), 1e-12);
+}
+
 TEST(Flip, HdrFlipIsThePerPixelMaximumOfLdrFlipOverToneMappedExposures) {
   const ImageRgb ref = RandomHdr(19, 13, 7), test = RandomHdr(19, 13, 8);
   FlipExposureRange range;
