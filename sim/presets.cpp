@@ -130,7 +130,8 @@ const std::vector<Preset>& AllPresets() {
            "BSDF candidates (BRDF cutoff 1e-4), initial visibility; temporal reuse (history 20, permutation "
            "sampling, boiling filter at strength 0.2) and 1 spatial neighbour (8 where temporal reuse failed, "
            "radius 32 px), both with the balance weights and unshadowed targets of RTXDI's Basic bias correction, "
-           "normal 0.5 / depth 0.1 thresholds; final shadow ray. Not modelled: ReGIR, final-visibility reuse",
+           "normal 0.5 / depth 0.1 thresholds; final shadow ray whose visibility is reused up to 4 frames and 16 px. "
+           "Not modelled: ReGIR",
            "RTXDI 3.1 rtxdi-sdk ReSTIRDI.cpp GetDefaultReSTIRDI*Params (docs/architecture.md, \"rtxdi-defaults\")",
            [](PipelineSettings& s) {
              s.initial.candidates = 8;
@@ -154,6 +155,9 @@ const std::vector<Preset>& AllPresets() {
              s.spatial.radius = 32.0f;
              s.spatial.normalThreshold = 0.5f;
              s.spatial.depthThreshold = 0.1f;
+             s.shade.reuseFinalVisibility = true;
+             s.shade.finalVisibilityMaxAge = 4;
+             s.shade.finalVisibilityMaxDistance = 16.0f;
            }),
   };
   return presets;

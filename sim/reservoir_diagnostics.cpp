@@ -59,7 +59,7 @@ void MeasureOutputReservoirs(const GBuffer& g, const ReservoirBuffer& reservoirs
         if (std::isfinite(r.confidence)) row.confidence += r.confidence, row.confidence2 += double(r.confidence) * r.confidence;
         if (!r.HasSample()) continue;
         ++row.sampled;
-        row.age += r.age;
+        row.age += r.history.age;
         int same = 0, others = 0;
         for (int dy = -kDuplicateRadius; dy <= kDuplicateRadius; ++dy)
           for (int dx = -kDuplicateRadius; dx <= kDuplicateRadius; ++dx) {

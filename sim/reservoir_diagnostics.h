@@ -28,7 +28,7 @@ struct ReservoirDiagnostics {
   double contributingShaded = 0.0;
   double confidenceMean = 0.0;  // mean output confidence c over surface pixels
   double confidenceSd = 0.0;    // its standard deviation over the same pixels (population form)
-  double ageMean = 0.0;         // mean StoredReservoir::age over surface pixels whose reservoir has a sample
+  double ageMean = 0.0;         // mean SampleHistory::age over surface pixels whose reservoir has a sample
   // Mean over surface pixels with a sample of: the fraction of the other pixels with a sample in its
   // (2 kDuplicateRadius + 1)² window that hold the same sample (light id and point, bit for bit). 0 when every
   // sample is distinct; spatial reuse copies samples, so it raises this (RTXDI's duplication map measures the

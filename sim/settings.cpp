@@ -135,6 +135,9 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("spatial.cellSearchGrowth", spatial.stochastic.cellSearchGrowth),
       RESTIR_FIELD("spatial.confidenceScaling", spatial.stochastic.confidenceScaling),
       RESTIR_ENUM_FIELD("shade.visibility", shade.visibility, kVisNames),
+      RESTIR_FIELD("shade.reuseFinalVisibility", shade.reuseFinalVisibility),
+      RESTIR_FIELD("shade.finalVisibilityMaxAge", shade.finalVisibilityMaxAge),
+      RESTIR_FIELD("shade.finalVisibilityMaxDistance", shade.finalVisibilityMaxDistance),
   };
   return fields;
 }
@@ -163,6 +166,10 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
                            std::to_string(kMaxCandidatesPerSource) + "]");
       if (!(settings.temporal.boilingFilterStrength >= 0.0f && settings.temporal.boilingFilterStrength <= 1.0f))
         throw InputError("--set: error at " + key + ": boilingFilterStrength must be in [0, 1] (0: off)");
+      if (settings.shade.finalVisibilityMaxAge < 0 || settings.shade.finalVisibilityMaxAge > 255 ||
+          !(settings.shade.finalVisibilityMaxDistance >= 0.0f && settings.shade.finalVisibilityMaxDistance <= 1e6f))
+        throw InputError("--set: error at " + key +
+                         ": finalVisibilityMaxAge must be in [0, 255] and finalVisibilityMaxDistance in [0, 1e6]");
       if (!(in.brdfCutoff >= 0.0f && in.brdfCutoff < 1.0f))
         throw InputError("--set: error at " + key + ": brdfCutoff must be in [0, 1)");
       const StochasticPairwiseParams& sp = settings.spatial.stochastic;

@@ -249,7 +249,7 @@ StoredReservoir OutputOf(const Combination& c, const GrisResult& gr, float confi
     out.targetPdf = c.target[0][gr.selected];
     out.W = gr.W;
     out.visibility = gr.visibility;
-    out.age = c.age[gr.selected];
+    out.history = c.history[gr.selected];
   }
   return out;
 }

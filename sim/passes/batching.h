@@ -131,7 +131,7 @@ struct Combination {
   LightSample samples[kMaxGrisInputs];  // Y_i (radiance unused: each domain looks it up in its own frame)
   GrisInput inputs[kMaxGrisInputs];
   float u[kMaxGrisInputs];              // streaming-selection uniforms
-  uint32_t age[kMaxGrisInputs];         // StoredReservoir::age of input i as this combination sees it
+  SampleHistory history[kMaxGrisInputs];  // StoredReservoir::history of input i as handed to this pixel
   float target[kMaxDomains][kMaxGrisInputs];
   Entry state[kMaxDomains][kMaxGrisInputs];
   void Reset(uint32_t p, int inputCount, int domainCount) {
@@ -140,7 +140,7 @@ struct Combination {
     domains = domainCount;
     for (int j = 0; j < domainCount; ++j)
       for (int i = 0; i < inputCount; ++i) state[j][i] = Entry::kUnknown;
-    for (int i = 0; i < kMaxGrisInputs; ++i) age[i] = 0;
+    for (int i = 0; i < kMaxGrisInputs; ++i) history[i] = SampleHistory{};
   }
   void AddDomain(uint8_t v, uint32_t p) {
     view[domains] = v;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -85,6 +86,26 @@ inline bool LightPointAt(const Vec3& x, uint32_t lightId, const Vec3& position, 
   return true;
 }
 
+// What a reservoir's sample went through since it was drawn, in RTXDI's packed sizes (its reservoir's age and
+// spatialDistance, DI/Reservoir.hlsli), so the record stays 48 bytes.
+struct SampleHistory {
+  uint8_t age = 0;            // frames since initial sampling drew the sample (issue 20's diagnostics; saturates)
+  uint8_t visibilityAge = 0;  // frames since shading traced its visibility here (RTXDI's age; 0: not stored)
+  int8_t distanceX = 0;       // pixels the sample moved through reuse since then (RTXDI's spatialDistance),
+  int8_t distanceY = 0;       // clamped to ±127
+  // The history as reuse hands it on: from a pixel (dx, dy) away, one frame later when `nextFrame` (temporal).
+  SampleHistory Moved(int dx, int dy, bool nextFrame) const {
+    SampleHistory h = *this;
+    if (nextFrame) {
+      h.age = age == 255 ? age : static_cast<uint8_t>(age + 1);
+      h.visibilityAge = visibilityAge == 255 ? visibilityAge : static_cast<uint8_t>(visibilityAge + 1);
+    }
+    h.distanceX = static_cast<int8_t>(std::clamp(distanceX + dx, -127, 127));
+    h.distanceY = static_cast<int8_t>(std::clamp(distanceY + dy, -127, 127));
+    return h;
+  }
+};
+
 // A reservoir as the passes store it between passes and frames (issue 6 memory budget): the sample's light id,
 // point and normal, and the reservoir's scalars. The emitted radiance is looked up from the light list of
 // whichever frame evaluates the sample, so it is not stored; p_src and the running weight sum matter only while
@@ -97,9 +118,7 @@ struct StoredReservoir {
   float W = 0.0f;           // Reservoir::W
   float confidence = 0.0f;  // Reservoir::confidence
   float visibility = 1.0f;  // Reservoir::visibility
-  // Frames since the sample was drawn by initial sampling: temporal reuse adds one when it takes the previous
-  // frame's sample, spatial reuse carries the neighbour's (issue 20's diagnostics; RTXDI's reservoir age).
-  uint32_t age = 0;
+  SampleHistory history;    // ages and distance travelled (temporal reuse ages it, every reuse moves it)
   bool HasSample() const { return W > 0.0f; }
 };
 static_assert(sizeof(StoredReservoir) == 48);

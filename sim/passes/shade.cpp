@@ -9,7 +9,7 @@
 
 namespace restir {
 
-void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuffer& reservoirs, ImageRgb& image,
+void Shade(const ShadeParams& params, const FrameView& view, ReservoirBuffer& reservoirs, ImageRgb& image,
            PassStats& stats) {
   const auto t0 = Clock::now();
   const GBuffer& g = *view.gbuffer;
@@ -56,13 +56,26 @@ void Shade(const ShadeParams& params, const FrameView& view, const ReservoirBuff
       for (size_t k = 0; k < m; ++k) {
         if (!(sc.f[0][k] > 0.0f || sc.f[1][k] > 0.0f || sc.f[2][k] > 0.0f)) continue;
         const size_t i = rowStart + sc.pixelOf[k];
-        sc.shadowRays.Add(g, i, reservoirs[i], lights);
+        StoredReservoir& r = reservoirs[i];
+        if (params.reuseFinalVisibility && StoredVisibilityUsable(r.history, params)) {
+          for (auto& f : sc.f) f[k] *= r.visibility;
+          continue;
+        }
+        sc.shadowRays.Add(g, i, r, lights);
         sc.rayOf.push_back(static_cast<uint32_t>(k));
       }
       const std::vector<uint8_t>& occluded = sc.shadowRays.Trace(*view.scene, SceneFrame::kCurrent);
       rays.local() += occluded.size();
-      for (size_t r = 0; r < occluded.size(); ++r)
-        if (occluded[r]) sc.f[0][sc.rayOf[r]] = sc.f[1][sc.rayOf[r]] = sc.f[2][sc.rayOf[r]] = 0.0f;
+      for (size_t r = 0; r < occluded.size(); ++r) {
+        const uint32_t k = sc.rayOf[r];
+        if (occluded[r]) sc.f[0][k] = sc.f[1][k] = sc.f[2][k] = 0.0f;
+        if (params.reuseFinalVisibility) {  // RTXDI_StoreVisibilityInDIReservoir
+          StoredReservoir& stored = reservoirs[rowStart + sc.pixelOf[k]];
+          stored.visibility = occluded[r] ? 0.0f : 1.0f;
+          stored.history.visibilityAge = 0;
+          stored.history.distanceX = stored.history.distanceY = 0;
+        }
+      }
     }
     size_t k = 0;
     for (int x = 0; x < w; ++x) {

@@ -80,7 +80,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
         c.AddDomain(0, static_cast<uint32_t>(i));
         c.samples[0] = SampleOf(self);
         c.inputs[0] = InputOf(self, self.confidence);
-        c.age[0] = self.age;
+        c.history[0] = self.history;
         for (int t = 0; t < k; ++t) {
           if (neighbour[x - x0][t] < 0) continue;
           const size_t ni = static_cast<size_t>(neighbour[x - x0][t]);
@@ -93,7 +93,7 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
           c.AddDomain(0, static_cast<uint32_t>(ni));
           c.samples[slot] = SampleOf(nr);
           c.inputs[slot] = InputOf(nr, nr.confidence);
-          c.age[slot] = nr.age;
+          c.history[slot] = nr.history.Moved(static_cast<int>(ni % w) - x, static_cast<int>(ni / w) - y, false);
           // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
           if (carryVisibility && nr.HasSample()) ev.RequestVisibility(c, slot);
         }

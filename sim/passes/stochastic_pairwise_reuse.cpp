@@ -90,7 +90,7 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
   c.AddDomain(0, static_cast<uint32_t>(i));
   c.samples[0] = SampleOf(self);
   c.inputs[0] = InputOf(self, self.confidence);
-  c.age[0] = self.age;
+  c.history[0] = self.history;
   for (int d = 0; d < params.draws; ++d) {
     const float u = s.Next();
     if (k == 0) continue;
@@ -105,7 +105,9 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
       c.AddInput();
       c.samples[slot] = SampleOf(r);
       c.inputs[slot] = InputOf(r, r.confidence * draws.scale);
-      c.age[slot] = r.age;
+      const int w = grid.width;
+      c.history[slot] = r.history.Moved(static_cast<int>(p % w) - static_cast<int>(i % w),
+                                        static_cast<int>(p / w) - static_cast<int>(i / w), false);
       c.AddDomain(0, p);
     }
     draws.multiplicity[slot] += 1.0f;
@@ -130,6 +132,7 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
   const int w = g.width, h = g.height, tile = std::max(1, params.cellTile);
   const int tilesX = (w + tile - 1) / tile, tilesY = (h + tile - 1) / tile;
   grid.cells.clear();
+  grid.width = g.width;
   grid.pixels.clear();
   grid.pixelCell.assign(g.Size(), -1);
   std::vector<std::pair<uint32_t, uint32_t>> members;  // (cell, pixel) for one tile

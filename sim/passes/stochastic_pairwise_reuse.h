@@ -42,6 +42,7 @@ struct CellGrid {
   std::vector<Cell> cells;
   std::vector<int32_t> pixelCell;  // per pixel: its cell, or -1
   std::vector<uint32_t> pixels;    // pixel indices grouped by cell, in scan order within a cell
+  int width = 0;                   // the frame's width: pixel index -> (x, y)
 };
 
 // Builds the cells of a frame from its G-buffer and the confidences of `reservoirs`.

@@ -86,8 +86,9 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       c.samples[1] = SampleOf(prev);
       c.inputs[0] = InputOf(cur, cur.confidence);
       c.inputs[1] = InputOf(prev, std::min(prev.confidence, params.maxHistory));
-      c.age[0] = cur.age;
-      c.age[1] = prev.age + 1;  // a frame older than when the previous frame stored it
+      c.history[0] = cur.history;
+      // A frame older, and moved from the previous pixel it was read at (RTXDI's temporal spatialOffset).
+      c.history[1] = prev.history.Moved(static_cast<int>(pi % w) - x, static_cast<int>(pi / w) - y, true);
       const RngKey key{view.seed, view.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
       c.u[0] = UniformFloat(key, 0);
       c.u[1] = UniformFloat(key, 1);

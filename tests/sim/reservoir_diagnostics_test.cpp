@@ -116,10 +116,10 @@ TEST(ReservoirDiagnostics, DuplicateFractionOfConstantDistinctAndStripedPatterns
 TEST(ReservoirDiagnostics, ConfidenceSpreadAndAgeOverTheRightPixels) {
   GBuffer g = Surfaces(4, 1);
   ReservoirBuffer r(4);
-  r[0] = WithSample(0, 0.0f), r[0].confidence = 2.0f, r[0].age = 3;
-  r[1] = WithSample(0, 0.1f), r[1].confidence = 4.0f, r[1].age = 5;
-  r[2].confidence = 6.0f, r[2].age = 100;  // no sample: counts for confidence, not for age
-  r[3] = WithSample(0, 0.2f), r[3].confidence = 50.0f, r[3].age = 1000;
+  r[0] = WithSample(0, 0.0f), r[0].confidence = 2.0f, r[0].history.age = 3;
+  r[1] = WithSample(0, 0.1f), r[1].confidence = 4.0f, r[1].history.age = 5;
+  r[2].confidence = 6.0f, r[2].history.age = 100;  // no sample: counts for confidence, not for age
+  r[3] = WithSample(0, 0.2f), r[3].confidence = 50.0f, r[3].history.age = 200;
   g.objectId[3] = -1;  // background: counts for nothing
   ReservoirDiagnostics d;
   MeasureOutputReservoirs(g, r, d);

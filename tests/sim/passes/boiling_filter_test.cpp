@@ -47,11 +47,11 @@ TEST(BoilingFilter, EmptiesOnlyTheOutliersAboveTheTilesThreshold) {
 TEST(BoilingFilter, EmptiedReservoirsAreRtxdisEmptyReservoir) {
   ReservoirBuffer r = Uniform(16, 16, 1.0f);
   r[5].W = 1e6f;
-  r[5].age = 9;
+  r[5].history.age = 9;
   ASSERT_EQ(BoilingFilter(0.2f, 16, 16, r), 1u);
   EXPECT_FALSE(r[5].HasSample());
   EXPECT_EQ(r[5].confidence, 0.0f);  // M = 0: it carries no history either
-  EXPECT_EQ(r[5].age, 0u);
+  EXPECT_EQ(r[5].history.age, 0u);
 }
 
 TEST(BoilingFilter, ZerosDoNotDiluteTheMeanAndTilesAreIndependent) {

@@ -20,7 +20,7 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
   ReservoirBuffer reservoirs, spare;
   PassStats stats;
   InitialSampling(InitialSamplingParams{}, f.View(3), reservoirs, stats);
-  for (size_t i = 0; i < reservoirs.size(); ++i) reservoirs[i].age = static_cast<uint32_t>(1000 + i);
+  for (size_t i = 0; i < reservoirs.size(); ++i) reservoirs[i].history.age = static_cast<uint8_t>(i % 200);
   const ReservoirBuffer input = reservoirs;
   SpatialParams params;
   params.enabled = true;
@@ -43,7 +43,11 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
     for (size_t j = 0; j < input.size(); ++j)
       if (input[j].position == reservoirs[i].position && input[j].lightId == reservoirs[i].lightId) source = int(j);
     ASSERT_GE(source, 0) << i;
-    EXPECT_EQ(reservoirs[i].age, input[source].age) << "a reused sample keeps the age it had at pixel " << source;
+    EXPECT_EQ(reservoirs[i].history.age, input[source].history.age)
+        << "a reused sample keeps the age it had at pixel " << source;
+    // and records the move from its source pixel.
+    EXPECT_EQ(reservoirs[i].history.distanceX, source % 24 - x) << i;
+    EXPECT_EQ(reservoirs[i].history.distanceY, source / 24 - y) << i;
     const int sx = source % 24, sy = source / 24;
     EXPECT_EQ(sx >= 12, x >= 12) << "pixel " << i << " took its sample from the other half, pixel " << source;
     EXPECT_LE(std::hypot(sx - x, sy - y), params.radius + 0.71) << "pixel " << i << " from pixel " << source;

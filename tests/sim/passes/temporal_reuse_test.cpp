@@ -34,7 +34,7 @@ TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
   test::HandMadeFrame f(9, 5);
   f.gbuffer.prevValid[4] = 0;  // reprojection failed here
   Buffers b = Initial(f, 50.0f);
-  for (StoredReservoir& r : b.previous) r.age = 7;
+  for (StoredReservoir& r : b.previous) r.history.age = 7, r.history.visibilityAge = 2;
   const ReservoirBuffer before = b.current;
   TemporalParams params;
   params.enabled = true;
@@ -62,7 +62,10 @@ TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
     fromPrevious += SameSample(b.current[i], b.previous[i]);
     // Initial samples are distinct points, so the age says which input won: 0 for this frame's, 7 + 1 for the
     // previous frame's.
-    EXPECT_EQ(b.current[i].age, SameSample(b.current[i], b.previous[i]) ? 8u : 0u) << i;
+    const bool previousWon = SameSample(b.current[i], b.previous[i]);
+    EXPECT_EQ(b.current[i].history.age, previousWon ? 8u : 0u) << i;
+    EXPECT_EQ(b.current[i].history.visibilityAge, previousWon ? 3u : 0u) << i;
+    EXPECT_EQ(b.current[i].history.distanceX, 0) << i;  // every pixel reprojects onto itself
   }
   // With 20 : 1 confidence, nearly every pixel keeps the previous sample.
   EXPECT_GT(fromPrevious, (b.current.size() - 1) * 3 / 4);
