@@ -1,0 +1,194 @@
+#!/usr/bin/env python3
+"""Builds docs/studies/regimes.md (and its SVG plot) from the jobs of scripts/regime_study.sh's sweep
+(out/regime-study/runs/SEQ/CONFIG/seed-S).
+
+Issue 20's question: below what contributing fraction, if any, does stochastic pairwise MIS (seed 004) beat
+standard pairwise reuse at equal time in the disoccluded region? Every number comes from the runs' metrics.csv and
+run.json; nothing is typed by hand. A sequence's contributing fraction is restir-unbiased (k = 5)'s
+contrib_initial_disocc averaged over its post-reveal frames: the share of revealed pixels whose initial sample is
+visible and nonzero (restir-unbiased's initial sampling traces visibility), seed 004's "reservoirs with a
+contributing path" around a reveal. The error is relmse_corrected_disocc (the reference's own noise subtracted,
+docs/metrics.md), since the regime sequences' references are noisy where little light arrives.
+"""
+import math
+import os
+import statistics
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from make_window_bars_study import combine, load, mean, summarize  # noqa: E402
+
+
+def post_reveal(rows, column):
+    revealed = [r for r in rows[1:] if float(r["disocc_recent_fraction"]) > 0]
+    return mean([float(r[column]) for r in revealed])
+
+
+def regime_summary(run_dir):
+    s = summarize(run_dir)
+    _, rows = load(run_dir)
+    s["relmse_c_disocc"] = post_reveal(rows, "relmse_corrected_disocc")
+    s["contrib_initial_disocc"] = post_reveal(rows, "contrib_initial_disocc")
+    s["contrib_spatial_disocc"] = post_reveal(rows, "contrib_spatial_disocc")
+    s["contrib_shaded"] = mean([float(r["contrib_shaded"]) for r in rows])
+    s["ref_stderr"] = mean([float(r["reference_rel_stderr"]) for r in rows])
+    s["duplicates"] = mean([float(r["duplicate_fraction"]) for r in rows])
+    return s
+
+
+def combine_regime(seeds):
+    out = combine(seeds)
+    for k in ("relmse_c_disocc", "contrib_initial_disocc", "contrib_spatial_disocc", "contrib_shaded",
+              "ref_stderr", "duplicates"):
+        out[k] = mean([s[k] for s in seeds])
+    return out
+
+
+def pairings(rows):
+    """Each stochastic-pairwise configuration against the standard reuse (restir-unbiased) configuration with the
+    lowest disoccluded error among those at most 5% slower than it (as docs/studies/window_bars.md pairs them)."""
+    pairs = []
+    for sp in sorted((r for r in rows if r["label"].startswith("spmis-")), key=lambda r: r["ms"]):
+        rivals = [r for r in rows if r["label"].startswith("unbiased-") and r["ms"] <= 1.05 * sp["ms"]]
+        if rivals:
+            best = min(rivals, key=lambda r: r["relmse_c_disocc"])
+            change = 100 * (sp["relmse_c_disocc"] - best["relmse_c_disocc"]) / abs(best["relmse_c_disocc"])
+            pairs.append((sp, best, change))
+    return pairs
+
+
+def svg(points, path):
+    """Equal-time change of the disoccluded error (%) against the contributing fraction, one mark per pairing."""
+    w, h, left, bottom, top, right = 640, 360, 70, 50, 30, 20
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    ylo, yhi = min(ys + [-10.0]), max(ys + [10.0])
+    pad = 0.08 * (yhi - ylo)
+    ylo, yhi = ylo - pad, yhi + pad
+    X = lambda x: left + x * (w - left - right)
+    Y = lambda y: top + (yhi - y) / (yhi - ylo) * (h - top - bottom)
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" '
+           f'font-size="12">', f'<rect width="{w}" height="{h}" fill="white"/>']
+    out.append(f'<line x1="{X(0)}" y1="{Y(0):.1f}" x2="{X(1)}" y2="{Y(0):.1f}" stroke="#888" '
+               'stroke-dasharray="4 3"/>')
+    out.append(f'<line x1="{X(0)}" y1="{Y(ylo):.1f}" x2="{X(0)}" y2="{Y(yhi):.1f}" stroke="black"/>')
+    out.append(f'<line x1="{X(0)}" y1="{Y(ylo):.1f}" x2="{X(1)}" y2="{Y(ylo):.1f}" stroke="black"/>')
+    for t in range(0, 11, 2):
+        x = t / 10
+        out.append(f'<text x="{X(x):.1f}" y="{Y(ylo) + 16:.1f}" text-anchor="middle">{x:.1f}</text>')
+    step = 10 ** math.floor(math.log10(max(1e-9, (yhi - ylo) / 4)))
+    for m in (1, 2, 5, 10):
+        if (yhi - ylo) / (m * step) <= 6:
+            step *= m
+            break
+    y = math.ceil(ylo / step) * step
+    while y <= yhi:
+        out.append(f'<text x="{X(0) - 6:.1f}" y="{Y(y) + 4:.1f}" text-anchor="end">{y:+.0f}%</text>')
+        y += step
+    out.append(f'<text x="{(X(0) + X(1)) / 2:.1f}" y="{h - 10}" text-anchor="middle">contributing fraction around '
+               'reveals (restir-unbiased contrib_initial_disocc)</text>')
+    out.append(f'<text x="14" y="{(Y(ylo) + Y(yhi)) / 2:.1f}" text-anchor="middle" transform="rotate(-90 14 '
+               f'{(Y(ylo) + Y(yhi)) / 2:.1f})">spmis vs unbiased at equal time, disocc. error</text>')
+    for x, y, label in points:
+        colour = "#1a7f37" if y < 0 else "#c0392b"
+        out.append(f'<circle cx="{X(x):.1f}" cy="{Y(y):.1f}" r="4" fill="{colour}"><title>{label}: {y:+.1f}%'
+                   '</title></circle>')
+    out.append(f'<text x="{X(1) - 4}" y="{top - 10}" text-anchor="end">below the dashed line: stochastic pairwise '
+               'MIS has the lower error</text>')
+    out.append("</svg>")
+    with open(path + ".tmp", "w") as f:
+        f.write("\n".join(out) + "\n")
+    os.replace(path + ".tmp", path)
+
+
+def main(argv):
+    svg_path = None
+    if argv[:1] == ["--svg"]:
+        svg_path, argv = argv[1], argv[2:]
+    groups = {}
+    for d in argv:
+        s = regime_summary(d)
+        groups.setdefault((s["sequence"], s["label"]), []).append(s)
+    by_seq = {}
+    for (seq, _), seeds in groups.items():
+        by_seq.setdefault(seq, []).append(combine_regime(seeds))
+    print("# Stochastic pairwise MIS across regimes of contributing samples\n")
+    print("Generated by `scripts/make_regime_study.py` from the runs of `scripts/regime_study.sh`; do not edit by "
+          "hand.\n")
+    any_rows = next(iter(by_seq.values()))
+    r0 = any_rows[0]
+    seeds = max(r["seeds"] for rows in by_seq.values() for r in rows)
+    print(f"Machine: {os.cpu_count()} cores. Each sequence at {r0['resolution'][0]}×{r0['resolution'][1]}, "
+          f"frames {r0['frames'][0]}–{r0['frames'][1] - 1}, {seeds} seed(s) per configuration. Error: "
+          "`relmse_corrected_disocc` (relMSE over the pixels revealed in the last 4 frames with the reference's own "
+          "variance subtracted; docs/metrics.md) averaged over the frames with such pixels. Contributing fraction: "
+          "`restir-unbiased` (k = 5)'s `contrib_initial_disocc` over the same frames, the share of revealed pixels "
+          "whose initial sample is visible (its initial sampling traces visibility). ms/frame: median over frames, "
+          "measured job after job on one machine.\n")
+    points, summary = [], []
+    for seq, rows in sorted(by_seq.items(), key=lambda kv: -next(
+            (r["contrib_initial_disocc"] for r in kv[1] if r["label"] == "unbiased-k5"), 0.0)):
+        by = {r["label"]: r for r in rows}
+        base = by.get("unbiased-k5", rows[0])
+        frac = base["contrib_initial_disocc"]
+        print(f"## {seq}: contributing fraction {frac:.3f}\n")
+        print(f"After spatial reuse {base['contrib_spatial_disocc']:.3f} of the revealed pixels hold a contributing "
+              f"sample (restir-unbiased, k = 5); over whole frames its shading reaches "
+              f"{base['contrib_shaded']:.3f} of the pixels; the reference's mean relative standard error is "
+              f"{base['ref_stderr']:.3f}.\n")
+        print("| config | relmse_corrected_disocc | relmse_disocc | relmse | contrib_spatial_disocc | duplicates | "
+              "ms/frame |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
+        for r in sorted(rows, key=lambda r: (r["preset"], r["ms"])):
+            print(f"| {r['label']} | {r['relmse_c_disocc']:.4f} | {r['relmse_disocc']:.4f} | {r['relmse']:.4f} | "
+                  f"{r['contrib_spatial_disocc']:.3f} | {r['duplicates']:.4f} | {r['ms']:.0f} |")
+        pairs = pairings(rows)
+        print()
+        if pairs:
+            print("| restir-spmis | ms/frame | restir-unbiased (best within 5% of its time) | ms/frame | change |")
+            print("| --- | --- | --- | --- | --- |")
+            for a, b, change in pairs:
+                print(f"| {a['label']} | {a['ms']:.0f} | {b['label']} | {b['ms']:.0f} | {change:+.1f}% |")
+                points.append((frac, change, f"{seq} {a['label']} vs {b['label']}"))
+            wins = sum(1 for _, _, c in pairs if c < 0)
+            summary.append((seq, frac, wins, len(pairs), min(c for _, _, c in pairs)))
+            print(f"\nAt equal time stochastic pairwise MIS has the lower disoccluded error in {wins} of "
+                  f"{len(pairs)} pairings.\n")
+        else:
+            print("No restir-unbiased configuration is as fast as any restir-spmis one: no equal-time pairing.\n")
+    print("## Crossover\n")
+    print("| sequence | contributing fraction | spmis wins at equal time | best change |")
+    print("| --- | --- | --- | --- |")
+    for seq, frac, wins, n, best in summary:
+        print(f"| {seq} | {frac:.3f} | {wins} of {n} | {best:+.1f}% |")
+    winners = [s for s in summary if s[2] > 0]
+    losers = [s for s in summary if s[2] == 0]
+    print()
+    if not winners:
+        print("**Stochastic pairwise MIS never wins at equal time here**, from a contributing fraction of "
+              f"{max(s[1] for s in summary):.3f} down to {min(s[1] for s in summary):.3f}.\n")
+    elif not losers:
+        print(f"**Stochastic pairwise MIS wins at equal time on every sequence**, contributing fractions "
+              f"{min(s[1] for s in summary):.3f}–{max(s[1] for s in summary):.3f}.\n")
+    else:
+        below = max(s[1] for s in winners)
+        above = min(s[1] for s in losers)
+        if below < above:
+            print(f"**Crossover: stochastic pairwise MIS wins at equal time where the contributing fraction is at "
+                  f"most {below:.3f} and loses from {above:.3f} up.**\n")
+        else:
+            print(f"**No clean crossover**: it wins on sequences with contributing fractions "
+                  f"{', '.join(f'{s[1]:.3f}' for s in winners)} and loses on "
+                  f"{', '.join(f'{s[1]:.3f}' for s in losers)}.\n")
+    if svg_path:
+        svg(points, svg_path)
+        print(f"![equal-time change against the contributing fraction]({os.path.basename(svg_path)})\n")
+    notes = os.path.join(os.path.dirname(os.path.abspath(__file__)), "regime_study_notes.md")
+    if os.path.exists(notes):
+        with open(notes) as f:
+            print(f.read().rstrip() + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
