@@ -49,10 +49,10 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   const int w = est.width, h = est.height;
   const GBuffer& g = *layers.gbuffer;
   Imf::Header header(w, h);
-  // Zip per scanline at level 1: on the flagship's frames 35 % less time than ZIP (16 lines) at the default level
-  // 4 for 3 % more bytes (noisy floats barely compress further); deflate was a fifth of README command 1's CPU.
-  header.compression() = Imf::ZIPS_COMPRESSION;
-  header.zipCompressionLevel() = 1;
+  // Run-length: noisy float radiance barely deflates (zip at level 1 kept 56 % of the bytes, run-length keeps 63 %,
+  // both mostly by the flat G-buffer, background and flag channels), and on README command 1 the EXRs' deflate
+  // was the largest cost after the passes and the reference (issue 16: 304 s with zip, budget 300 s).
+  header.compression() = Imf::RLE_COMPRESSION;
   Imf::FrameBuffer fb;
   AddRgbLayer(header, fb, "", est);
   ImageRgb error;
