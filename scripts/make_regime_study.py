@@ -16,7 +16,7 @@ import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_window_bars_study import combine, load, mean, summarize  # noqa: E402
+from make_window_bars_study import combine, load, mean, summarize, t975  # noqa: E402
 
 
 def post_reveal(rows, column):
@@ -41,7 +41,16 @@ def combine_regime(seeds):
     for k in ("relmse_c_disocc", "contrib_initial_disocc", "contrib_spatial_disocc", "contrib_shaded",
               "ref_stderr", "duplicates"):
         out[k] = mean([s[k] for s in seeds])
+    n = len(seeds)
+    # 95% half-width over seeds (Student t), as make_window_bars_study.combine gives relmse_disocc's.
+    out["relmse_c_disocc_ci"] = (t975(n - 1) * statistics.stdev([s["relmse_c_disocc"] for s in seeds]) / n ** 0.5
+                                 if n > 1 else None)
     return out
+
+
+def err(r):
+    ci = r.get("relmse_c_disocc_ci")
+    return f"{r['relmse_c_disocc']:.4f}" + (f" ± {ci:.4f}" if ci is not None else "")
 
 
 def pairings(rows):
@@ -140,20 +149,26 @@ def main(argv):
               "ms/frame |")
         print("| --- | --- | --- | --- | --- | --- | --- |")
         for r in sorted(rows, key=lambda r: (r["preset"], r["ms"])):
-            print(f"| {r['label']} | {r['relmse_c_disocc']:.4f} | {r['relmse_disocc']:.4f} | {r['relmse']:.4f} | "
+            print(f"| {r['label']} | {err(r)} | {r['relmse_disocc']:.4f} | {r['relmse']:.4f} | "
                   f"{r['contrib_spatial_disocc']:.3f} | {r['duplicates']:.4f} | {r['ms']:.0f} |")
         pairs = pairings(rows)
         print()
         if pairs:
-            print("| restir-spmis | ms/frame | restir-unbiased (best within 5% of its time) | ms/frame | change |")
-            print("| --- | --- | --- | --- | --- |")
+            print("| restir-spmis | ms/frame | restir-unbiased (best within 5% of its time) | ms/frame | change | "
+                  "resolved by the seeds |")
+            print("| --- | --- | --- | --- | --- | --- |")
+            resolved = 0
             for a, b, change in pairs:
-                print(f"| {a['label']} | {a['ms']:.0f} | {b['label']} | {b['ms']:.0f} | {change:+.1f}% |")
+                ca, cb = a.get("relmse_c_disocc_ci"), b.get("relmse_c_disocc_ci")
+                res = "n/a (1 seed)" if ca is None or cb is None else (
+                    "yes" if abs(a["relmse_c_disocc"] - b["relmse_c_disocc"]) > math.hypot(ca, cb) else "no")
+                resolved += res == "yes"
+                print(f"| {a['label']} | {a['ms']:.0f} | {b['label']} | {b['ms']:.0f} | {change:+.1f}% | {res} |")
                 points.append((frac, change, f"{seq} {a['label']} vs {b['label']}"))
             wins = sum(1 for _, _, c in pairs if c < 0)
             summary.append((seq, frac, wins, len(pairs), min(c for _, _, c in pairs)))
             print(f"\nAt equal time stochastic pairwise MIS has the lower disoccluded error in {wins} of "
-                  f"{len(pairs)} pairings.\n")
+                  f"{len(pairs)} pairings ({resolved} of them resolved by the seeds' 95% intervals).\n")
         else:
             print("No restir-unbiased configuration is as fast as any restir-spmis one: no equal-time pairing.\n")
     print("## Crossover\n")
