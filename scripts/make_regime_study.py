@@ -166,25 +166,40 @@ def main(argv):
                 print(f"| {a['label']} | {a['ms']:.0f} | {b['label']} | {b['ms']:.0f} | {change:+.1f}% | {res} |")
                 points.append((frac, change, f"{seq} {a['label']} vs {b['label']}"))
             wins = sum(1 for _, _, c in pairs if c < 0)
-            summary.append((seq, frac, wins, len(pairs), min(c for _, _, c in pairs)))
+            # With intervals, a sequence counts as a win or a loss only where a pairing is resolved.
+            verdicts = []
+            for a, b, change in pairs:
+                ca, cb = a.get("relmse_c_disocc_ci"), b.get("relmse_c_disocc_ci")
+                if ca is None or cb is None:
+                    verdicts.append("win" if change < 0 else "loss")
+                elif abs(a["relmse_c_disocc"] - b["relmse_c_disocc"]) > math.hypot(ca, cb):
+                    verdicts.append("win" if change < 0 else "loss")
+            summary.append((seq, frac, wins, len(pairs), min(c for _, _, c in pairs),
+                            "win" if "win" in verdicts else "loss" if "loss" in verdicts else "tie"))
             print(f"\nAt equal time stochastic pairwise MIS has the lower disoccluded error in {wins} of "
                   f"{len(pairs)} pairings ({resolved} of them resolved by the seeds' 95% intervals).\n")
         else:
             print("No restir-unbiased configuration is as fast as any restir-spmis one: no equal-time pairing.\n")
     print("## Crossover\n")
-    print("| sequence | contributing fraction | spmis wins at equal time | best change |")
-    print("| --- | --- | --- | --- |")
-    for seq, frac, wins, n, best in summary:
-        print(f"| {seq} | {frac:.3f} | {wins} of {n} | {best:+.1f}% |")
-    winners = [s for s in summary if s[2] > 0]
-    losers = [s for s in summary if s[2] == 0]
+    print("| sequence | contributing fraction | spmis lower at equal time | best change | verdict |")
+    print("| --- | --- | --- | --- | --- |")
+    names = {"win": "spmis wins", "loss": "spmis loses", "tie": "not resolved"}
+    for seq, frac, wins, n, best, verdict in summary:
+        print(f"| {seq} | {frac:.3f} | {wins} of {n} | {best:+.1f}% | {names[verdict]} |")
+    fmt = lambda xs: ", ".join(f"{s[0]} ({s[1]:.3f})" for s in xs)
+    winners = [s for s in summary if s[5] == "win"]
+    losers = [s for s in summary if s[5] == "loss"]
+    ties = [s for s in summary if s[5] == "tie"]
     print()
+    print("A sequence's verdict: a win or a loss where at least one pairing's difference exceeds the two 95% "
+          "intervals combined (with one seed, every pairing counts), otherwise not resolved.\n")
     if not winners:
-        print("**Stochastic pairwise MIS never wins at equal time here**, from a contributing fraction of "
-              f"{max(s[1] for s in summary):.3f} down to {min(s[1] for s in summary):.3f}.\n")
+        print(f"**Stochastic pairwise MIS never wins at equal time** over contributing fractions "
+              f"{min(s[1] for s in summary):.3f}–{max(s[1] for s in summary):.3f}: it loses on {fmt(losers) or 'none'}"
+              + (f"; not resolved on {fmt(ties)}" if ties else "") + ".\n")
     elif not losers:
-        print(f"**Stochastic pairwise MIS wins at equal time on every sequence**, contributing fractions "
-              f"{min(s[1] for s in summary):.3f}–{max(s[1] for s in summary):.3f}.\n")
+        print(f"**Stochastic pairwise MIS wins at equal time** on {fmt(winners)}"
+              + (f"; not resolved on {fmt(ties)}" if ties else "") + ".\n")
     else:
         below = max(s[1] for s in winners)
         above = min(s[1] for s in losers)
@@ -192,9 +207,7 @@ def main(argv):
             print(f"**Crossover: stochastic pairwise MIS wins at equal time where the contributing fraction is at "
                   f"most {below:.3f} and loses from {above:.3f} up.**\n")
         else:
-            print(f"**No clean crossover**: it wins on sequences with contributing fractions "
-                  f"{', '.join(f'{s[1]:.3f}' for s in winners)} and loses on "
-                  f"{', '.join(f'{s[1]:.3f}' for s in losers)}.\n")
+            print(f"**No clean crossover**: it wins on {fmt(winners)} and loses on {fmt(losers)}.\n")
     if svg_path:
         svg(points, svg_path)
         print(f"![equal-time change against the contributing fraction]({os.path.basename(svg_path)})\n")
