@@ -116,6 +116,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("temporal.targetRatioClamp", temporal.targetRatioClamp),
       RESTIR_FIELD("temporal.permutation", temporal.permutation),
       RESTIR_FIELD("temporal.boilingFilterStrength", temporal.boilingFilterStrength),
+      RESTIR_FIELD("temporal.visibilityShortcut", temporal.visibilityShortcut),
       RESTIR_FIELD("spatial.enabled", spatial.enabled),
       RESTIR_ENUM_FIELD("spatial.mis", spatial.mis, kMisNames),
       RESTIR_ENUM_FIELD("spatial.bias", spatial.bias, kBiasNames),
@@ -138,6 +139,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("shade.reuseFinalVisibility", shade.reuseFinalVisibility),
       RESTIR_FIELD("shade.finalVisibilityMaxAge", shade.finalVisibilityMaxAge),
       RESTIR_FIELD("shade.finalVisibilityMaxDistance", shade.finalVisibilityMaxDistance),
+      RESTIR_FIELD("shade.discardInvisibleSamples", shade.discardInvisibleSamples),
   };
   return fields;
 }

@@ -96,11 +96,12 @@ const std::vector<uint8_t>& ShadowRayBatch::Trace(const EmbreeScene& scene, Scen
 // ---- TargetEvaluator
 
 void TargetEvaluator::Bind(const DomainFrame* views, const BsdfSoa& materials, const EmbreeScene& scene,
-                           bool visibility) {
+                           bool visibility, bool previousSampleVisible) {
   views_ = views;
   materials_ = &materials;
   scene_ = &scene;
   visibility_ = visibility;
+  previousSampleVisible_ = previousSampleVisible;
   pending_.clear();
   visibilityPending_.clear();
 }
@@ -124,6 +125,7 @@ void TargetEvaluator::Resolve(uint64_t& rays) {
   for (size_t k = 0; k < n; ++k) {
     if (!(visibility_ && values_[k] > 0.0f)) continue;
     const Pending& e = pending_[k];
+    if (previousSampleVisible_ && e.j == 1 && e.i == 1) continue;
     const DomainFrame& v = views_[e.c->view[e.j]];
     const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
     const LightSample& y = e.c->samples[e.i];

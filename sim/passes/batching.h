@@ -165,7 +165,10 @@ struct Combination {
 class TargetEvaluator {
  public:
   // Sets what the next batches evaluate against (the buffers are kept from batch to batch).
-  void Bind(const DomainFrame* views, const BsdfSoa& materials, const EmbreeScene& scene, bool visibility);
+  // With `previousSampleVisible` (RTXDI's temporal visibility shortcut), entry (1, 1), the previous frame's sample
+  // at its own surface, keeps its unshadowed value: no ray.
+  void Bind(const DomainFrame* views, const BsdfSoa& materials, const EmbreeScene& scene, bool visibility,
+            bool previousSampleVisible = false);
   // Queues p̂_j(Y_i) of `c` unless it is known or queued (inline: called for every entry a combination reads).
   void Request(Combination& c, int j, int i) {
     if (c.state[j][i] != Entry::kUnknown) return;
@@ -193,6 +196,7 @@ class TargetEvaluator {
   const BsdfSoa* materials_ = nullptr;
   const EmbreeScene* scene_ = nullptr;
   bool visibility_ = false;
+  bool previousSampleVisible_ = false;
   uint64_t evaluated_ = 0;
   std::vector<Pending> pending_, visibilityPending_;
   TargetPairBuffer pairs_;

@@ -19,6 +19,10 @@ struct ShadeParams {
   bool reuseFinalVisibility = false;
   int finalVisibilityMaxAge = 4;             // frames (RTXDI's default)
   float finalVisibilityMaxDistance = 16.0f;  // pixels (RTXDI's default)
+  // RTXDI's discardInvisibleSamples (RTXDI_StoreVisibilityInDIReservoir): a sample the final shadow ray finds
+  // occluded is removed from the reservoir kept for the next frame (W = 0, confidence 0); this frame's image is
+  // unchanged. What makes the temporal visibility shortcut safe. Biased: history is lost where the sample was.
+  bool discardInvisibleSamples = false;
 };
 
 // Writes the frame's image (resized to the G-buffer). Non-finite pixels are written as 0 and counted in

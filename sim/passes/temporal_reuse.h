@@ -24,6 +24,10 @@ struct TemporalParams {
   // emptied. s in (0, 1]; 0 turns it off. RTXDI's default is 0.2 (a threshold of 41× the mean). Biased by design:
   // it removes rare, heavy samples before spatial reuse spreads them into a flash.
   float boilingFilterStrength = 0.0f;
+  // RTXDI's enableVisibilityShortcut (DI/TemporalResampling.hlsli): with ray-traced bias correction, the previous
+  // sample is taken as visible at the previous surface, without a ray. RTXDI calls it safe only when the previous
+  // frame discarded its invisible samples (shade.discardInvisibleSamples); biased otherwise.
+  bool visibilityShortcut = false;
 };
 
 // RTXDI's boiling-filter group: the 16×16 thread group its temporal pass runs in (RTXDI_BOILING_FILTER_GROUP_SIZE).

@@ -137,5 +137,34 @@ TEST(Shade, ReusedFinalVisibilityReplacesTheRayOnlyWithinItsAgeAndDistance) {
   }
 }
 
+// RTXDI's discardInvisibleSamples: the samples the final ray finds occluded leave the kept reservoirs (W = 0,
+// confidence 0), the visible ones stay as they were, and the image is the one shading without it gives.
+TEST(Shade, DiscardingInvisibleSamplesEmptiesOnlyTheOccludedOnes) {
+  test::HandMadeFrame f(12, 4, /*occluder=*/true);
+  ReservoirBuffer reservoirs;
+  PassStats stats;
+  InitialSampling(InitialSamplingParams{}, f.View(3), reservoirs, stats);
+  ReservoirBuffer kept = reservoirs;
+  ImageRgb plain, discarding;
+  Shade(ShadeParams{}, f.View(3), reservoirs, plain, stats);
+  ShadeParams params;
+  params.discardInvisibleSamples = true;
+  Shade(params, f.View(3), kept, discarding, stats);
+  size_t dropped = 0;
+  for (size_t i = 0; i < kept.size(); ++i) {
+    EXPECT_EQ(discarding.pixels[i], plain.pixels[i]) << i;
+    const bool occluded = reservoirs[i].HasSample() && plain.pixels[i] == Vec3(0.0f);
+    if (occluded) {
+      EXPECT_EQ(kept[i].W, 0.0f) << i;
+      EXPECT_EQ(kept[i].confidence, 0.0f) << i;
+      ++dropped;
+    } else {
+      EXPECT_EQ(kept[i].W, reservoirs[i].W) << i;
+      EXPECT_EQ(kept[i].confidence, reservoirs[i].confidence) << i;
+    }
+  }
+  EXPECT_GT(dropped, kept.size() / 5);  // the pixels under the occluder
+}
+
 }  // namespace
 }  // namespace restir

@@ -109,5 +109,34 @@ TEST(TemporalReuse, RayTracedBiasCorrectionTracesVisibility) {
     }
 }
 
+// RTXDI's visibility shortcut: with ray-traced bias correction the previous sample counts as visible at the
+// previous surface, without a ray. Where nothing moved (this frame's previous surface is the same floor under the
+// same occluder) that is what the ray would have found for every sample the combination can select (an occluded
+// previous sample has a zero canonical target either way), so every reservoir comes out the same, with fewer rays.
+TEST(TemporalReuse, VisibilityShortcutSavesRaysAndChangesNothingWhereNothingMoved) {
+  test::HandMadeFrame f(16, 4, /*occluder=*/true);
+  uint64_t rays[2];
+  ReservoirBuffer out[2];
+  for (int shortcut = 0; shortcut < 2; ++shortcut) {
+    Buffers b = Initial(f, 3.0f);
+    TemporalParams params;
+    params.enabled = true;
+    params.mis = MisFamily::kPairwise;
+    params.bias = BiasCorrection::kRayTraced;
+    params.sampleChecks = false;
+    params.visibilityShortcut = shortcut == 1;
+    std::vector<uint8_t> accepted;
+    PassStats stats;
+    TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+    rays[shortcut] = stats.rays;
+    out[shortcut] = b.current;
+  }
+  EXPECT_LT(rays[1], rays[0]);
+  for (size_t i = 0; i < out[0].size(); ++i) {
+    EXPECT_TRUE(SameSample(out[0][i], out[1][i])) << i;
+    EXPECT_EQ(out[0][i].W, out[1][i].W) << i;
+  }
+}
+
 }  // namespace
 }  // namespace restir
