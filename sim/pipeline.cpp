@@ -13,6 +13,8 @@ Pipeline::Pipeline(const PipelineSettings& settings) : settings_(settings) {
       sp.cellTile > kMaxCellTile || sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
       sp.canonicalDraws > kMaxGrisInputs - 1)
     throw std::invalid_argument("Pipeline: spatial settings outside their validated bounds");
+  if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2)
+    throw std::invalid_argument("Pipeline: temporal.fusedNeighbours outside its validated bounds");
 }
 
 FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {

@@ -117,6 +117,8 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("temporal.permutation", temporal.permutation),
       RESTIR_FIELD("temporal.boilingFilterStrength", temporal.boilingFilterStrength),
       RESTIR_FIELD("temporal.visibilityShortcut", temporal.visibilityShortcut),
+      RESTIR_FIELD("temporal.fusedNeighbours", temporal.fusedNeighbours),
+      RESTIR_FIELD("temporal.fusedRadius", temporal.fusedRadius),
       RESTIR_FIELD("spatial.enabled", spatial.enabled),
       RESTIR_ENUM_FIELD("spatial.mis", spatial.mis, kMisNames),
       RESTIR_ENUM_FIELD("spatial.bias", spatial.bias, kBiasNames),
@@ -168,6 +170,10 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
                            std::to_string(kMaxCandidatesPerSource) + "]");
       if (!(settings.temporal.boilingFilterStrength >= 0.0f && settings.temporal.boilingFilterStrength <= 1.0f))
         throw InputError("--set: error at " + key + ": boilingFilterStrength must be in [0, 1] (0: off)");
+      if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2 ||
+          !(settings.temporal.fusedRadius >= 0.0f && settings.temporal.fusedRadius <= 1e4f))
+        throw InputError("--set: error at " + key + ": fusedNeighbours must be in [0, " +
+                         std::to_string(kMaxGrisInputs - 2) + "] and fusedRadius in [0, 1e4]");
       if (settings.shade.finalVisibilityMaxAge < 0 || settings.shade.finalVisibilityMaxAge > 255 ||
           !(settings.shade.finalVisibilityMaxDistance >= 0.0f && settings.shade.finalVisibilityMaxDistance <= 1e6f))
         throw InputError("--set: error at " + key +

@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "core/rng.h"
+#include "core/sampling.h"
 #include "sim/clock.h"
 #include "sim/passes/batching.h"
 
@@ -92,6 +93,26 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       const RngKey key{view.seed, view.frame, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kTemporal)};
       c.u[0] = UniformFloat(key, 0);
       c.u[1] = UniformFloat(key, 1);
+      // Fused spatiotemporal: previous-frame neighbours of the reprojected pixel, each its own input and domain.
+      for (int t = 0; t < params.fusedNeighbours; ++t) {
+        const Vec2 d = SampleUniformDiskPolar(params.fusedRadius, UniformFloat(key, 32u + 2u * t),
+                                              UniformFloat(key, 33u + 2u * t));
+        const int qx = static_cast<int>(pi % w) + static_cast<int>(std::lround(d.x));
+        const int qy = static_cast<int>(pi / w) + static_cast<int>(std::lround(d.y));
+        if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+        const size_t qi = static_cast<size_t>(qy) * w + qx;
+        if (qi == pi || !pg.IsSurface(qi) || pg.objectId[qi] != g.objectId[i] ||
+            !SimilarSurface(g, i, pg, qi, kPermutationNormalThreshold, kPermutationDepthThreshold))
+          continue;
+        const StoredReservoir& nr = previous[qi];
+        if (!FiniteReservoir(nr) || (params.sampleChecks && !nr.HasSample())) continue;
+        const int slot = c.AddInput();
+        c.AddDomain(1, static_cast<uint32_t>(qi));
+        c.samples[slot] = SampleOf(nr);
+        c.inputs[slot] = InputOf(nr, std::min(nr.confidence, params.maxHistory));
+        c.history[slot] = nr.history.Moved(qx - x, qy - y, true);
+        c.u[slot] = UniformFloat(key, static_cast<uint32_t>(slot));
+      }
       if (params.sampleChecks) ev.Request(c, 0, 1);
     }
     // seed 003's sample tests need p̂_c(Y_prev) before anything else is evaluated.

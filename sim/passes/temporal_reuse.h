@@ -28,6 +28,12 @@ struct TemporalParams {
   // sample is taken as visible at the previous surface, without a ray. RTXDI calls it safe only when the previous
   // frame discarded its invisible samples (shade.discardInvisibleSamples); biased otherwise.
   bool visibilityShortcut = false;
+  // RTXDI's fused spatiotemporal resampling (DI/SpatioTemporalResampling.hlsli): the temporal combination also
+  // takes up to `fusedNeighbours` reservoirs of the previous frame around the reprojected pixel (uniform in a disk
+  // of fusedRadius pixels, the same surface by RTXDI's default thresholds), each with its previous-frame domain, so
+  // one pass does both reuses; a preset using it turns the spatial pass off. 0: the plain temporal pass.
+  int fusedNeighbours = 0;
+  float fusedRadius = 32.0f;  // pixels (RTXDI's default sampling radius)
 };
 
 // RTXDI's boiling-filter group: the 16×16 thread group its temporal pass runs in (RTXDI_BOILING_FILTER_GROUP_SIZE).

@@ -320,9 +320,17 @@ TEST(ClosedForm, OldSpawnRuleDarkensTiltedLightsWhereTheNewOneIsExact) {
 class ClosedFormPreset : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
-  const Preset* preset = FindPreset(GetParam());
+  // "restir-unbiased+fused": RTXDI's fused spatiotemporal resampling in place of the spatial pass, with the
+  // preset's MIS and ray-traced bias correction.
+  const bool fused = GetParam().size() > 6 && GetParam().substr(GetParam().size() - 6) == "+fused";
+  const Preset* preset = FindPreset(fused ? GetParam().substr(0, GetParam().size() - 6) : GetParam());
   ASSERT_NE(preset, nullptr);
   PipelineSettings settings = preset->settings;
+  if (fused) {
+    settings.temporal.fusedNeighbours = settings.spatial.neighbours;
+    settings.temporal.fusedRadius = 4.0f;
+    settings.spatial.enabled = false;
+  }
   settings.spatial.radius = 4.0f;
   settings.spatial.stochastic.cellSearchRadius = 4.0f;
   constexpr int kSeeds = 48, kFrames = 4;
@@ -357,6 +365,8 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
 
 INSTANTIATE_TEST_SUITE_P(UnbiasedPresets, ClosedFormPreset,
                          ::testing::ValuesIn(test::kUnbiasedPresets), test::PresetTestName());
+INSTANTIATE_TEST_SUITE_P(FusedSpatiotemporal, ClosedFormPreset, ::testing::Values("restir-unbiased+fused"),
+                         [](const ::testing::TestParamInfo<std::string>&) { return std::string("restir_unbiased_fused"); });
 
 }  // namespace
 }  // namespace restir

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "hand_made_frame.h"
 #include "sim/passes/initial_sampling.h"
 
@@ -136,6 +138,45 @@ TEST(TemporalReuse, VisibilityShortcutSavesRaysAndChangesNothingWhereNothingMove
     EXPECT_TRUE(SameSample(out[0][i], out[1][i])) << i;
     EXPECT_EQ(out[0][i].W, out[1][i].W) << i;
   }
+}
+
+// RTXDI's fused spatiotemporal resampling: the temporal combination also takes previous-frame neighbours of the
+// reprojected pixel, so a pixel's confidence is its own, the previous pixel's and its accepted neighbours', and its
+// sample comes from one of them: never from farther than the radius, never from another surface.
+TEST(TemporalReuse, FusedSpatiotemporalCombinesPreviousFrameNeighbours) {
+  test::HandMadeFrame f(24, 12);
+  // The right half faces another way in both frames: no pixel may take a sample across.
+  for (GBuffer* g : {&f.gbuffer, &f.previous})
+    for (size_t i = 0; i < g->Size(); ++i)
+      if (static_cast<int>(i % 24) >= 12) g->ngX[i] = 1, g->ngY[i] = 0, g->nsX[i] = 1, g->nsY[i] = 0;
+  Buffers b = Initial(f, 2.0f);
+  const ReservoirBuffer before = b.current, previous = b.previous;
+  TemporalParams params;
+  params.enabled = true;
+  params.mis = MisFamily::kPairwise;
+  params.sampleChecks = false;
+  params.fusedNeighbours = 5;
+  params.fusedRadius = 3.0f;
+  std::vector<uint8_t> accepted;
+  PassStats stats;
+  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+  double neighbours = 0.0;
+  for (size_t i = 0; i < b.current.size(); ++i) {
+    const int x = static_cast<int>(i % 24), y = static_cast<int>(i / 24);
+    const float extra = b.current[i].confidence - 1.0f - 2.0f;  // beyond its own and the previous pixel's
+    EXPECT_GE(extra, 0.0f) << i;
+    EXPECT_LE(extra, 2.0f * 5) << i;
+    EXPECT_EQ(std::fmod(extra, 2.0f), 0.0f) << i;  // whole neighbours of confidence 2
+    neighbours += extra / 2.0f;
+    if (!b.current[i].HasSample() || SameSample(b.current[i], before[i])) continue;
+    int source = -1;
+    for (size_t j = 0; j < previous.size(); ++j)
+      if (SameSample(previous[j], b.current[i])) source = static_cast<int>(j);
+    ASSERT_GE(source, 0) << i;
+    EXPECT_EQ(source % 24 >= 12, x >= 12) << i << " took its sample across the crease, from " << source;
+    EXPECT_LE(std::hypot(source % 24 - x, source / 24 - y), params.fusedRadius + 0.71) << i;
+  }
+  EXPECT_GT(neighbours / b.current.size(), 2.0);  // most of the 5 draws land on the same surface
 }
 
 }  // namespace
