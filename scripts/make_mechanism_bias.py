@@ -37,6 +37,7 @@ def summarize(d):
         "luma_se": math.sqrt(sum(s * s for s in lse)) / n,
         "relmse": sum(col("relmse")) / n,
         "shade_rays": sum(col("rays_per_pixel_shade")) / n,
+        "temporal_rays": sum(col("rays_per_pixel_temporal")) / n,
     }
 
 
@@ -58,11 +59,13 @@ def main(dirs):
         by_seq.setdefault(r["sequence"], []).append(r)
     for seq, rows in by_seq.items():
         print(f"## {seq}\n")
-        print("| run | preset | settings | bias² / noise | luma ratio | relmse | final shadow rays / px |")
-        print("| --- | --- | --- | --- | --- | --- | --- |")
+        print("| run | preset | settings | bias² / noise | luma ratio | relmse | temporal rays / px | "
+              "final shadow rays / px |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
         for r in rows:
             print(f"| {r['name']} | `{r['preset']}` | {r['overrides']} | {r['bias2'] / r['noise']:.3f} | "
-                  f"{r['luma']:.4f} ± {r['luma_se']:.4f} | {r['relmse']:.4g} | {r['shade_rays']:.3f} |")
+                  f"{r['luma']:.4f} ± {r['luma_se']:.4f} | {r['relmse']:.4g} | {r['temporal_rays']:.3f} | "
+                  f"{r['shade_rays']:.3f} |")
         print()
         base = {r["preset"]: r for r in rows if r["overrides"] == "(preset as defined)"}
         for r in rows:
@@ -72,8 +75,9 @@ def main(dirs):
             d = r["luma"] - b["luma"]
             se = math.hypot(r["luma_se"], b["luma_se"])
             print(f"- {r['name']} against {b['name']}: luma ratio {d:+.4f} ({d / se:+.1f} standard errors), "
-                  f"relmse {100 * (r['relmse'] - b['relmse']) / b['relmse']:+.1f}%, final shadow rays "
-                  f"{r['shade_rays']:.3f} against {b['shade_rays']:.3f} per pixel.")
+                  f"relmse {100 * (r['relmse'] - b['relmse']) / b['relmse']:+.1f}%, temporal and final shadow rays "
+                  f"{r['temporal_rays']:.3f} and {r['shade_rays']:.3f} against {b['temporal_rays']:.3f} and "
+                  f"{b['shade_rays']:.3f} per pixel.")
         print()
     notes = os.path.join(os.path.dirname(os.path.abspath(__file__)), "mechanism_bias_notes.md")
     if os.path.exists(notes):

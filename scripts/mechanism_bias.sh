@@ -18,12 +18,14 @@ runs=(
   "unbiased+naive window_bars_pan restir-unbiased spatial.discountNaiveSamples=true"
   "unbiased+finalvis window_bars_pan restir-unbiased shade.reuseFinalVisibility=true"
   "rtxdi window_bars_pan rtxdi-defaults"
-  "rtxdi-boiling window_bars_pan rtxdi-defaults temporal.boilingFilterStrength=0"
-  "rtxdi-finalvis window_bars_pan rtxdi-defaults shade.reuseFinalVisibility=false"
+  "rtxdi-no-boiling window_bars_pan rtxdi-defaults temporal.boilingFilterStrength=0"
+  "rtxdi-no-finalvis window_bars_pan rtxdi-defaults shade.reuseFinalVisibility=false"
   "unbiased moving_occluder restir-unbiased"
   "unbiased+finalvis moving_occluder restir-unbiased shade.reuseFinalVisibility=true"
   "rtxdi moving_occluder rtxdi-defaults"
-  "rtxdi-finalvis moving_occluder rtxdi-defaults shade.reuseFinalVisibility=false"
+  "rtxdi-no-finalvis moving_occluder rtxdi-defaults shade.reuseFinalVisibility=false"
+  "unbiased+shortcut moving_occluder restir-unbiased temporal.visibilityShortcut=true shade.discardInvisibleSamples=true"
+  "unbiased+fused window_bars_pan restir-unbiased temporal.fusedNeighbours=5 spatial.enabled=false"
 )
 dirs=()
 for r in "${runs[@]}"; do
