@@ -56,7 +56,8 @@ void MeasureOutputReservoirs(const GBuffer& g, const ReservoirBuffer& reservoirs
         if (!g.IsSurface(i)) continue;
         const StoredReservoir& r = reservoirs[i];
         ++row.surfaces;
-        if (std::isfinite(r.confidence)) row.confidence += r.confidence, row.confidence2 += double(r.confidence) * r.confidence;
+        if (std::isfinite(r.confidence))
+          row.confidence += r.confidence, row.confidence2 += double(r.confidence) * r.confidence;
         if (!r.HasSample()) continue;
         ++row.sampled;
         row.age += r.history.age;
@@ -85,7 +86,9 @@ void MeasureOutputReservoirs(const GBuffer& g, const ReservoirBuffer& reservoirs
   }
   const double n = double(total.surfaces);
   d.confidenceMean = total.surfaces ? total.confidence / n : 0.0;
-  d.confidenceSd = total.surfaces ? std::sqrt(std::max(0.0, total.confidence2 / n - d.confidenceMean * d.confidenceMean)) : 0.0;
+  d.confidenceSd = total.surfaces
+                       ? std::sqrt(std::max(0.0, total.confidence2 / n - d.confidenceMean * d.confidenceMean))
+                       : 0.0;
   d.ageMean = total.sampled ? total.age / double(total.sampled) : 0.0;
   d.duplicateFraction = total.compared ? total.duplicates / double(total.compared) : 0.0;
 }

@@ -58,7 +58,8 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
     std::vector<Combination>& combos = sc.combinations;
     std::vector<int>& order = sc.order;
     TargetEvaluator& ev = sc.evaluator;
-    ev.Bind(frames, *view.materials, *view.scene, params.bias == BiasCorrection::kRayTraced, params.visibilityShortcut);
+    ev.Bind(frames, *view.materials, *view.scene, params.bias == BiasCorrection::kRayTraced,
+            params.visibilityShortcut);
     int count = 0;
     for (int x = x0; x < x1; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;

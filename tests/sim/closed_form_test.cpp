@@ -366,7 +366,9 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
 INSTANTIATE_TEST_SUITE_P(UnbiasedPresets, ClosedFormPreset,
                          ::testing::ValuesIn(test::kUnbiasedPresets), test::PresetTestName());
 INSTANTIATE_TEST_SUITE_P(FusedSpatiotemporal, ClosedFormPreset, ::testing::Values("restir-unbiased+fused"),
-                         [](const ::testing::TestParamInfo<std::string>&) { return std::string("restir_unbiased_fused"); });
+                         [](const ::testing::TestParamInfo<std::string>&) {
+                           return std::string("restir_unbiased_fused");
+                         });
 
 }  // namespace
 }  // namespace restir

@@ -1,9 +1,10 @@
-// Reservoir diagnostics (sim/reservoir_diagnostics.h, issue 20) against answers worked out by hand or by formulas
-// that do not share the implementation's loop: contributing fractions over crafted buffers (background pixels,
-// NaN and infinite weights, a region), duplicate fractions of constant, distinct and striped sample patterns
-// (the stripes' expected value by counting columns, border windows included), confidence spread and ages; and
-// through whole frames: the columns are in metrics.csv, ris keeps age 0 and confidence spread 0, spatial reuse
-// raises duplication, and the shaded fraction never exceeds what the reservoirs offered.
+// Reservoir diagnostics (sim/reservoir_diagnostics.h, issue 20) against answers worked out by hand or by
+// formulas that do not share the implementation's loop: contributing fractions over crafted buffers
+// (background pixels, NaN and infinite weights, a region), duplicate fractions of constant, distinct and
+// striped sample patterns (the stripes' expected value by counting columns, border windows included),
+// confidence spread and ages; and through whole frames: the columns are in metrics.csv, ris keeps age 0 and
+// confidence spread 0, spatial reuse raises duplication, and the shaded fraction never exceeds what the
+// reservoirs offered.
 #include "sim/reservoir_diagnostics.h"
 
 #include <gtest/gtest.h>
@@ -42,18 +43,19 @@ TEST(ReservoirDiagnostics, ContributingCountsSurfacePixelsWithPositiveFiniteTarg
   GBuffer g = Surfaces(4, 3);
   ReservoirBuffer r(g.Size());
   const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
-  // 12 pixels: 2 background (one holding a contributing sample: not counted), 10 surfaces of which 4 contribute.
+  // 12 pixels: 2 background (one holding a contributing sample: not counted), 10 surfaces of which 4
+  // contribute.
   g.objectId[0] = -1, r[0] = WithSample(0, 0.0f);
   g.materialId[1] = -1;
-  r[2] = WithSample(0, 0.1f);                 // contributes
-  r[3] = WithSample(0, 0.2f, 0.0f, 1.0f);     // p̂ = 0: rejected by its own target
-  r[4] = WithSample(0, 0.3f, 1.0f, 0.0f);     // W = 0: empty
-  r[5] = WithSample(0, 0.4f, 2.0f, 1e-3f);    // contributes
-  r[6] = WithSample(0, 0.5f, 1.0f, inf);      // not finite
-  r[7] = WithSample(0, 0.6f, nan, 1.0f);      // not finite
-  r[8] = WithSample(0, 0.7f, 1e-30f, 1e-30f); // p̂ W underflows to 0 in float
-  r[9] = WithSample(0, 0.8f);                 // contributes
-  r[10] = WithSample(0, 0.9f);                // contributes
+  r[2] = WithSample(0, 0.1f);                  // contributes
+  r[3] = WithSample(0, 0.2f, 0.0f, 1.0f);      // p̂ = 0: rejected by its own target
+  r[4] = WithSample(0, 0.3f, 1.0f, 0.0f);      // W = 0: empty
+  r[5] = WithSample(0, 0.4f, 2.0f, 1e-3f);     // contributes
+  r[6] = WithSample(0, 0.5f, 1.0f, inf);       // not finite
+  r[7] = WithSample(0, 0.6f, nan, 1.0f);       // not finite
+  r[8] = WithSample(0, 0.7f, 1e-30f, 1e-30f);  // p̂ W underflows to 0 in float
+  r[9] = WithSample(0, 0.8f);                  // contributes
+  r[10] = WithSample(0, 0.9f);                 // contributes
   // r[11] default: empty
   std::vector<uint8_t> region(g.Size(), 0);
   region[0] = region[2] = region[3] = region[4] = region[9] = 1;  // surfaces 2, 3, 4, 9: two contribute
@@ -65,9 +67,9 @@ TEST(ReservoirDiagnostics, ContributingCountsSurfacePixelsWithPositiveFiniteTarg
   EXPECT_DOUBLE_EQ(ContributingFraction(g, r, &none).region, 0.0);
 }
 
-// Expected duplicate fraction of vertical stripes of period 2 (column parity decides the sample) on a w x h image
-// where every pixel is a surface with a sample: for pixel (x, y) the window's valid columns and rows are counted,
-// the same-parity columns among them give the matches.
+// Expected duplicate fraction of vertical stripes of period 2 (column parity decides the sample) on a w x h
+// image where every pixel is a surface with a sample: for pixel (x, y) the window's valid columns and rows
+// are counted, the same-parity columns among them give the matches.
 double StripesExpected(int w, int h) {
   double sum = 0.0;
   for (int y = 0; y < h; ++y)
@@ -153,7 +155,8 @@ TEST(ReservoirDiagnostics, FramesReportAgesSpreadAndDuplicationThePresetsImply) 
     EXPECT_GT(c.diagnostics.duplicateFraction, a.diagnostics.duplicateFraction);
     for (const FrameResult* r : {&a, &b, &c}) {
       const ReservoirDiagnostics& d = r->diagnostics;
-      for (double f : {d.contributingInitial, d.contributingTemporal, d.contributingSpatial, d.contributingShaded}) {
+      for (double f :
+           {d.contributingInitial, d.contributingTemporal, d.contributingSpatial, d.contributingShaded}) {
         EXPECT_GE(f, 0.0);
         EXPECT_LE(f, 1.0);
       }

@@ -1,7 +1,7 @@
-// RTXDI's boiling filter (sim/passes/temporal_reuse.h BoilingFilter) against thresholds worked out by hand from
-// rtxdi-runtime's rule: per 16×16 tile, empty the reservoirs whose W exceeds the mean of the tile's nonzero W
-// times 10/s − 9. Tiles are independent (partial ones at the edges included), zeros do not dilute the mean, and
-// the result does not depend on the thread count.
+// RTXDI's boiling filter (sim/passes/temporal_reuse.h BoilingFilter) against thresholds worked out by hand
+// from rtxdi-runtime's rule: per 16×16 tile, empty the reservoirs whose W exceeds the mean of the tile's
+// nonzero W times 10/s − 9. Tiles are independent (partial ones at the edges included), zeros do not dilute
+// the mean, and the result does not depend on the thread count.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
@@ -25,8 +25,8 @@ ReservoirBuffer Uniform(int w, int h, float W) {
 }
 
 TEST(BoilingFilter, EmptiesOnlyTheOutliersAboveTheTilesThreshold) {
-  // One full tile of W = 1 with one heavy sample h: mean of the 256 nonzero W = (255 + h) / 256, strength 0.2:
-  // threshold 41 × mean. h = 1000: 201 (emptied); h = 150: 64.9 (emptied); h = 40: 47.2 (kept).
+  // One full tile of W = 1 with one heavy sample h: mean of the 256 nonzero W = (255 + h) / 256, strength
+  // 0.2: threshold 41 × mean. h = 1000: 201 (emptied); h = 150: 64.9 (emptied); h = 40: 47.2 (kept).
   for (const auto& [heavy, expect] : {std::pair{1000.0f, 1u}, std::pair{150.0f, 1u}, std::pair{40.0f, 0u}}) {
     ReservoirBuffer r = Uniform(16, 16, 1.0f);
     r[37].W = heavy;
@@ -35,8 +35,8 @@ TEST(BoilingFilter, EmptiesOnlyTheOutliersAboveTheTilesThreshold) {
     for (size_t i = 0; i < r.size(); ++i)
       if (i != 37) EXPECT_EQ(r[i].W, 1.0f) << i;
   }
-  // Just below and just above the threshold at strength 0.5 (multiplier 11): 255 ones and one h, h vs 11 (255 + h)
-  // / 256, equal at h = 2805 / 245 = 11.449.
+  // Just below and just above the threshold at strength 0.5 (multiplier 11): 255 ones and one h, h vs 11 (255
+  // + h) / 256, equal at h = 2805 / 245 = 11.449.
   for (const auto& [heavy, expect] : {std::pair{11.40f, 0u}, std::pair{11.50f, 1u}}) {
     ReservoirBuffer r = Uniform(16, 16, 1.0f);
     r[200].W = heavy;

@@ -1,12 +1,13 @@
-// Seed 004's regime built on purpose (issue 20: "a case constructed so that it must win"): a 64×64 floor under a
-// quad light where each pixel's initial reservoir survives a Russian roulette with probability q = 1/32 (its W
-// divided by q, so every input stays an unbiased contribution weight) and is empty otherwise. Few reservoirs
-// contribute, and they all lie in large cells (32×32 tiles of one surface). Standard pairwise reuse with k = 5
-// random neighbours within 30 px mostly finds empty ones; stochastic pairwise MIS draws its N = 5 candidates from
-// the cell in proportion to c p̂ W (seed 004 Eq. 17), so it finds the contributors. Both must stay unbiased (their
-// frame means against Lambert's closed form, a t-test over 24 seeds, two-sided, |t| < 4.5: false failure about
-// 1e-4 per estimator with 23 degrees of freedom), and stochastic pairwise MIS must leave more pixels with a
-// contributing reservoir and a relMSE against the closed form below 0.75× the standard reuse's.
+// Seed 004's regime built on purpose (issue 20: "a case constructed so that it must win"): a 64×64 floor
+// under a quad light where each pixel's initial reservoir survives a Russian roulette with probability q =
+// 1/32 (its W divided by q, so every input stays an unbiased contribution weight) and is empty otherwise. Few
+// reservoirs contribute, and they all lie in large cells (32×32 tiles of one surface). Standard pairwise
+// reuse with k = 5 random neighbours within 30 px mostly finds empty ones; stochastic pairwise MIS draws its
+// N = 5 candidates from the cell in proportion to c p̂ W (seed 004 Eq. 17), so it finds the contributors. Both
+// must stay unbiased (their frame means against Lambert's closed form, a t-test over 24 seeds, two-sided, |t|
+// < 4.5: false failure about 1e-4 per estimator with 23 degrees of freedom), and stochastic pairwise MIS must
+// leave more pixels with a contributing reservoir and a relMSE against the closed form below 0.75× the
+// standard reuse's.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -35,7 +36,8 @@ TEST(StochasticPairwiseReuse, WinsWhereFewReservoirsOfALargeCellContribute) {
   for (size_t i = 0; i < n; ++i) {
     const Vec3 x = f.gbuffer.Position(i), normal(0.0f, 1.0f, 0.0f);
     double e = 0.0;
-    for (const LightTriangle& t : tris) e += PolygonIrradiance(x, normal, {t.p0, t.p0 + t.e1, t.p0 + t.e2}, t.radiance.x);
+    for (const LightTriangle& t : tris)
+      e += PolygonIrradiance(x, normal, {t.p0, t.p0 + t.e1, t.p0 + t.e2}, t.radiance.x);
     ref[i] = 0.5 / M_PI * e;
   }
   SpatialParams standard = FindPreset("restir-unbiased")->settings.spatial;
@@ -65,7 +67,8 @@ TEST(StochasticPairwiseReuse, WinsWhereFewReservoirsOfALargeCellContribute) {
       if (method == 0)
         SpatialReuse(standard, VisibilityReuse::kNone, f.View(seed), nullptr, reservoirs, spare, stats);
       else
-        StochasticPairwiseReuse(stochastic, VisibilityReuse::kNone, f.View(seed), reservoirs, spare, grid, stats);
+        StochasticPairwiseReuse(stochastic, VisibilityReuse::kNone, f.View(seed), reservoirs, spare, grid,
+                                stats);
       contributing[method] += ContributingFraction(f.gbuffer, reservoirs, nullptr).all / kSeeds;
       ImageRgb image;
       Shade(ShadeParams{}, f.View(seed), reservoirs, image, stats);
@@ -84,7 +87,8 @@ TEST(StochasticPairwiseReuse, WinsWhereFewReservoirsOfALargeCellContribute) {
     for (double r : ratio[method]) mean += r / kSeeds;
     for (double r : ratio[method]) var += (r - mean) * (r - mean) / (kSeeds - 1);
     const double t = (mean - 1.0) / std::sqrt(var / kSeeds);
-    EXPECT_LT(std::abs(t), 4.5) << (method ? "stochastic pairwise" : "standard") << ": frame mean ratio " << mean;
+    EXPECT_LT(std::abs(t), 4.5) << (method ? "stochastic pairwise" : "standard") << ": frame mean ratio "
+                                << mean;
     RecordProperty(method ? "spmis_luma_ratio" : "standard_luma_ratio", std::to_string(mean));
   }
   RecordProperty("input_contributing", std::to_string(inputContributing));
@@ -97,10 +101,12 @@ TEST(StochasticPairwiseReuse, WinsWhereFewReservoirsOfALargeCellContribute) {
   EXPECT_LT(contributing[0], 0.3);
   EXPECT_GT(contributing[1], 0.9);
   // Measured: 4.78 against 8.42 (0.57×); contributing after reuse 0.965 against 0.125 (input 0.032).
-  EXPECT_LT(relmse[1], 0.75 * relmse[0]) << "stochastic pairwise " << relmse[1] << " vs standard " << relmse[0];
-  std::printf("[ measured ] input contributing %.4f; contributing after reuse: standard %.4f, stochastic pairwise "
-              "%.4f; relmse: standard %.4f, stochastic pairwise %.4f\n",
-              inputContributing, contributing[0], contributing[1], relmse[0], relmse[1]);
+  EXPECT_LT(relmse[1], 0.75 * relmse[0])
+      << "stochastic pairwise " << relmse[1] << " vs standard " << relmse[0];
+  std::printf(
+      "[ measured ] input contributing %.4f; contributing after reuse: standard %.4f, stochastic pairwise "
+      "%.4f; relmse: standard %.4f, stochastic pairwise %.4f\n",
+      inputContributing, contributing[0], contributing[1], relmse[0], relmse[1]);
 }
 
 }  // namespace
