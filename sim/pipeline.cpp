@@ -38,7 +38,7 @@ FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {
 namespace {
 
 // The frame's counters, in pixel order (deterministic).
-void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, FrameResult& r) {
+void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, bool measureReservoirs, FrameResult& r) {
   size_t surfaces = 0, accepted = 0;
   for (size_t i = 0; i < g.Size(); ++i) {
     if (!g.IsSurface(i)) continue;
@@ -48,7 +48,7 @@ void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, FrameResult& r) 
   for (const PassStats& s : r.passes) r.guardedEvents += s.guarded, r.crossObjectReuse += s.crossObjectReuse;
   r.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
   r.diagnostics.contributingShaded = surfaces ? double(r.passes.back().contributing) / double(surfaces) : 0.0;
-  MeasureOutputReservoirs(g, reservoirs, r.diagnostics);
+  if (measureReservoirs) MeasureOutputReservoirs(g, reservoirs, r.diagnostics);
 }
 
 }  // namespace
@@ -64,33 +64,35 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const VisibilityReuse visibility = s.shade.visibility;
   FrameResult r;
   r.temporalAccepted.assign(in.gbuffer->Size(), 0);
-  ReservoirDiagnostics& d = r.diagnostics;
-  InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());
-  const auto contributing = [&](double& all, double& region) {
-    const Contributing f = ContributingFraction(*in.gbuffer, reservoirs_, in.diagnosticsRegion);
-    all = f.all;
-    region = f.region;
+  // Each fraction is measured after its pass; a pass the preset lacks repeats the one before it.
+  const auto contributing = [&] {
+    return in.measureReservoirs ? ContributingFraction(*in.gbuffer, reservoirs_, in.diagnosticsRegion)
+                                : Contributing{};
   };
-  contributing(d.contributingInitial, d.contributingInitialRegion);
-  if (s.temporal.enabled)
+  InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());
+  const Contributing initial = contributing();
+  Contributing temporal = initial;
+  if (s.temporal.enabled) {
     TemporalReuse(s.temporal, visibility, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
                   r.passes.emplace_back());
-  if (s.temporal.enabled)
-    contributing(d.contributingTemporal, d.contributingTemporalRegion);
-  else
-    d.contributingTemporal = d.contributingInitial, d.contributingTemporalRegion = d.contributingInitialRegion;
-  if (s.spatial.enabled && s.spatial.mis == MisFamily::kStochasticPairwise)
-    StochasticPairwiseReuse(s.spatial, visibility, view, reservoirs_, previousReservoirs_, cells_,
-                            r.passes.emplace_back());
-  else if (s.spatial.enabled)
-    SpatialReuse(s.spatial, visibility, view, s.temporal.enabled ? &r.temporalAccepted : nullptr, reservoirs_,
-                 previousReservoirs_, r.passes.emplace_back());
-  if (s.spatial.enabled)
-    contributing(d.contributingSpatial, d.contributingSpatialRegion);
-  else
-    d.contributingSpatial = d.contributingTemporal, d.contributingSpatialRegion = d.contributingTemporalRegion;
+    temporal = contributing();
+  }
+  Contributing spatial = temporal;
+  if (s.spatial.enabled) {
+    if (s.spatial.mis == MisFamily::kStochasticPairwise)
+      StochasticPairwiseReuse(s.spatial, visibility, view, reservoirs_, previousReservoirs_, cells_,
+                              r.passes.emplace_back());
+    else
+      SpatialReuse(s.spatial, visibility, view, s.temporal.enabled ? &r.temporalAccepted : nullptr, reservoirs_,
+                   previousReservoirs_, r.passes.emplace_back());
+    spatial = contributing();
+  }
+  ReservoirDiagnostics& d = r.diagnostics;
+  d.contributingInitial = initial.all, d.contributingInitialRegion = initial.region;
+  d.contributingTemporal = temporal.all, d.contributingTemporalRegion = temporal.region;
+  d.contributingSpatial = spatial.all, d.contributingSpatialRegion = spatial.region;
   Shade(s.shade, view, reservoirs_, r.image, r.passes.emplace_back());
-  Tally(*in.gbuffer, reservoirs_, r);
+  Tally(*in.gbuffer, reservoirs_, in.measureReservoirs, r);
   std::swap(previousReservoirs_, reservoirs_);  // this frame's output is the next frame's temporal input
   return r;
 }

@@ -44,8 +44,12 @@ struct FrameInputs {
   Sky previousSky;                                 // the previous frame's
   uint32_t seed = 0;
   uint32_t frame = 0;
-  // Pixels whose contributing fractions FrameResult::diagnostics also reports apart (the runner passes its
-  // 4-frame disocclusion window); null: none. Never changes the image.
+  // Fill FrameResult::diagnostics beyond contributingShaded: a pass over the reservoirs after each pass and a
+  // 5×5 window per pixel, about 6 ms a 640×360 frame (12% of ris's), so only the runner's reported frame asks,
+  // not ensemble members or benchmarks. Never changes the image.
+  bool measureReservoirs = false;
+  // Pixels whose contributing fractions the diagnostics also report apart (the runner passes its 4-frame
+  // disocclusion window); null: none.
   const std::vector<uint8_t>* diagnosticsRegion = nullptr;
 };
 
@@ -54,7 +58,9 @@ struct FrameResult {
   std::vector<PassStats> passes;
   uint64_t guardedEvents = 0;      // non-finite values caught and reset (DESIGN §10)
   double temporalAcceptance = 0;   // fraction of surface pixels whose previous reservoir entered the combination
-  ReservoirDiagnostics diagnostics;  // the reservoirs after each pass and at the end (issue 20)
+  // The reservoirs after each pass and at the end (issue 20): contributingShaded always, the rest when
+  // FrameInputs::measureReservoirs.
+  ReservoirDiagnostics diagnostics;
   uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
 };

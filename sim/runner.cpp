@@ -365,6 +365,7 @@ RunResult Run(const RunOptions& opt) {
       progress.Show(frame - opt.frameBegin,
                     ps.preset.name + " (" + std::to_string(p + 1) + "/" + std::to_string(presets.size()) + ")");
       FrameInputs inputs = loop.Inputs(seed);
+      inputs.measureReservoirs = true;
       inputs.diagnosticsRegion = &recentMask;
       FrameResult fr = ps.members[0]->RenderFrame(inputs);
       // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).

@@ -3,8 +3,8 @@
 // frame; a test builds one by hand to call a pass alone.
 #pragma once
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>

@@ -68,14 +68,13 @@ void Shade(const ShadeParams& params, const FrameView& view, ReservoirBuffer& re
       rays.local() += occluded.size();
       for (size_t r = 0; r < occluded.size(); ++r) {
         const uint32_t k = sc.rayOf[r];
+        StoredReservoir& stored = reservoirs[rowStart + sc.pixelOf[k]];
         if (occluded[r]) sc.f[0][k] = sc.f[1][k] = sc.f[2][k] = 0.0f;
         if (occluded[r] && params.discardInvisibleSamples) {  // its f is 0 already: the image keeps its value
-          StoredReservoir& dropped = reservoirs[rowStart + sc.pixelOf[k]];
-          dropped.W = 0.0f;
-          dropped.confidence = 0.0f;
+          stored.W = 0.0f;
+          stored.confidence = 0.0f;
         }
         if (params.reuseFinalVisibility) {  // RTXDI_StoreVisibilityInDIReservoir
-          StoredReservoir& stored = reservoirs[rowStart + sc.pixelOf[k]];
           stored.visibility = occluded[r] ? 0.0f : 1.0f;
           stored.history.visibilityAge = 0;
           stored.history.distanceX = stored.history.distanceY = 0;

@@ -138,8 +138,9 @@ TEST(ReservoirDiagnostics, FramesReportAgesSpreadAndDuplicationThePresetsImply) 
       unbiased(FindPreset("restir-unbiased")->settings);
   for (int frame = 0; frame < 4; ++frame) {
     loop.BeginFrame(frame);
-    const FrameResult a = loop.Render(ris, seq.seed), b = loop.Render(temporal, seq.seed),
-                      c = loop.Render(unbiased, seq.seed);
+    FrameInputs in = loop.Inputs(seq.seed);
+    in.measureReservoirs = true;
+    const FrameResult a = ris.RenderFrame(in), b = temporal.RenderFrame(in), c = unbiased.RenderFrame(in);
     loop.EndFrame();
     // ris: fresh samples every frame, confidence 1 everywhere, no pass after initial sampling.
     EXPECT_EQ(a.diagnostics.ageMean, 0.0);
