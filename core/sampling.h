@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 #include "core/math.h"
@@ -25,6 +26,37 @@ inline float PowerHeuristic(float a, float b) {
   return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
+// Inverts a cumulative distribution: the index of the first of cdf[0, n) above u cdf[n - 1], for u in [0, 1)
+// (cdf non-decreasing, cdf[n - 1] > 0), so a stratified u stays stratified across the indices. Branch-free
+// binary search (std::upper_bound's branches mispredict on random u): lo counts the entries <= the target,
+// kept in [lo, lo + len] while len halves. Where rounding puts the target at the total, the last index is
+// returned whatever its probability (CdfPmf is then 0 there, and the caller must give the draw no value).
+// core/light_draw_kernel.cpp repeats it lane by lane.
+inline uint32_t SampleCdf(const float* cdf, size_t n, float u) {
+  const float target = u * cdf[n - 1];
+  size_t lo = 0, len = n;
+  while (len > 1) {
+    const size_t half = len / 2;
+    lo = cdf[lo + half - 1] <= target ? lo + half : lo;
+    len -= half;
+  }
+  return static_cast<uint32_t>(std::min(lo + (cdf[lo] <= target ? 1 : 0), n - 1));
+}
+
+// The probability SampleCdf returns index l: the step of the cdf it inverts, so selection and pmf agree bit
+// for bit.
+inline float CdfPmf(const float* cdf, size_t n, uint32_t l) {
+  return (cdf[l] - (l ? cdf[l - 1] : 0.0f)) / cdf[n - 1];
+}
+
+// frac(shift + k alpha) as a float in [0, 1), for shift in [0, 1) and alpha > 0: one coordinate of a shifted
+// Roberts sequence (below). core/qmc_kernel.cpp repeats it lane by lane.
+inline float RobertsCoordinate(double shift, int k, double alpha) {
+  const double v = shift + double(k) * alpha;
+  // v >= 0, so truncation is floor: the same bits without a libm call on targets without SSE4.1's roundsd.
+  return std::min(static_cast<float>(v - static_cast<double>(static_cast<int64_t>(v))), 0x1.fffffep-1f);
+}
+
 // Roberts' R_d low-discrepancy sequence in D dimensions (Roberts 2018, "The unreasonable effectiveness of
 // quasirandom sequences"): point k is frac(shift + k α) with α_j = φ_d^-(j+1), φ_d the positive root of
 // x^(D+1) = x + 1. Randomly shifted copies are independent replicates of a randomised QMC estimator (Owen 2013,
@@ -38,11 +70,7 @@ struct RobertsSequence {
     for (int j = 0; j < D; ++j) alpha[j] = std::fmod(std::pow(1.0 / phi, j + 1), 1.0);
   }
   // Coordinate j of point k of the copy shifted by `shift`, as a float in [0, 1).
-  float Coordinate(double shift, int k, int j) const {
-    const double v = shift + double(k) * alpha[j];
-    // v >= 0, so truncation is floor: the same bits without a libm call on targets without SSE4.1's roundsd.
-    return std::min(static_cast<float>(v - static_cast<double>(static_cast<int64_t>(v))), 0x1.fffffep-1f);
-  }
+  float Coordinate(double shift, int k, int j) const { return RobertsCoordinate(shift, k, alpha[j]); }
 };
 
 }  // namespace restir

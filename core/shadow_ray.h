@@ -44,7 +44,7 @@ inline float NormL1(const Vec3& n) { return (std::fabs(n.x) + std::fabs(n.y)) + 
 // Moves p off its surface along the geometric normal, to the side `towards` points to, by the spawn offset of a
 // point whose coordinates have error scale `errorScale` (pbrt-v4 OffsetRayOrigin).
 //
-// core/shadow_ray_kernel.cpp repeats this expression lane by lane; changing it here changes the kernel's twin,
+// core/shadow_ray-inl.h repeats this expression lane by lane; changing it here changes the kernel's twin,
 // and the kernel tests then demand the same change there.
 inline Vec3 OffsetRayOrigin(const Vec3& p, const Vec3& geometricNormal, float errorScale, const Vec3& towards) {
   const float offset = (kSpawnRelativeOffset * errorScale) * NormL1(geometricNormal);

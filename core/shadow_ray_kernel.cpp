@@ -2,10 +2,8 @@
 // per-target part is compiled once per Highway target (foreach_target.h); the rest once (HWY_ONCE).
 //
 // Bit-exactness (DESIGN §3): each lane computes core/shadow_ray.h ShadowRaySetup's expression tree term for
-// term: glm::length = sqrt((x x + y y) + z z), vec3 / s divides each component, NormL1 = (|x| + |y|) + |z|, the
-// offset is (kSpawnRelativeOffset scale) NormL1 with the product taken in that order, and the side test is `>= 0`
-// (false for NaN, so a NaN direction offsets against the normal). No MulAdd, no approximate square roots or
-// reciprocals. NaN results are the one thing the source cannot pin down; both sides canonicalise them.
+// term (core/shadow_ray-inl.h ShadowRaySetupV). NaN results are the one thing the source cannot pin down; both
+// sides canonicalise them.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/shadow_ray_kernel.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
@@ -16,6 +14,7 @@
 #include <limits>
 
 #include "core/shading-inl.h"
+#include "core/shadow_ray-inl.h"
 #include "core/shadow_ray.h"
 #include "core/shadow_ray_kernel.h"
 #include "core/simd.h"
@@ -49,17 +48,6 @@ void OutFields(const ShadowRayOutputs& out, float* (&f)[kOutFields]) {
   f[6] = out.tmax;
 }
 
-// OffsetRayOrigin (core/shadow_ray.h): p moved off its surface along n, to the side `towards` points to.
-HWY_INLINE void OffsetRayOriginV(const VF (&p)[3], const VF (&n)[3], VF errorScale, const VF (&towards)[3],
-                                 VF (&out)[3]) {
-  const DF df;
-  const VF norm1 = hn::Add(hn::Add(hn::Abs(n[0]), hn::Abs(n[1])), hn::Abs(n[2]));
-  const VF offset = hn::Mul(hn::Mul(hn::Set(df, kSpawnRelativeOffset), errorScale), norm1);
-  const VF side = hn::IfThenElse(hn::Ge(Dot(n, towards), hn::Zero(df)), hn::Set(df, 1.0f), hn::Set(df, -1.0f));
-  const VF signedOffset = hn::Mul(side, offset);
-  for (int c = 0; c < 3; ++c) out[c] = hn::Add(p[c], hn::Mul(signedOffset, n[c]));
-}
-
 // Queries [k, k + Lanes) of the fields.
 HWY_INLINE void ShadowRayPacket(const float* const (&in)[kInFields], float* const (&out)[kOutFields], size_t k) {
   const DF df;
@@ -73,17 +61,12 @@ HWY_INLINE void ShadowRayPacket(const float* const (&in)[kInFields], float* cons
   const VF errorScale = hn::LoadU(df, in[12] + k);
   const VF lightErrorScale = hn::LoadU(df, in[13] + k);
 
-  VF toLight[3], org[3], back[3], end[3], d[3];
-  for (int c = 0; c < 3; ++c) toLight[c] = hn::Sub(y[c], x[c]);
-  OffsetRayOriginV(x, ng, errorScale, toLight, org);
-  for (int c = 0; c < 3; ++c) back[c] = hn::Sub(org[c], y[c]);
-  OffsetRayOriginV(y, ny, hn::Add(lightErrorScale, hn::Sqrt(Dot(back, back))), back, end);
-  for (int c = 0; c < 3; ++c) d[c] = hn::Sub(end[c], org[c]);
-  const VF length = hn::Sqrt(Dot(d, d));
+  VF org[3], dir[3], length;
+  ShadowRaySetupV(x, ng, errorScale, y, ny, lightErrorScale, org, dir, length);
 
   for (int c = 0; c < 3; ++c) {
     hn::StoreU(CanonicalNaNV(org[c]), df, out[c] + k);
-    hn::StoreU(CanonicalNaNV(hn::Div(d[c], length)), df, out[3 + c] + k);
+    hn::StoreU(CanonicalNaNV(dir[c]), df, out[3 + c] + k);
   }
   hn::StoreU(CanonicalNaNV(length), df, out[6] + k);
 }

@@ -452,6 +452,16 @@ RawHit EmbreeScene::Impl::IntersectRaw(const Vec3& org, const Vec3& dir, float t
 }
 
 SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+  return Query(org, dir, tmax, frame, true);
+}
+
+SurfaceHit EmbreeScene::IntersectEmitter(const Vec3& org, const Vec3& dir, float tmax,
+                                         SceneFrame frame) const {
+  return Query(org, dir, tmax, frame, false);
+}
+
+SurfaceHit EmbreeScene::Query(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame,
+                              bool surface) const {
   SurfaceHit out;
   const Impl& im = *impl_;
   const Impl::Slot* slot = im.SlotFor(frame);
@@ -484,6 +494,12 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
     for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(im.lightVertices[3 * size_t(prim) + k]);
   } else {
     if (prim >= rec->triangles.size()) return out;
+    if (!surface) {
+      out.hit = true;
+      out.objectId = static_cast<int32_t>(objectOrLights);
+      out.materialId = rec->material;
+      return out;
+    }
     const glm::uvec3 tri = rec->triangles[prim];
     for (int k = 0; k < 3; ++k) {
       const glm::dvec3 v(rec->positions[tri[k]]);

@@ -67,6 +67,11 @@ class EmbreeScene {
 
   SurfaceHit Intersect(const Vec3& org, const Vec3& dir, float tmax,
                        SceneFrame frame = SceneFrame::kCurrent) const;
+  // Intersect for a query that only asks which emitter the ray reaches (the reference's BSDF rays): an
+  // emitter hit or a miss as Intersect gives it; any other hit only hit = true with its objectId and
+  // materialId, without the surface (position, normals, t), which costs most of Intersect's time.
+  SurfaceHit IntersectEmitter(const Vec3& org, const Vec3& dir, float tmax,
+                              SceneFrame frame = SceneFrame::kCurrent) const;
   bool Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;
   // Traces a batch of shadow rays (Embree packets of 4, the fastest entry point on captured frames:
   // docs/performance.md "Shadow-ray entry points"); occluded[i] = 1 when ray i is blocked.
@@ -80,6 +85,8 @@ class EmbreeScene {
   int32_t LightObjectId() const { return lightObjectId_; }
 
  private:
+  // Intersect's body; `surface` false stops at a hit that is not an emitter (IntersectEmitter).
+  SurfaceHit Query(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame, bool surface) const;
   struct Impl;
   friend struct EmbreeProbe;  // sim/embree_probe.h: the benchmarks' and tests' access, in restir_sim_probe only
   std::unique_ptr<Impl> impl_;

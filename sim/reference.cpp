@@ -9,11 +9,14 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <filesystem>
 
+#include "core/light_draw_kernel.h"
 #include "core/light_sampler.h"
 #include "core/polygon_irradiance.h"
+#include "core/qmc_kernel.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/shading.h"
@@ -78,7 +81,8 @@ struct LightProxies {
   std::vector<float> offset;            // n · p0: the light faces x when n · x > offset
   std::vector<float> size2;             // squared longest edge
   std::vector<float> lumArea;           // luminance of the radiance × area
-  explicit LightProxies(const std::vector<LightTriangle>& lights) {
+  std::vector<float> powerPmf;          // the defensive share's selection probability, by power
+  LightProxies(const std::vector<LightTriangle>& lights, const LightSampler& power) {
     for (const LightTriangle& t : lights) {
       const Vec3 c = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
       cx.push_back(c.x), cy.push_back(c.y), cz.push_back(c.z);
@@ -88,6 +92,7 @@ struct LightProxies {
       const float lum = Luminance(t.radiance);
       lumArea.push_back(lum > 0.0f ? lum * t.area : 0.0f);
     }
+    for (uint32_t l = 0; l < lights.size(); ++l) powerPmf.push_back(power.SelectionPmf(l));
   }
 };
 
@@ -99,12 +104,17 @@ class PixelLightDistribution {
     const size_t n = lights.size();
     work_.resize(n);
     point_.resize(n);
+    // The loops below are split so that the compiler vectorises the per-light arithmetic; the sums stay sequential
+    // (their order fixes the bits).
+    double* const work = work_.data();
     double total = 0.0;
     if (n <= kMaxPerPixelLights) {
+      const float* const point = point_.data();
       PointEstimates(sp, proxies, point_.data());
       const float albedo = Luminance(sp.bsdf.albedo) * kInvPi;
-      for (size_t l = 0; l < n; ++l) work_[l] = point_[l] >= 0.0f ? double(point_[l]) * albedo
-                                                                   : Exact(sp, lights[l], albedo);
+      for (size_t l = 0; l < n; ++l) work[l] = double(point[l]) * albedo;
+      for (size_t l = 0; l < n; ++l)
+        if (!(point[l] >= 0.0f)) work[l] = Exact(sp, lights[l], albedo);
       if (sp.bsdf.type != BsdfType::kDiffuse) {
         for (size_t l = 0; l < n; ++l) {
           if (work_[l] <= 0.0 && point_[l] == 0.0f) continue;  // facing away, dark or below the horizon
@@ -116,23 +126,26 @@ class PixelLightDistribution {
           work_[l] = 0.1 * work_[l] + double(TargetFunction(UnshadowedContribution(sp, c))) * t.area;
         }
       }
-      for (size_t l = 0; l < n; ++l) {
-        if (!std::isfinite(work_[l])) work_[l] = 0.0;
-        total += work_[l];
-      }
+      // Not finite (|w| <= max is false for NaN and infinities): no share.
+      for (size_t l = 0; l < n; ++l)
+        work[l] = std::fabs(work[l]) <= std::numeric_limits<double>::max() ? work[l] : 0.0;
+      for (size_t l = 0; l < n; ++l) total += work[l];
     }
     const double estimate = n <= kMaxPerPixelLights ? total : -1.0;
     const double mix = total > 0.0 ? kDefensivePowerShare : 1.0;
+    const float* const pmf = proxies.powerPmf.data();
+    if (total > 0.0)
+      for (size_t l = 0; l < n; ++l) work[l] = (1.0 - mix) * work[l] / total + mix * double(pmf[l]);
+    else
+      for (size_t l = 0; l < n; ++l) work[l] = 0.0 + mix * double(pmf[l]);
     double c = 0.0;
-    for (size_t l = 0; l < n; ++l) {
-      work_[l] = (total > 0.0 ? (1.0 - mix) * work_[l] / total : 0.0) + mix * power.SelectionPmf(uint32_t(l));
-      c += work_[l];
-    }
+    for (size_t l = 0; l < n; ++l) c += work[l];
     double running = 0.0;
     for (size_t l = 0; l < n; ++l) {
-      running += work_[l];
-      cdf[l] = static_cast<float>(running / c);
+      running += work[l];
+      work[l] = running;
     }
+    for (size_t l = 0; l < n; ++l) cdf[l] = static_cast<float>(work[l] / c);
     View(cdf, n);
     estimate_ = estimate;
   }
@@ -142,23 +155,13 @@ class PixelLightDistribution {
     n_ = n;
     estimate_ = -1.0;  // a viewed distribution carries no estimate (the shared one, or one kept by the pilot)
   }
-  // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified).
-  uint32_t Sample(float u) const {
-    const float target = u * cdf_[n_ - 1];
-    // std::upper_bound without its branches (they mispredict on random u): the count of cdf entries <= target,
-    // kept in [lo, lo + len] while len halves.
-    size_t lo = 0, len = n_;
-    while (len > 1) {
-      const size_t half = len / 2;
-      lo = cdf_[lo + half - 1] <= target ? lo + half : lo;
-      len -= half;
-    }
-    // The first entry above target has Pmf > 0. Only when rounding puts target at the total is the last light
-    // returned whatever its Pmf; a zero Pmf then gives the sample no light term (DirectSamples).
-    return static_cast<uint32_t>(std::min(lo + (cdf_[lo] <= target ? 1 : 0), n_ - 1));
-  }
+  // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified). Only
+  // when rounding puts the target at the total is the last light returned whatever its Pmf; a zero Pmf then
+  // gives the sample no light term (DirectSamples).
+  uint32_t Sample(float u) const { return SampleCdf(cdf_, n_, u); }
   // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
-  float Pmf(uint32_t l) const { return (cdf_[l] - (l ? cdf_[l - 1] : 0.0f)) / cdf_[n_ - 1]; }
+  float Pmf(uint32_t l) const { return CdfPmf(cdf_, n_, l); }
+  const float* Cdf() const { return cdf_; }
   // What the last Build estimated the lights give the receiver together, Σ u_l × albedo / π (the luminance of
   // the reflected radiance, unshadowed; for a diffuse receiver exact but for the point estimates' O((size/d)²)),
   // or -1 where it did not estimate it (above kMaxPerPixelLights). Sets the local lights' share of the light
@@ -171,21 +174,30 @@ class PixelLightDistribution {
   // compared with its size is taken as a point at its centroid: E = L A cos θx cos θy / d², off by
   // O((size / d)²). out[l] = 0 for lights facing away or dark, -1 where the point is not accurate enough (near,
   // large, or the centroid close to the horizon: Exact then clips and integrates).
-  static void PointEstimates(const ShadingPoint& sp, const LightProxies& p, float* out) {
+  static void PointEstimates(const ShadingPoint& sp, const LightProxies& p, float* __restrict out) {
     const float x = sp.position.x, y = sp.position.y, z = sp.position.z;
     const float sx = sp.shadingNormal.x, sy = sp.shadingNormal.y, sz = sp.shadingNormal.z;
     const size_t n = p.cx.size();
+    const float *cx = p.cx.data(), *cy = p.cy.data(), *cz = p.cz.data(), *nx = p.nx.data(), *ny = p.ny.data(),
+                *nz = p.nz.data(), *offset = p.offset.data(), *size2 = p.size2.data(), *lumArea = p.lumArea.data();
+    // Written without branches (bitwise & and |, selects on values: std::max(v, 0) is v < 0 ? 0 : v) so that the
+    // loop vectorises (with -fno-trapping-math, CMakeLists.txt); every lane computes what the scalar expression
+    // does.
     for (size_t l = 0; l < n; ++l) {
-      const float dx = p.cx[l] - x, dy = p.cy[l] - y, dz = p.cz[l] - z;
+      const float dx = cx[l] - x, dy = cy[l] - y, dz = cz[l] - z;
       const float d2 = dx * dx + dy * dy + dz * dz;
-      const float facing = p.nx[l] * x + p.ny[l] * y + p.nz[l] * z - p.offset[l];
+      const float facing = nx[l] * x + ny[l] * y + nz[l] * z - offset[l];
       const float cosXd = sx * dx + sy * dy + sz * dz;          // cos θx · d
-      const float cosYd = -(p.nx[l] * dx + p.ny[l] * dy + p.nz[l] * dz);  // cos θy · d
+      const float cosYd = -(nx[l] * dx + ny[l] * dy + nz[l] * dz);  // cos θy · d
       // Far: beyond kPointLightDistance2 sizes, and the centroid at least one size above the horizon, so the
       // whole triangle is above it (no clipping needed).
-      const bool far = d2 > kPointLightDistance2 * p.size2[l] && cosXd * cosXd > p.size2[l] && cosXd > 0.0f;
-      const float point = p.lumArea[l] * std::max(cosXd, 0.0f) * std::max(cosYd, 0.0f) / (d2 * d2);
-      out[l] = !(facing > 0.0f) || !(p.lumArea[l] > 0.0f) ? 0.0f : (far ? point : -1.0f);
+      const bool far = (d2 > kPointLightDistance2 * size2[l]) & (cosXd * cosXd > size2[l]) & (cosXd > 0.0f);
+      const float clampedX = cosXd < 0.0f ? 0.0f : cosXd;
+      const float clampedY = cosYd < 0.0f ? 0.0f : cosYd;
+      const float point = lumArea[l] * clampedX * clampedY / (d2 * d2);
+      const bool none = !(facing > 0.0f) | !(lumArea[l] > 0.0f);
+      const float value = far ? point : -1.0f;
+      out[l] = none ? 0.0f : value;
     }
   }
 
@@ -216,6 +228,27 @@ struct SampleBatch {
   std::vector<ShadowRay> rays;   // the shadow rays of the samples whose light term is nonzero
   std::vector<uint32_t> rayOf;   // the sample each ray belongs to
   std::vector<uint8_t> occluded;
+  std::vector<float> drawn[10];  // the light-draw kernel's outputs: term r g b, origin, direction, length
+  std::vector<uint8_t> traced;   // the light-draw kernel's: the term counts if its ray is unoccluded
+};
+
+// The frame's light triangles as the light-draw kernel reads them (core/light_draw_kernel.h).
+struct LightDrawSoa {
+  struct alignas(64) Record {
+    float v[kLightDrawRecordFloats];
+  };
+  std::vector<Record> records;
+  std::vector<float> errorScale;
+  LightDrawLights view;
+  explicit LightDrawSoa(const std::vector<LightTriangle>& lights) : records(lights.size()) {
+    for (size_t l = 0; l < lights.size(); ++l) {
+      WriteLightDrawRecord(lights[l], records[l].v);
+      errorScale.push_back(lights[l].errorScale);
+    }
+    view.records = records.empty() ? nullptr : records.data()->v;
+    view.errorScale = errorScale.data();
+    view.count = lights.size();
+  }
 };
 
 // The sky of a frame (null in a skyless one) and one receiver's light mixture, as DirectSamples needs them.
@@ -224,8 +257,8 @@ struct SkySampling {
   LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
 };
 
-// `count` direct-lighting samples at a receiver from the points u[k * dims ...] (dims = kSampleDims in a skyless
-// frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's mixture, then a light point
+// `count` direct-lighting samples at a receiver from the points whose coordinate j is u[j * count + k] (dims =
+// kSampleDims in a skyless frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's mixture, then a light point
 // or a sky direction from it), plus BSDF sampling with the power heuristic (pbrt-v4 PathIntegrator::SampleLd
 // style, restricted to direct light) on glossy surfaces, and on every surface under a sky (a BSDF ray that escapes
 // is the only way to reach the sky's directions the light mixture samples rarely). out[k] is sample k's value.
@@ -239,15 +272,15 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
   b.rays.clear();
   b.rayOf.clear();
   for (size_t k = 0; k < count; ++k) {
-    const float* uk = u + k * static_cast<size_t>(dims);
+    const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
     // A skyless frame has one strategy and reads no strategy coordinate.
     const LightStrategy strategy =
-        sky.sky != nullptr ? ChooseLightStrategy(mix, uk[kStrategyDim]) : LightStrategy::kLocal;
+        sky.sky != nullptr ? ChooseLightStrategy(mix, uk(kStrategyDim)) : LightStrategy::kLocal;
     if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
       LightSample y;
-      y.lightId = dist.Sample(uk[0]);
+      y.lightId = dist.Sample(uk(0));
       const LightTriangle& lt = lights[y.lightId];
-      y.position = SampleTrianglePoint(lt, uk[1], uk[2]);
+      y.position = SampleTrianglePoint(lt, uk(1), uk(2));
       y.normal = lt.normal;
       y.radiance = lt.radiance;
       // mix.local is 1 in a skyless frame, and x · 1 is x: the same bits as before the sky.
@@ -270,7 +303,7 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
     } else if (strategy != LightStrategy::kLocal) {
       // A sky direction: the integrand is Sky::Radiance(ω) f_r cos θ, evaluated through the far point that stands
       // for ω (core/sky.h SkyPointFor), its density the mixture's over every sky strategy (sim/reference_sky.h).
-      const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk[0], uk[kCoinDim], uk[1], uk[2]);
+      const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk(0), uk(kCoinDim), uk(1), uk(2));
       const float pLight = SkyLightPdf(mix, *sky.sky, w);
       const LightSample y = SkyPointFor(sp.position, w, sky.sky->Radiance(w));
       const Vec3 f = UnshadowedContribution(sp, y);
@@ -285,10 +318,10 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
       }
     }
     if (bsdfSampling) {
-      const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, uk[3], uk[4]);
+      const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, uk(3), uk(4));
       if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
         ++rays;
-        const SurfaceHit hit = scene.Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
+        const SurfaceHit hit = scene.IntersectEmitter(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
                                                bs.wi, std::numeric_limits<float>::infinity());
         const float cosX = glm::dot(sp.shadingNormal, bs.wi);
         if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
@@ -314,6 +347,59 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
   for (size_t k = 0; k < count; ++k) out[k] = b.bsdfTerm[k];
   for (size_t r = 0; r < b.rays.size(); ++r)
     if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
+}
+
+// Whether DirectSamples at this receiver is light sampling alone (no BSDF sampling, hence no MIS weight), which
+// LightOnlySamples computes with the light-draw kernel.
+bool LightSamplingOnly(const ShadingPoint& sp, const SkySampling& sky) {
+  return sp.bsdf.type == BsdfType::kDiffuse && sky.sky == nullptr;
+}
+
+// DirectSamples where LightSamplingOnly holds, the same bits (NaN payloads aside) from the light-draw kernel: a
+// packet of draws per register instead of one scalar sample at a time. Reads coordinates 0-2 of u alone.
+void LightOnlySamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScene& scene, const BsdfSoa& materials,
+                      const LightDrawLights& lights, const float* cdf, const float* u, size_t count, SampleBatch& b,
+                      Vec3* out, uint64_t& rays) {
+  for (std::vector<float>& v : b.drawn) v.resize(count);
+  b.traced.resize(count);
+  LightDrawReceiver receiver;
+  receiver.position = sp.position;
+  receiver.geometricNormal = sp.geometricNormal;
+  receiver.shadingNormal = sp.shadingNormal;
+  receiver.wo = sp.wo;
+  receiver.errorScale = sp.errorScale;
+  receiver.materialId = materialId;
+  LightDraws draws;
+  draws.uSelect = u;
+  draws.uPoint0 = u + count;
+  draws.uPoint1 = u + 2 * count;
+  draws.count = count;
+  LightDrawOutputs o;
+  for (int c = 0; c < 3; ++c) {
+    o.term[c] = b.drawn[c].data();
+    o.org[c] = b.drawn[3 + c].data();
+    o.dir[c] = b.drawn[6 + c].data();
+  }
+  o.tmax = b.drawn[9].data();
+  o.traced = b.traced.data();
+  DrawLightSamples(receiver, materials, lights, cdf, draws, o);
+  b.rays.clear();
+  b.rayOf.clear();
+  for (size_t k = 0; k < count; ++k) {
+    if (!b.traced[k]) continue;
+    b.rays.push_back(ShadowRay{Vec3(o.org[0][k], o.org[1][k], o.org[2][k]), Vec3(o.dir[0][k], o.dir[1][k], o.dir[2][k]),
+                               o.tmax[k]});
+    b.rayOf.push_back(static_cast<uint32_t>(k));
+  }
+  b.occluded.resize(b.rays.size());
+  scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
+  rays += b.rays.size();
+  // As DirectSamples: no BSDF term, so an unoccluded sample is its light term + 0.
+  for (size_t k = 0; k < count; ++k) out[k] = Vec3(0.0f);
+  for (size_t r = 0; r < b.rays.size(); ++r) {
+    const size_t k = b.rayOf[r];
+    if (!b.occluded[r]) out[k] = Vec3(o.term[0][k], o.term[1][k], o.term[2][k]) + Vec3(0.0f);
+  }
 }
 
 // Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples independent uniform
@@ -477,7 +563,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   // The pilot's per-pixel light distributions are kept for the main pass when they fit in
   // kKeptDistributionBytes; otherwise the main pass builds them again (the same bits).
   const size_t nLights = lightList.size();
-  const LightProxies proxies(lightList);
+  const LightProxies proxies(lightList, lights);
+  const LightDrawSoa drawLights(lightList);
   // Above kMaxPerPixelLights every pixel's distribution is the same (power alone): built once, viewed by all.
   std::vector<float> shared;
   if (hasLocal && nLights > kMaxPerPixelLights) {
@@ -487,7 +574,9 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   }
   // Without local lights (none, or all switched off) under a sky, no pixel has a light distribution.
   const bool keep = hasLocal && shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
-  std::vector<float> kept(keep ? pixels * nLights : 0);
+  // Not value-initialised: every pixel's row is written by the pilot before the main pass reads it (66 MB at
+  // 640x360 with 72 lights, whose zeroing cost as much as a fifth of the distributions' build).
+  const std::unique_ptr<float[]> kept(keep ? new float[pixels * nLights] : nullptr);
   // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
   std::vector<LightMixture> mixtures(hasSky ? pixels : 0);
   auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
@@ -502,7 +591,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
           if (!active[i]) continue;
           const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
           if (hasLocal) {
-            float* cdf = keep ? kept.data() + i * nLights : local.data();
+            float* cdf = keep ? kept.get() + i * nLights : local.data();
             if (!shared.empty())
               dist.View(shared.data(), nLights);
             else if (keep && builtBefore)
@@ -538,11 +627,20 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
                               std::vector<Vec3>& values) {
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
                      static_cast<uint32_t>(RngPass::kReferencePilot)};
+    // Sample k's coordinate j is dimension k * dims + j of the key; a light-only receiver reads three.
+    const bool lightOnly = LightSamplingOnly(sp, skySampling);
+    const int used = lightOnly ? 3 : dims;
     u.resize(static_cast<size_t>(kPilotSamples) * dims);
-    for (size_t d = 0; d < u.size(); ++d) u[d] = UniformFloat(key, static_cast<uint32_t>(d));
+    for (int j = 0; j < used; ++j)
+      for (int k = 0; k < kPilotSamples; ++k)
+        u[static_cast<size_t>(j) * kPilotSamples + k] = UniformFloat(key, static_cast<uint32_t>(k * dims + j));
     values.resize(kPilotSamples);
-    DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, kPilotSamples, batch, values.data(),
-                  rays.local());
+    if (lightOnly)
+      LightOnlySamples(sp, g.bsdfId[i], scene, bsdfs, drawLights.view, dist.Cdf(), u.data(), kPilotSamples, batch,
+                       values.data(), rays.local());
+    else
+      DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, kPilotSamples, batch, values.data(),
+                    rays.local());
     samples.local() += kPilotSamples;
     double sum = 0.0, sumSq = 0.0;
     for (const Vec3& v : values) {
@@ -567,17 +665,23 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kReference)};
     const int m = static_cast<int>(perReplicate[i]);
     const size_t n = static_cast<size_t>(m) * kReplicates;
+    const bool lightOnly = LightSamplingOnly(sp, skySampling);
+    const int used = lightOnly ? 3 : dims;
+    // Coordinate j of point k of replicate rep is u[j * n + rep * m + k]; the replicate's shift of coordinate j
+    // is dimension rep * dims + j of the key.
     u.resize(n * dims);
-    for (int rep = 0; rep < kReplicates; ++rep) {
-      double shift[kSkySampleDims];
-      for (int j = 0; j < dims; ++j) shift[j] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
-      for (int k = 0; k < m; ++k)
-        for (int j = 0; j < dims; ++j)
-          u[(static_cast<size_t>(rep) * m + k) * dims + j] =
-              hasSky ? rdSky.Coordinate(shift[j], k, j) : rd.Coordinate(shift[j], k, j);
+    for (int j = 0; j < used; ++j) {
+      float shift[kReplicates];  // one loop over the replicates' hashes, which the compiler vectorises
+      for (int rep = 0; rep < kReplicates; ++rep) shift[rep] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
+      RobertsCoordinates(shift, kReplicates, static_cast<size_t>(m), hasSky ? rdSky.alpha[j] : rd.alpha[j],
+                         u.data() + static_cast<size_t>(j) * n);
     }
     values.resize(n);
-    DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, n, batch, values.data(), rays.local());
+    if (lightOnly)
+      LightOnlySamples(sp, g.bsdfId[i], scene, bsdfs, drawLights.view, dist.Cdf(), u.data(), n, batch, values.data(),
+                       rays.local());
+    else
+      DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, n, batch, values.data(), rays.local());
     samples.local() += n;
     glm::dvec3 replicateMean[kReplicates];
     for (int rep = 0; rep < kReplicates; ++rep) {

@@ -270,5 +270,61 @@ TEST(EmbreeScene, OccludedBatchMatchesOccludedForRandomRays) {
     EXPECT_EQ(tail[i] != 0, scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax));
 }
 
+// IntersectEmitter (the reference's BSDF rays) answers what the reference reads of Intersect: every miss and
+// every emitter hit field for field (t, light, side, position, normals, error scale), and on any other hit
+// whether it hit and what; on static and animated instances, both frames, and rays that start on a surface.
+TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
+  Sequence s = BaseSequence();
+  s.objects.push_back(MakeObject("floor", QuadMesh(), false));
+  s.objects.push_back(MakeObject("boxA", BoxMesh(), false));
+  s.objects.push_back(MakeObject("boxB", BoxMesh(), true));
+  s.lights.push_back(QuadLight("l", 4.0f, Vec3(3)));
+  EmbreeScene scene(s);
+  auto state = [&](float phase, int frame) {
+    return StateFor(
+        s,
+        {Trs(Vec3(0, -2, 0), Vec3(-90, 0, 0), Vec3(6)), Trs(Vec3(-2, -1, 1), Vec3(0, 10, 0), Vec3(1.5f)),
+         Trs(Vec3(2 * std::cos(phase), 0, 2 * std::sin(phase)), Vec3(phase * 30, phase * 50, 0), Vec3(1))},
+        frame);
+  };
+  scene.Update(state(0.0f, 0));
+  scene.Update(state(0.7f, 1));
+  TestRng rng{0x51ed270b27e3a4c1ull};
+  size_t emitters = 0, objects = 0, misses = 0;
+  for (SceneFrame f : {SceneFrame::kCurrent, SceneFrame::kPrevious}) {
+    for (int i = 0; i < 20000; ++i) {
+      Vec3 org(rng.Range(-5, 5), rng.Range(-3, 5), rng.Range(-5, 5));
+      const Vec3 target(rng.Range(-3, 3), rng.Range(-2.5f, 4.5f), rng.Range(-3, 3));
+      Vec3 dir = glm::normalize(target - org);
+      if (i % 5 == 0) {  // from a surface point, as a BSDF ray leaves its receiver
+        const SurfaceHit h = scene.Intersect(org, dir, kInf, f);
+        if (h.hit) org = h.position, dir = glm::normalize(Vec3(rng.Range(-1, 1), 1.0f, rng.Range(-1, 1)));
+      }
+      const float tmax = i % 3 == 0 ? rng.Range(0.0f, 12.0f) : kInf;
+      const SurfaceHit full = scene.Intersect(org, dir, tmax, f);
+      const SurfaceHit light = scene.IntersectEmitter(org, dir, tmax, f);
+      ASSERT_EQ(light.hit, full.hit) << i;
+      ASSERT_EQ(light.lightId, full.lightId) << i;
+      ASSERT_EQ(light.objectId, full.objectId) << i;
+      ASSERT_EQ(light.materialId, full.materialId) << i;
+      if (!full.hit) {
+        ++misses;
+      } else if (full.lightId >= 0) {
+        ++emitters;
+        EXPECT_EQ(light.t, full.t);
+        EXPECT_EQ(light.frontFace, full.frontFace);
+        EXPECT_EQ(light.position, full.position);
+        EXPECT_EQ(light.geometricNormal, full.geometricNormal);
+        EXPECT_EQ(light.errorScale, full.errorScale);
+      } else {
+        ++objects;
+      }
+    }
+  }
+  EXPECT_GT(emitters, 300u);
+  EXPECT_GT(objects, 10000u);
+  EXPECT_GT(misses, 1000u);
+}
+
 }  // namespace
 }  // namespace restir

@@ -1,0 +1,88 @@
+// Light-draw kernel (issue 16): the converged reference's light-sampling step (sim/reference.cpp) for one
+// receiver and a batch of draws, a packet of draws per register. Draw k picks a light by inverting the
+// receiver's light distribution (core/sampling.h SampleCdf at uSelect[k]), takes the point
+// SampleTrianglePoint(uPoint0[k], uPoint1[k]) on it, and gives the light-sampling estimate's term f / p (f =
+// core/shading.h UnshadowedContribution, p = CdfPmf / area, the area density) with the shadow ray that
+// decides whether it counts (core/shadow_ray.h ShadowRaySetup). It carries no MIS weight: the reference calls
+// it for receivers that only sample lights (no BSDF sampling: a diffuse surface in a frame without a sky).
+//
+// Two implementations beside each other, as core/target_kernel.h: a Highway kernel (dynamic dispatch) and its
+// scalar twin built from the core functions. Same bits on every target.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "core/bsdf.h"
+#include "core/light.h"
+#include "core/math.h"
+
+namespace restir {
+
+// The receiver, as sim/shading_point.h ShadingPointAt builds it.
+struct LightDrawReceiver {
+  Vec3 position;           // x
+  Vec3 geometricNormal;    // facing the viewer
+  Vec3 shadingNormal;      // n, facing the viewer
+  Vec3 wo;                 // unit, towards the viewer
+  float errorScale = 0;    // x's error scale (sim/gbuffer.h GBuffer::errorScale)
+  int32_t materialId = 0;  // index into the BsdfSoa
+};
+
+// Floats per light record: p0, e1, e2, normal (x y z each), radiance (r g b), area (core/light.h
+// LightTriangle).
+inline constexpr size_t kLightDrawRecordFloats = 16;
+
+// The frame's light triangles: per light one 64-byte record (SIMD targets load it whole and transpose), and
+// the error scale beside it.
+struct LightDrawLights {
+  const float* records = nullptr;  // kLightDrawRecordFloats per light, 64-byte aligned (WriteLightDrawRecord)
+  const float* errorScale = nullptr;  // LightTriangle::errorScale
+  size_t count = 0;                   // lights; the cdf has this many entries
+};
+
+// Light t's record into record[0, kLightDrawRecordFloats).
+inline void WriteLightDrawRecord(const LightTriangle& t, float* record) {
+  for (int c = 0; c < 3; ++c) {
+    record[c] = t.p0[c];
+    record[3 + c] = t.e1[c];
+    record[6 + c] = t.e2[c];
+    record[9 + c] = t.normal[c];
+    record[12 + c] = t.radiance[c];
+  }
+  record[15] = t.area;
+}
+
+// The draws' uniforms in [0, 1), one array per dimension.
+struct LightDraws {
+  const float* uSelect = nullptr;  // inverts the cdf
+  const float* uPoint0 = nullptr;  // SampleTrianglePoint's u0
+  const float* uPoint1 = nullptr;  // SampleTrianglePoint's u1
+  size_t count = 0;                // draws
+};
+
+// One entry per draw. Where `traced` is 0 (f is zero or p is not positive) the term is +0 and the ray
+// undefined. Any NaN is written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
+struct LightDrawOutputs {
+  float* term[3] = {};        // f / p, r g b
+  float* org[3] = {};         // the shadow ray's origin
+  float* dir[3] = {};         // its unit direction
+  float* tmax = nullptr;      // its length
+  uint8_t* traced = nullptr;  // 1: the term counts if the ray is unoccluded
+};
+
+// Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar). `cdf` holds
+// lights.count cumulative values, non-decreasing, the last positive.
+void DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+                      const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
+                      const LightDrawOutputs& out);
+
+// The scalar twin, callable directly (tests and benchmarks).
+void DrawLightSamplesScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+                            const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
+                            const LightDrawOutputs& out);
+
+// Name of the Highway target DrawLightSamples runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
+const char* LightDrawKernelDispatchedTargetName();
+
+}  // namespace restir
