@@ -138,13 +138,13 @@ class PixelLightDistribution {
       for (size_t l = 0; l < n; ++l) work[l] = (1.0 - mix) * work[l] / total + mix * double(pmf[l]);
     else
       for (size_t l = 0; l < n; ++l) work[l] = 0.0 + mix * double(pmf[l]);
-    double c = 0.0;
-    for (size_t l = 0; l < n; ++l) c += work[l];
+    // The prefix sums; their last is the total c, summed in the same order from the same zero.
     double running = 0.0;
     for (size_t l = 0; l < n; ++l) {
       running += work[l];
       work[l] = running;
     }
+    const double c = running;
     for (size_t l = 0; l < n; ++l) cdf[l] = static_cast<float>(work[l] / c);
     View(cdf, n);
     estimate_ = estimate;
