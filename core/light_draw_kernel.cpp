@@ -34,8 +34,10 @@ namespace {
 
 // What every packet of one call shares: the broadcast receiver and the distribution's total.
 struct DrawContext {
-  ShadingPointV sp;
-  VF errorScale;
+  ShadingPointV sp;  // the receiver in every lane
+  Bsdf bsdf;         // the receiver's, for PdfBsdfUniformV
+  bool bsdfMis;      // LightDrawReceiver::bsdfMis
+  VF errorScale;     // the receiver's error scale (ShadowRaySetup)
   VF total;  // cdf[n - 1]
 };
 
@@ -103,10 +105,16 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   VF f[3];
   UnshadowedContributionV(ctx.sp, path, radiance, f);
 
-  // The reference's test: (f.x > 0 || f.y > 0 || f.z > 0) && pdf > 0; its term f * (1 / pdf).
+  // The reference's test: (f.x > 0 || f.y > 0 || f.z > 0) && pdf > 0.
   const MF counts =
       hn::And(hn::Or(hn::Or(hn::Gt(f[0], zero), hn::Gt(f[1], zero)), hn::Gt(f[2], zero)), hn::Gt(pdf, zero));
-  const VF invPdf = hn::Div(hn::Set(df, 1.0f), pdf);
+  // Its term f * (weight / pdf): under MIS the weight is PowerHeuristic(pdf d² / cos θy, PdfBsdf), else 1.
+  VF weight = hn::Set(df, 1.0f);
+  if (ctx.bsdfMis) {
+    const VF pLight = hn::Div(hn::Mul(hn::Mul(pdf, path.distance), path.distance), path.cosY);
+    weight = PowerHeuristicV(pLight, PdfBsdfUniformV(ctx.bsdf, ctx.sp, path));
+  }
+  const VF invPdf = hn::Div(weight, pdf);
   VF rayOrg[3], rayDir[3], length;
   ShadowRaySetupV(ctx.sp.x, ctx.sp.ng, ctx.errorScale, y, ny, hn::GatherIndex(df, L.errorScale, id), rayOrg,
                   rayDir, length);
@@ -137,6 +145,8 @@ void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const
     wo[c] = hn::Set(df, r.wo[c]);
   }
   ctx.sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(di, r.materialId)));
+  ctx.bsdf = materials.At(static_cast<size_t>(r.materialId));
+  ctx.bsdfMis = r.bsdfMis;
   ctx.errorScale = hn::Set(df, r.errorScale);
   ctx.total = hn::Set(df, cdf[lights.count - 1]);
 
@@ -239,7 +249,14 @@ void DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials
     ShadowRaySegment s;
     s.org = s.dir = Vec3(0.0f);
     if (counts) {
-      term = f * (1.0f / y.pdfArea);
+      float weight = 1.0f;
+      if (r.bsdfMis) {
+        const LightPath path = ConnectToLight(sp, y.position, y.normal);
+        const float cosY = -glm::dot(y.normal, path.wi);
+        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+        weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
+      }
+      term = f * (weight / y.pdfArea);
       s = ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal,
                          L.errorScale[id]);
     }

@@ -3,8 +3,9 @@
 // receiver's light distribution (core/sampling.h SampleCdf at uSelect[k]), takes the point
 // SampleTrianglePoint(uPoint0[k], uPoint1[k]) on it, and gives the light-sampling estimate's term f / p (f =
 // core/shading.h UnshadowedContribution, p = CdfPmf / area, the area density) with the shadow ray that
-// decides whether it counts (core/shadow_ray.h ShadowRaySetup). It carries no MIS weight: the reference calls
-// it for receivers that only sample lights (no BSDF sampling: a diffuse surface in a frame without a sky).
+// decides whether it counts (core/shadow_ray.h ShadowRaySetup). For a receiver that also samples its BSDF
+// (bsdfMis), the term carries the power heuristic's weight against core/bsdf.h PdfBsdf, as the reference's
+// light-sampling half of MIS; the BSDF half stays the caller's.
 //
 // Two implementations beside each other, as core/target_kernel.h: a Highway kernel (dynamic dispatch) and its
 // scalar twin built from the core functions. Same bits on every target.
@@ -27,6 +28,7 @@ struct LightDrawReceiver {
   Vec3 wo;                 // unit, towards the viewer
   float errorScale = 0;    // x's error scale (sim/gbuffer.h GBuffer::errorScale)
   int32_t materialId = 0;  // index into the BsdfSoa
+  bool bsdfMis = false;    // weight each term by PowerHeuristic(p in solid angle, PdfBsdf), else by 1
 };
 
 // Floats per light record: p0, e1, e2, normal (x y z each), radiance (r g b), area (core/light.h
@@ -61,8 +63,8 @@ struct LightDraws {
   size_t count = 0;                // draws
 };
 
-// One entry per draw. Where `traced` is 0 (f is zero or p is not positive) the term is +0 and the ray
-// undefined. Any NaN is written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
+// One entry per draw. Where `traced` is 0 (f is zero or p is not positive) the term and the ray are +0. Any NaN
+// is written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
 struct LightDrawOutputs {
   float* term[3] = {};        // f / p, r g b
   float* org[3] = {};         // the shadow ray's origin

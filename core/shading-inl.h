@@ -128,6 +128,8 @@ struct LightPathV {
   VF cosI;        // dot(n, wi): ConnectToLight's cosX, EvalBsdf's cosI
   VF geometry;    // G(x, y); meaningful only where `connects`
   MF connects;    // every ConnectToLight test passed and !(G <= 0)
+  VF distance;    // |p_y - x|
+  VF cosY;        // -dot(n_y, wi), the emitter's cosine
 };
 
 // ConnectToLight (core/shading.h).
@@ -142,6 +144,8 @@ HWY_INLINE LightPathV ConnectToLightV(const ShadingPointV& sp, const VF (&y)[3],
   for (int c = 0; c < 3; ++c) p.wi[c] = hn::Div(d[c], dist);
   p.cosI = Dot(sp.n, p.wi);
   const VF cosY = hn::Neg(Dot(ny, p.wi));
+  p.distance = dist;
+  p.cosY = cosY;
   const VF cosG = Dot(sp.ng, p.wi);
   p.geometry = hn::Div(hn::Mul(p.cosI, cosY), d2);
   // Path geometry is nonzero only past every ConnectToLight test; UnshadowedContribution then needs G > 0.
@@ -209,6 +213,44 @@ HWY_INLINE void UnshadowedContributionV(const ShadingPointV& sp, const LightPath
   EvalBsdfV(sp, path, path.connects, f);
   for (int c = 0; c < 3; ++c)
     out[c] = hn::IfThenElseZero(path.connects, hn::Mul(hn::Mul(radiance[c], f[c]), path.geometry));
+}
+
+// PdfBsdf (core/bsdf.cpp) at each lane's wi for a BSDF every lane shares (`bsdf`, the receiver's, whose type and
+// layered probability are then one scalar branch): 0 unless cosI > 0 and cos(theta_o) > 0; cosI / pi (kDiffuse);
+// PdfGgxLobe = D(n.h) (n.h) / (4 wo.h), 0 where !(|wo + wi| > 0) or wo.h <= 0 (kGgx); for kLayered the mixture
+// P pdf_GGX + (1 - P) pdf_cos with its two pure ends taken alone, as the scalar code does.
+HWY_INLINE VF PdfBsdfUniformV(const Bsdf& bsdf, const ShadingPointV& sp, const LightPathV& path) {
+  const DF df;
+  const VF zero = hn::Zero(df);
+  const MF hemisphere = hn::And(hn::Not(hn::Le(path.cosI, zero)), hn::Not(hn::Le(sp.cosO, zero)));
+  const VF pdfCos = hn::Mul(path.cosI, hn::Set(df, kInvPi));
+  if (bsdf.type == BsdfType::kDiffuse) return hn::IfThenElseZero(hemisphere, pdfCos);
+  VF hSum[3], h[3];
+  for (int c = 0; c < 3; ++c) hSum[c] = hn::Add(sp.wo[c], path.wi[c]);
+  const VF hLen = hn::Sqrt(Dot(hSum, hSum));
+  for (int c = 0; c < 3; ++c) h[c] = hn::Div(hSum[c], hLen);
+  const VF oh = Dot(sp.wo, h);
+  const VF cosH = Dot(sp.n, h);
+  const VF alpha2 = sp.bsdf.alpha2;
+  const VF c2 = hn::Mul(cosH, cosH);
+  const VF denom = hn::Add(hn::Mul(c2, hn::Sub(alpha2, hn::Set(df, 1.0f))), hn::Set(df, 1.0f));
+  const VF d = hn::IfThenZeroElse(hn::Le(cosH, zero),
+                                  hn::Div(alpha2, hn::Mul(hn::Mul(hn::Set(df, kPi), denom), denom)));
+  const VF lobe = hn::Div(hn::Mul(d, cosH), hn::Mul(hn::Set(df, 4.0f), oh));
+  const VF pdfGgx = hn::IfThenElseZero(hn::And(hn::Gt(hLen, zero), hn::Not(hn::Le(oh, zero))), lobe);
+  if (bsdf.type == BsdfType::kGgx) return hn::IfThenElseZero(hemisphere, pdfGgx);
+  const float p = LayeredSpecularProbability(bsdf);
+  if (p == 0.0f) return hn::IfThenElseZero(hemisphere, pdfCos);
+  if (p == 1.0f) return hn::IfThenElseZero(hemisphere, pdfGgx);
+  return hn::IfThenElseZero(hemisphere, hn::Add(hn::Mul(hn::Set(df, p), pdfGgx),
+                                                hn::Mul(hn::Set(df, 1.0f - p), pdfCos)));
+}
+
+// PowerHeuristic (core/sampling.h): a² / (a² + b²), 0 where a² + b² is not positive.
+HWY_INLINE VF PowerHeuristicV(VF a, VF b) {
+  const VF a2 = hn::Mul(a, a), b2 = hn::Mul(b, b);
+  const VF sum = hn::Add(a2, b2);
+  return hn::IfThenElseZero(hn::Gt(sum, hn::Zero(DF())), hn::Div(a2, sum));
 }
 
 // TargetFunction (core/shading.h): Rec. 709 luminance (core/math.h Luminance).

@@ -92,7 +92,9 @@ struct LightProxies {
       const float lum = Luminance(t.radiance);
       lumArea.push_back(lum > 0.0f ? lum * t.area : 0.0f);
     }
-    for (uint32_t l = 0; l < lights.size(); ++l) powerPmf.push_back(power.SelectionPmf(l));
+    // An empty sampler (every light off) has no table to read; no pixel then builds a distribution.
+    if (!power.Empty())
+      for (uint32_t l = 0; l < lights.size(); ++l) powerPmf.push_back(power.SelectionPmf(l));
   }
 };
 
@@ -235,11 +237,11 @@ struct SampleBatch {
 // The frame's light triangles as the light-draw kernel reads them (core/light_draw_kernel.h).
 struct LightDrawSoa {
   struct alignas(64) Record {
-    float v[kLightDrawRecordFloats];
+    float v[kLightDrawRecordFloats];  // WriteLightDrawRecord's layout
   };
-  std::vector<Record> records;
-  std::vector<float> errorScale;
-  LightDrawLights view;
+  std::vector<Record> records;    // one per light triangle, in the frame's order
+  std::vector<float> errorScale;  // LightTriangle::errorScale, likewise
+  LightDrawLights view;           // what the kernel reads: the two above
   explicit LightDrawSoa(const std::vector<LightTriangle>& lights) : records(lights.size()) {
     for (size_t l = 0; l < lights.size(); ++l) {
       WriteLightDrawRecord(lights[l], records[l].v);
@@ -257,11 +259,39 @@ struct SkySampling {
   LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
 };
 
+// The BSDF-sampling term of one sample (a direction from the BSDF at (u0, u1), weighted by the power heuristic
+// against the light strategies' density where its ray lands), 0 where the ray finds no light; counts the ray.
+Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+              const PixelLightDistribution& dist, const SkySampling& sky, float u0, float u1, uint64_t& rays) {
+  const LightMixture& mix = sky.mixture;
+  const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, u0, u1);
+  if (!(bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f)) return Vec3(0.0f);
+  ++rays;
+  const Vec3 org = OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi);
+  const SurfaceHit hit = scene.IntersectEmitter(org, bs.wi, std::numeric_limits<float>::infinity());
+  const float cosX = glm::dot(sp.shadingNormal, bs.wi);
+  if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
+    // An emitter: the light technique's density of this point, converted to solid angle.
+    const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
+    const float cosY = -glm::dot(t.normal, bs.wi);
+    const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) * mix.local / t.area * hit.t * hit.t / cosY;
+    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+    if (cosY > 0.0f) return t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+  } else if (!hit.hit && sky.sky != nullptr) {
+    // Escaped: the sky, at the density with which the light mixture draws this direction.
+    const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
+    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+    return sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+  }
+  return Vec3(0.0f);
+}
+
 // `count` direct-lighting samples at a receiver from the points whose coordinate j is u[j * count + k] (dims =
-// kSampleDims in a skyless frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's mixture, then a light point
-// or a sky direction from it), plus BSDF sampling with the power heuristic (pbrt-v4 PathIntegrator::SampleLd
-// style, restricted to direct light) on glossy surfaces, and on every surface under a sky (a BSDF ray that escapes
-// is the only way to reach the sky's directions the light mixture samples rarely). out[k] is sample k's value.
+// kSampleDims in a skyless frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's
+// mixture, then a light point or a sky direction from it), plus BSDF sampling with the power heuristic (pbrt-v4
+// PathIntegrator::SampleLd style, restricted to direct light) on glossy surfaces, and on every surface under a sky
+// (a BSDF ray that escapes is the only way to reach the sky's directions the light mixture samples rarely). out[k]
+// is sample k's value. Frames without a sky take SkylessSamples, the same bits faster.
 void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
                    const PixelLightDistribution& dist, const SkySampling& sky, const float* u, int dims,
                    size_t count, SampleBatch& b, Vec3* out, uint64_t& rays) {
@@ -317,29 +347,7 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
         b.rayOf.push_back(static_cast<uint32_t>(k));
       }
     }
-    if (bsdfSampling) {
-      const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, uk(3), uk(4));
-      if (bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f) {
-        ++rays;
-        const SurfaceHit hit = scene.IntersectEmitter(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi),
-                                               bs.wi, std::numeric_limits<float>::infinity());
-        const float cosX = glm::dot(sp.shadingNormal, bs.wi);
-        if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
-          // An emitter: the light technique's density of this point, converted to solid angle.
-          const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
-          const float cosY = -glm::dot(t.normal, bs.wi);
-          const float pLight =
-              dist.Pmf(static_cast<uint32_t>(hit.lightId)) * mix.local / t.area * hit.t * hit.t / cosY;
-          const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-          if (cosY > 0.0f) b.bsdfTerm[k] = t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
-        } else if (!hit.hit && sky.sky != nullptr) {
-          // Escaped: the sky, at the density with which the light mixture draws this direction.
-          const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
-          const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-          b.bsdfTerm[k] = sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
-        }
-      }
-    }
+    if (bsdfSampling) b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
   }
   b.occluded.resize(b.rays.size());
   scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
@@ -349,17 +357,15 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
     if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
 }
 
-// Whether DirectSamples at this receiver is light sampling alone (no BSDF sampling, hence no MIS weight), which
-// LightOnlySamples computes with the light-draw kernel.
-bool LightSamplingOnly(const ShadingPoint& sp, const SkySampling& sky) {
-  return sp.bsdf.type == BsdfType::kDiffuse && sky.sky == nullptr;
-}
-
-// DirectSamples where LightSamplingOnly holds, the same bits (NaN payloads aside) from the light-draw kernel: a
-// packet of draws per register instead of one scalar sample at a time. Reads coordinates 0-2 of u alone.
-void LightOnlySamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScene& scene, const BsdfSoa& materials,
-                      const LightDrawLights& lights, const float* cdf, const float* u, size_t count, SampleBatch& b,
-                      Vec3* out, uint64_t& rays) {
+// DirectSamples in a frame without a sky, the same bits (NaN payloads aside) with its light-sampling half from the
+// light-draw kernel (a packet of draws per register instead of one scalar sample at a time, the MIS weight
+// included where the receiver also samples its BSDF) and its BSDF half from BsdfTerm. Reads coordinates 0-2 of u
+// at a diffuse receiver, 0-4 at others.
+void SkylessSamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScene& scene, const BsdfSoa& materials,
+                    const std::vector<LightTriangle>& lightList, const PixelLightDistribution& dist,
+                    const SkySampling& sky, const LightDrawLights& lights, const float* u, size_t count,
+                    SampleBatch& b, Vec3* out, uint64_t& rays) {
+  const bool bsdfSampling = sp.bsdf.type != BsdfType::kDiffuse;
   for (std::vector<float>& v : b.drawn) v.resize(count);
   b.traced.resize(count);
   LightDrawReceiver receiver;
@@ -369,6 +375,7 @@ void LightOnlySamples(const ShadingPoint& sp, int32_t materialId, const EmbreeSc
   receiver.wo = sp.wo;
   receiver.errorScale = sp.errorScale;
   receiver.materialId = materialId;
+  receiver.bsdfMis = bsdfSampling;
   LightDraws draws;
   draws.uSelect = u;
   draws.uPoint0 = u + count;
@@ -382,23 +389,27 @@ void LightOnlySamples(const ShadingPoint& sp, int32_t materialId, const EmbreeSc
   }
   o.tmax = b.drawn[9].data();
   o.traced = b.traced.data();
-  DrawLightSamples(receiver, materials, lights, cdf, draws, o);
+  DrawLightSamples(receiver, materials, lights, dist.Cdf(), draws, o);
+  b.bsdfTerm.assign(count, Vec3(0.0f));
+  if (bsdfSampling)
+    for (size_t k = 0; k < count; ++k)
+      b.bsdfTerm[k] = BsdfTerm(sp, scene, lightList, dist, sky, u[3 * count + k], u[4 * count + k], rays);
   b.rays.clear();
   b.rayOf.clear();
   for (size_t k = 0; k < count; ++k) {
     if (!b.traced[k]) continue;
-    b.rays.push_back(ShadowRay{Vec3(o.org[0][k], o.org[1][k], o.org[2][k]), Vec3(o.dir[0][k], o.dir[1][k], o.dir[2][k]),
-                               o.tmax[k]});
+    b.rays.push_back(ShadowRay{Vec3(o.org[0][k], o.org[1][k], o.org[2][k]),
+                               Vec3(o.dir[0][k], o.dir[1][k], o.dir[2][k]), o.tmax[k]});
     b.rayOf.push_back(static_cast<uint32_t>(k));
   }
   b.occluded.resize(b.rays.size());
   scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
   rays += b.rays.size();
-  // As DirectSamples: no BSDF term, so an unoccluded sample is its light term + 0.
-  for (size_t k = 0; k < count; ++k) out[k] = Vec3(0.0f);
+  // As DirectSamples: the BSDF term, plus the light term where its ray is unoccluded.
+  for (size_t k = 0; k < count; ++k) out[k] = b.bsdfTerm[k];
   for (size_t r = 0; r < b.rays.size(); ++r) {
     const size_t k = b.rayOf[r];
-    if (!b.occluded[r]) out[k] = Vec3(o.term[0][k], o.term[1][k], o.term[2][k]) + Vec3(0.0f);
+    if (!b.occluded[r]) out[k] = Vec3(o.term[0][k], o.term[1][k], o.term[2][k]) + b.bsdfTerm[k];
   }
 }
 
@@ -627,17 +638,17 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
                               std::vector<Vec3>& values) {
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
                      static_cast<uint32_t>(RngPass::kReferencePilot)};
-    // Sample k's coordinate j is dimension k * dims + j of the key; a light-only receiver reads three.
-    const bool lightOnly = LightSamplingOnly(sp, skySampling);
-    const int used = lightOnly ? 3 : dims;
+    // Sample k's coordinate j is dimension k * dims + j of the key; a diffuse receiver without a sky reads three.
+    const bool skyless = !hasSky;
+    const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
     u.resize(static_cast<size_t>(kPilotSamples) * dims);
     for (int j = 0; j < used; ++j)
       for (int k = 0; k < kPilotSamples; ++k)
         u[static_cast<size_t>(j) * kPilotSamples + k] = UniformFloat(key, static_cast<uint32_t>(k * dims + j));
     values.resize(kPilotSamples);
-    if (lightOnly)
-      LightOnlySamples(sp, g.bsdfId[i], scene, bsdfs, drawLights.view, dist.Cdf(), u.data(), kPilotSamples, batch,
-                       values.data(), rays.local());
+    if (skyless)
+      SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(),
+                     kPilotSamples, batch, values.data(), rays.local());
     else
       DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, kPilotSamples, batch, values.data(),
                     rays.local());
@@ -665,21 +676,22 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kReference)};
     const int m = static_cast<int>(perReplicate[i]);
     const size_t n = static_cast<size_t>(m) * kReplicates;
-    const bool lightOnly = LightSamplingOnly(sp, skySampling);
-    const int used = lightOnly ? 3 : dims;
+    const bool skyless = !hasSky;
+    const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
     // Coordinate j of point k of replicate rep is u[j * n + rep * m + k]; the replicate's shift of coordinate j
     // is dimension rep * dims + j of the key.
     u.resize(n * dims);
     for (int j = 0; j < used; ++j) {
       float shift[kReplicates];  // one loop over the replicates' hashes, which the compiler vectorises
-      for (int rep = 0; rep < kReplicates; ++rep) shift[rep] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
+      for (int rep = 0; rep < kReplicates; ++rep)
+        shift[rep] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
       RobertsCoordinates(shift, kReplicates, static_cast<size_t>(m), hasSky ? rdSky.alpha[j] : rd.alpha[j],
                          u.data() + static_cast<size_t>(j) * n);
     }
     values.resize(n);
-    if (lightOnly)
-      LightOnlySamples(sp, g.bsdfId[i], scene, bsdfs, drawLights.view, dist.Cdf(), u.data(), n, batch, values.data(),
-                       rays.local());
+    if (skyless)
+      SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(), n, batch,
+                     values.data(), rays.local());
     else
       DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, n, batch, values.data(), rays.local());
     samples.local() += n;

@@ -2,8 +2,9 @@
 // scalar twin bit for bit (DESIGN §3), NaN payloads canonicalised, on random receivers (diffuse, GGX,
 // layered, a black and a poisoned material; tilted, grazing and far from the origin) and light sets (1 to 300
 // triangles: tiny, huge, behind the receiver, switched off), cdfs with zero steps, plateaus and a huge
-// dynamic range, uniforms at the cdf's own boundaries and at the edges of [0, 1), and batch sizes around
-// every vector width (tails, read and written next to memory that faults). What the twin computes is checked
+// dynamic range, uniforms at the cdf's own boundaries and at the edges of [0, 1), with and without the MIS
+// weight against the BSDF's density (GGX from mirror to rough, layered with both pure ends), and batch sizes
+// around every vector width (tails, read and written next to memory that faults). What the twin computes is checked
 // against closed forms: its term is an unbiased estimate of Lambert's unshadowed reflected radiance
 // (t-tests), and its rays run from the receiver to the drawn point.
 #include "core/light_draw_kernel.h"
@@ -40,7 +41,10 @@ std::vector<Bsdf> Materials() {
           Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f},
           Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 1e-4f},
           Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.3f},
+          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.0f},
           Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.5f},
+          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.0f},
+          Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f},
           Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f}};
 }
 
@@ -163,6 +167,7 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
                           0.8f * RandomUnit(rng));
     r.errorScale = far * 6.0f;
     r.materialId = static_cast<int32_t>(rng() % bsdfs.size());
+    r.bsdfMis = trial % 3 != 0;  // the MIS weight against PdfBsdf, on every material
     const LightSet lights =
         RandomLights(rng, r.position, r.shadingNormal, lightCounts[trial % lightCounts.size()]);
     const size_t n = drawCounts[(trial / lightCounts.size() + trial) % drawCounts.size()];

@@ -7,11 +7,13 @@
 //
 // The expected hashes are FNV-1a 64 of the reference cache entries' payloads (mean, standard error, luminance
 // standard error, as sim/reference_cache.cpp stores them) written by `restir-sim run` built from commit
-// 88a8006, the last one before these paths (the script that rendered and hashed them: the closing note of
-// this change).
+// 88a8006, the last one before these paths, rendered and hashed by scripts/reference_bits_hashes.sh (run it with
+// that commit's binary to reproduce them). A NaN's payload is the one thing the kernels canonicalise; none occurs
+// in these frames.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -72,6 +74,22 @@ TEST_F(ReferenceBits, EqualTheRendererBeforeItsSimdPathsOnEveryTargetAndThreadCo
       }
     }
   }
+}
+
+// A frame whose every light is switched off has an empty power sampler: the reference is the dark frame it was
+// (zero wherever no emitter is seen), not a read of the sampler's missing table.
+TEST_F(ReferenceBits, EveryLightSwitchedOffGivesADarkFrame) {
+  Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
+  FrameLoop loop(seq, 32, 18);
+  loop.BeginFrame(0);
+  FrameState dark = loop.State();
+  std::fill(dark.lightOn.begin(), dark.lightOn.end(), uint8_t{0});
+  loop.Scene().Update(dark);
+  ReferenceParams params;
+  params.samplesPerPixel = 32;
+  const ReferenceImage ref = RenderReference(seq, dark, loop.Scene(), loop.Gbuffer(), params);
+  for (const Vec3& v : ref.mean.pixels) EXPECT_EQ(v, Vec3(0.0f));
+  EXPECT_EQ(ref.rays, 0u);
 }
 
 }  // namespace
