@@ -15,7 +15,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <type_traits>
 
 #include "core/light-inl.h"
 #include "core/light.h"
@@ -41,40 +40,30 @@ struct DrawContext {
   VF total;  // cdf[n - 1]
 };
 
-// SampleCdf for G packets of targets at once: each step's gathers depend on the step before, so one packet
-// alone waits on every gather's latency; G independent packets overlap them. Every lane halves the same
-// lengths, only its lower bound differs.
-template <size_t G>
-HWY_INLINE void SampleCdfV(const float* cdf, size_t n, const VF (&target)[G], VI (&id)[G]) {
+// SampleCdf per lane: every lane halves the same lengths, only its lower bound differs.
+HWY_INLINE VI SampleCdfV(const float* cdf, size_t n, VF target) {
   const DI di;
-  VI lo[G];
-  for (size_t g = 0; g < G; ++g) lo[g] = hn::Zero(di);
+  VI lo = hn::Zero(di);
   for (size_t len = n; len > 1;) {
     const size_t half = len / 2;
-    const VI offset = hn::Set(di, static_cast<int32_t>(half - 1));
-    const VI step = hn::Set(di, static_cast<int32_t>(half));
-    VF v[G];
-    for (size_t g = 0; g < G; ++g) v[g] = hn::GatherIndex(DF(), cdf, hn::Add(lo[g], offset));
-    for (size_t g = 0; g < G; ++g)
-      lo[g] = hn::IfThenElse(hn::RebindMask(di, hn::Le(v[g], target[g])), hn::Add(lo[g], step), lo[g]);
+    const VF v = hn::GatherIndex(DF(), cdf, hn::Add(lo, hn::Set(di, static_cast<int32_t>(half - 1))));
+    lo = hn::IfThenElse(hn::RebindMask(di, hn::Le(v, target)), hn::Add(lo, hn::Set(di, static_cast<int32_t>(half))),
+                        lo);
     len -= half;
   }
-  const VI last = hn::Set(di, static_cast<int32_t>(n - 1));
-  for (size_t g = 0; g < G; ++g) {
-    const VF atLo = hn::GatherIndex(DF(), cdf, lo[g]);
-    id[g] = hn::Min(
-        hn::Add(lo[g], hn::IfThenElseZero(hn::RebindMask(di, hn::Le(atLo, target[g])), hn::Set(di, 1))),
-        last);
-  }
+  const VF atLo = hn::GatherIndex(DF(), cdf, lo);
+  return hn::Min(hn::Add(lo, hn::IfThenElseZero(hn::RebindMask(di, hn::Le(atLo, target)), hn::Set(di, 1))),
+                 hn::Set(di, static_cast<int32_t>(n - 1)));
 }
 
-// The draws of one packet once its lights `id` are chosen; uPoint* and out* point at the packet's first draw.
-HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, const float* cdf, VI id,
-                           const float* uPoint0, const float* uPoint1, float* const (&term)[3],
-                           float* const (&org)[3], float* const (&dir)[3], float* tmax, uint8_t* traced) {
+// Draws [k, k + Lanes) of the uniforms, written to out at the same offsets.
+HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, const float* cdf, const float* uSelect,
+                           const float* uPoint0, const float* uPoint1, float* const (&out)[10], uint8_t* traced,
+                           size_t k) {
   const DF df;
   const DI di;
   const VF zero = hn::Zero(df);
+  const VI id = SampleCdfV(cdf, L.count, hn::Mul(hn::LoadU(df, uSelect + k), ctx.total));
 
   // CdfPmf, then the area density.
   const VF at = hn::GatherIndex(df, cdf, id);
@@ -100,7 +89,7 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
     radiance[c] = r[12 + c];
   }
   VF y[3];
-  SampleTrianglePointV(p0, e1, e2, hn::LoadU(df, uPoint0), hn::LoadU(df, uPoint1), y);
+  SampleTrianglePointV(p0, e1, e2, hn::LoadU(df, uPoint0 + k), hn::LoadU(df, uPoint1 + k), y);
   const LightPathV path = ConnectToLightV(ctx.sp, y, ny);
   VF f[3];
   UnshadowedContributionV(ctx.sp, path, radiance, f);
@@ -119,14 +108,14 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   ShadowRaySetupV(ctx.sp.x, ctx.sp.ng, ctx.errorScale, y, ny, hn::GatherIndex(df, L.errorScale, id), rayOrg,
                   rayDir, length);
   for (int c = 0; c < 3; ++c) {
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, hn::Mul(f[c], invPdf))), df, term[c]);
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayOrg[c])), df, org[c]);
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayDir[c])), df, dir[c]);
+    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, hn::Mul(f[c], invPdf))), df, out[c] + k);
+    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayOrg[c])), df, out[3 + c] + k);
+    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayDir[c])), df, out[6 + c] + k);
   }
-  hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, length)), df, tmax);
+  hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, length)), df, out[9] + k);
   HWY_ALIGN int32_t flags[hn::MaxLanes(DI())];
   hn::Store(hn::VecFromMask(di, hn::RebindMask(di, counts)), di, flags);
-  for (size_t l = 0; l < hn::Lanes(df); ++l) traced[l] = flags[l] != 0 ? 1 : 0;
+  for (size_t l = 0; l < hn::Lanes(df); ++l) traced[k + l] = flags[l] != 0 ? 1 : 0;
 }
 
 }  // namespace
@@ -150,32 +139,11 @@ void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const
   ctx.errorScale = hn::Set(df, r.errorScale);
   ctx.total = hn::Set(df, cdf[lights.count - 1]);
 
-  // Draws [k, k + G N) with the cdf searches of their G packets overlapped.
-  auto packets = [&](auto groupSize, size_t k, const float* uSelect, const float* uPoint0,
-                     const float* uPoint1, float* const(&o)[10], uint8_t* t) {
-    constexpr size_t G = decltype(groupSize)::value;
-    VF target[G];
-    VI id[G];
-    for (size_t g = 0; g < G; ++g) target[g] = hn::Mul(hn::LoadU(df, uSelect + k + g * N), ctx.total);
-    SampleCdfV<G>(cdf, lights.count, target, id);
-    for (size_t g = 0; g < G; ++g) {
-      const size_t at = k + g * N;
-      float* const term[3] = {o[0] + at, o[1] + at, o[2] + at};
-      float* const org[3] = {o[3] + at, o[4] + at, o[5] + at};
-      float* const dir[3] = {o[6] + at, o[7] + at, o[8] + at};
-      DrawPacket(ctx, lights, cdf, id[g], uPoint0 + at, uPoint1 + at, term, org, dir, o[9] + at, t + at);
-    }
-  };
   float* const o[10] = {out.term[0], out.term[1], out.term[2], out.org[0], out.org[1],
                         out.org[2],  out.dir[0],  out.dir[1],  out.dir[2], out.tmax};
-  constexpr size_t kGroup = 2;
   size_t k = 0;
-  for (; k + kGroup * N <= draws.count; k += kGroup * N)
-    packets(std::integral_constant<size_t, kGroup>(), k, draws.uSelect, draws.uPoint0, draws.uPoint1, o,
-            out.traced);
   for (; k + N <= draws.count; k += N)
-    packets(std::integral_constant<size_t, 1>(), k, draws.uSelect, draws.uPoint0, draws.uPoint1, o,
-            out.traced);
+    DrawPacket(ctx, lights, cdf, draws.uSelect, draws.uPoint0, draws.uPoint1, o, out.traced, k);
   if (k == draws.count) return;
 
   // Tail: a full packet would read and write past the caller's arrays, so run one on a padded copy (uniforms
@@ -192,7 +160,7 @@ void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const
   HWY_ALIGN uint8_t t[kMax];
   float* const p[10] = {padded[0], padded[1], padded[2], padded[3], padded[4],
                         padded[5], padded[6], padded[7], padded[8], padded[9]};
-  packets(std::integral_constant<size_t, 1>(), 0, u[0], u[1], u[2], p, t);
+  DrawPacket(ctx, lights, cdf, u[0], u[1], u[2], p, t, 0);
   for (size_t l = 0; l < rest; ++l) {
     for (int f = 0; f < 10; ++f) o[f][k + l] = padded[f][l];
     out.traced[k + l] = t[l];
@@ -226,16 +194,7 @@ void DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials
   sp.errorScale = r.errorScale;
   for (size_t k = 0; k < draws.count; ++k) {
     const uint32_t id = SampleCdf(cdf, L.count, draws.uSelect[k]);
-    const float* rec = L.records + kLightDrawRecordFloats * id;
-    LightTriangle t;
-    for (int c = 0; c < 3; ++c) {
-      t.p0[c] = rec[c];
-      t.e1[c] = rec[3 + c];
-      t.e2[c] = rec[6 + c];
-      t.normal[c] = rec[9 + c];
-      t.radiance[c] = rec[12 + c];
-    }
-    t.area = rec[15];
+    const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * id);
     LightSample y;
     y.lightId = id;
     y.position = SampleTrianglePoint(t, draws.uPoint0[k], draws.uPoint1[k]);

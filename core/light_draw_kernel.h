@@ -43,7 +43,7 @@ struct LightDrawLights {
   size_t count = 0;                   // lights; the cdf has this many entries
 };
 
-// Light t's record into record[0, kLightDrawRecordFloats).
+// Light t's record into record[0, kLightDrawRecordFloats), and back (the fields the record keeps).
 inline void WriteLightDrawRecord(const LightTriangle& t, float* record) {
   for (int c = 0; c < 3; ++c) {
     record[c] = t.p0[c];
@@ -53,6 +53,18 @@ inline void WriteLightDrawRecord(const LightTriangle& t, float* record) {
     record[12 + c] = t.radiance[c];
   }
   record[15] = t.area;
+}
+inline LightTriangle ReadLightDrawRecord(const float* record) {
+  LightTriangle t;
+  for (int c = 0; c < 3; ++c) {
+    t.p0[c] = record[c];
+    t.e1[c] = record[3 + c];
+    t.e2[c] = record[6 + c];
+    t.normal[c] = record[9 + c];
+    t.radiance[c] = record[12 + c];
+  }
+  t.area = record[15];
+  return t;
 }
 
 // The draws' uniforms in [0, 1), one array per dimension.

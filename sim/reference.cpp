@@ -159,7 +159,7 @@ class PixelLightDistribution {
   }
   // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified). Only
   // when rounding puts the target at the total is the last light returned whatever its Pmf; a zero Pmf then
-  // gives the sample no light term (DirectSamples).
+  // gives the sample no light term (its area density is not positive).
   uint32_t Sample(float u) const { return SampleCdf(cdf_, n_, u); }
   // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
   float Pmf(uint32_t l) const { return CdfPmf(cdf_, n_, l); }
@@ -253,7 +253,7 @@ struct LightDrawSoa {
   }
 };
 
-// The sky of a frame (null in a skyless one) and one receiver's light mixture, as DirectSamples needs them.
+// The sky of a frame (null in a skyless one) and one receiver's light mixture, as SkySamples needs them.
 struct SkySampling {
   const Sky* sky = nullptr;  // null: a skyless frame, sampled exactly as before the sky existed
   LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
@@ -286,16 +286,15 @@ Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vecto
   return Vec3(0.0f);
 }
 
-// `count` direct-lighting samples at a receiver from the points whose coordinate j is u[j * count + k] (dims =
-// kSampleDims in a skyless frame, kSkySampleDims under a sky): light sampling (a strategy from the receiver's
-// mixture, then a light point or a sky direction from it), plus BSDF sampling with the power heuristic (pbrt-v4
-// PathIntegrator::SampleLd style, restricted to direct light) on glossy surfaces, and on every surface under a sky
-// (a BSDF ray that escapes is the only way to reach the sky's directions the light mixture samples rarely). out[k]
-// is sample k's value. Frames without a sky take SkylessSamples, the same bits faster.
-void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-                   const PixelLightDistribution& dist, const SkySampling& sky, const float* u, int dims,
-                   size_t count, SampleBatch& b, Vec3* out, uint64_t& rays) {
-  const bool bsdfSampling = sp.bsdf.type != BsdfType::kDiffuse || sky.sky != nullptr;
+// `count` direct-lighting samples at a receiver in a frame with a sky, from the points whose coordinate j is
+// u[j * count + k] (kSkySampleDims coordinates): light sampling (a strategy from the receiver's mixture, then a
+// light point or a sky direction from it) plus BSDF sampling, combined by the power heuristic (pbrt-v4
+// PathIntegrator::SampleLd style, restricted to direct light); BSDF sampling on every surface, as a BSDF ray that
+// escapes is the only way to reach the sky's directions the light mixture samples rarely. out[k] is sample k's
+// value. Frames without a sky take SkylessSamples.
+void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+                const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
+                SampleBatch& b, Vec3* out, uint64_t& rays) {
   const LightMixture& mix = sky.mixture;
   b.lightTerm.assign(count, Vec3(0.0f));
   b.bsdfTerm.assign(count, Vec3(0.0f));
@@ -303,9 +302,7 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
   b.rayOf.clear();
   for (size_t k = 0; k < count; ++k) {
     const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
-    // A skyless frame has one strategy and reads no strategy coordinate.
-    const LightStrategy strategy =
-        sky.sky != nullptr ? ChooseLightStrategy(mix, uk(kStrategyDim)) : LightStrategy::kLocal;
+    const LightStrategy strategy = ChooseLightStrategy(mix, uk(kStrategyDim));
     if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
       LightSample y;
       y.lightId = dist.Sample(uk(0));
@@ -313,17 +310,13 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
       y.position = SampleTrianglePoint(lt, uk(1), uk(2));
       y.normal = lt.normal;
       y.radiance = lt.radiance;
-      // mix.local is 1 in a skyless frame, and x · 1 is x: the same bits as before the sky.
       y.pdfArea = dist.Pmf(y.lightId) * mix.local / lt.area;
       const Vec3 f = UnshadowedContribution(sp, y);
       if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
-        float weight = 1.0f;
-        if (bsdfSampling) {
-          const LightPath path = ConnectToLight(sp, y.position, y.normal);
-          const float cosY = -glm::dot(y.normal, path.wi);
-          const float pLight = y.pdfArea * path.distance * path.distance / cosY;
-          weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
-        }
+        const LightPath path = ConnectToLight(sp, y.position, y.normal);
+        const float cosY = -glm::dot(y.normal, path.wi);
+        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
         b.lightTerm[k] = f * (weight / y.pdfArea);
         const ShadowRaySegment s =
             ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
@@ -347,7 +340,7 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
         b.rayOf.push_back(static_cast<uint32_t>(k));
       }
     }
-    if (bsdfSampling) b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
+    b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
   }
   b.occluded.resize(b.rays.size());
   scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
@@ -357,10 +350,11 @@ void DirectSamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::
     if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
 }
 
-// DirectSamples in a frame without a sky, the same bits (NaN payloads aside) with its light-sampling half from the
-// light-draw kernel (a packet of draws per register instead of one scalar sample at a time, the MIS weight
-// included where the receiver also samples its BSDF) and its BSDF half from BsdfTerm. Reads coordinates 0-2 of u
-// at a diffuse receiver, 0-4 at others.
+// `count` direct-lighting samples at a receiver in a frame without a sky, laid out as SkySamples' (kSampleDims
+// coordinates): light sampling from the receiver's light distribution, plus, at a receiver that is not diffuse,
+// BSDF sampling with the power heuristic. The light half is the light-draw kernel (a packet of draws per register,
+// its MIS weight included), the BSDF half BsdfTerm. Reads coordinates 0-2 of u at a diffuse receiver, 0-4 at
+// others.
 void SkylessSamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScene& scene, const BsdfSoa& materials,
                     const std::vector<LightTriangle>& lightList, const PixelLightDistribution& dist,
                     const SkySampling& sky, const LightDrawLights& lights, const float* u, size_t count,
@@ -405,7 +399,7 @@ void SkylessSamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScen
   b.occluded.resize(b.rays.size());
   scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
   rays += b.rays.size();
-  // As DirectSamples: the BSDF term, plus the light term where its ray is unoccluded.
+  // The BSDF term, plus the light term where its ray is unoccluded.
   for (size_t k = 0; k < count; ++k) out[k] = b.bsdfTerm[k];
   for (size_t r = 0; r < b.rays.size(); ++r) {
     const size_t k = b.rayOf[r];
@@ -650,8 +644,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
       SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(),
                      kPilotSamples, batch, values.data(), rays.local());
     else
-      DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, kPilotSamples, batch, values.data(),
-                    rays.local());
+      SkySamples(sp, scene, lightList, dist, skySampling, u.data(), kPilotSamples, batch, values.data(), rays.local());
     samples.local() += kPilotSamples;
     double sum = 0.0, sumSq = 0.0;
     for (const Vec3& v : values) {
@@ -693,7 +686,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
       SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(), n, batch,
                      values.data(), rays.local());
     else
-      DirectSamples(sp, scene, lightList, dist, skySampling, u.data(), dims, n, batch, values.data(), rays.local());
+      SkySamples(sp, scene, lightList, dist, skySampling, u.data(), n, batch, values.data(), rays.local());
     samples.local() += n;
     glm::dvec3 replicateMean[kReplicates];
     for (int rep = 0; rep < kReplicates; ++rep) {

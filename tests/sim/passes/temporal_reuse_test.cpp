@@ -91,15 +91,21 @@ TEST(TemporalReuse, WithoutAPreviousFrameChangesNothing) {
   }
 }
 
-// Ray-traced bias correction traces the targets' visibility, in each input's own frame.
-TEST(TemporalReuse, RayTracedBiasCorrectionTracesVisibility) {
-  test::HandMadeFrame f(8, 4, /*occluder=*/true);
-  Buffers b = Initial(f, 3.0f);
+// Pairwise MIS with ray-traced bias correction, the sample checks off: the setting of the visibility tests below.
+TemporalParams RayTracedPairwise() {
   TemporalParams params;
   params.enabled = true;
   params.mis = MisFamily::kPairwise;
   params.bias = BiasCorrection::kRayTraced;
   params.sampleChecks = false;
+  return params;
+}
+
+// Ray-traced bias correction traces the targets' visibility, in each input's own frame.
+TEST(TemporalReuse, RayTracedBiasCorrectionTracesVisibility) {
+  test::HandMadeFrame f(8, 4, /*occluder=*/true);
+  Buffers b = Initial(f, 3.0f);
+  TemporalParams params = RayTracedPairwise();
   std::vector<uint8_t> accepted;
   PassStats stats;
   TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
@@ -121,11 +127,7 @@ TEST(TemporalReuse, VisibilityShortcutSavesRaysAndChangesNothingWhereNothingMove
   ReservoirBuffer out[2];
   for (int shortcut = 0; shortcut < 2; ++shortcut) {
     Buffers b = Initial(f, 3.0f);
-    TemporalParams params;
-    params.enabled = true;
-    params.mis = MisFamily::kPairwise;
-    params.bias = BiasCorrection::kRayTraced;
-    params.sampleChecks = false;
+    TemporalParams params = RayTracedPairwise();
     params.visibilityShortcut = shortcut == 1;
     std::vector<uint8_t> accepted;
     PassStats stats;
