@@ -10,6 +10,7 @@
 
 #include "core/gris.h"
 #include "core/gris_kernel.h"
+#include "core/light_draw_kernel.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
 #include "core/ris_kernel.h"
@@ -253,6 +254,75 @@ void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
   });
 }
 [[maybe_unused]] const bool kShadowRayKernelRegistered = RegisterPerTarget("BM_ShadowRayKernel", BM_ShadowRayKernel);
+
+// The reference's light-draw kernel (core/light_draw_kernel.h): BM_LightDrawKernel/<target>. Items are draws.
+// 768 draws per call (the budget issue 16 measured the reference at) at floor receivers of the BM_RisKernel row
+// under the 72 grid lights, each receiver with its own cdf (weights by the lights' unshadowed contribution there
+// plus a defensive share, as the reference's distribution), cycled over 64 receivers; diffuse and GGX receivers.
+void BM_LightDrawKernel(benchmark::State& state, SimdTarget target) {
+  const std::vector<LightTriangle> lights = GridLights(72);
+  const BsdfSoa materials = BenchMaterials();
+  struct alignas(64) Record {
+    float v[kLightDrawRecordFloats];
+  };
+  std::vector<Record> records(lights.size());
+  std::vector<float> errorScale;
+  for (size_t l = 0; l < lights.size(); ++l) {
+    WriteLightDrawRecord(lights[l], records[l].v);
+    errorScale.push_back(lights[l].errorScale);
+  }
+  const LightDrawLights view{records.data()->v, errorScale.data(), lights.size()};
+  constexpr size_t kReceivers = 64, kDraws = 768;
+  std::vector<LightDrawReceiver> receivers(kReceivers);
+  std::vector<std::vector<float>> cdfs(kReceivers);
+  for (size_t r = 0; r < kReceivers; ++r) {
+    LightDrawReceiver& rc = receivers[r];
+    rc.position = Vec3(float(r % 16) * 0.7f - 5.0f, 0.0f, float(r / 16) * 0.9f - 2.0f);
+    rc.geometricNormal = rc.shadingNormal = Vec3(0, 1, 0);
+    rc.wo = glm::normalize(Vec3(0.2f, 1, 0.3f));
+    rc.errorScale = 4.0f;
+    rc.materialId = r % 4 == 3 ? 2 : static_cast<int32_t>(r % 2);
+    rc.bsdfMis = rc.materialId == 2;
+    ShadingPoint sp;
+    sp.position = rc.position;
+    sp.geometricNormal = sp.shadingNormal = rc.geometricNormal;
+    sp.wo = rc.wo;
+    sp.bsdf.albedo = Vec3(1.0f);
+    double running = 0.0, total = 0.0;
+    std::vector<double> w(lights.size());
+    for (size_t l = 0; l < lights.size(); ++l) {
+      LightSample y;
+      y.position = SampleTrianglePoint(lights[l], 1.0f / 3.0f, 1.0f / 3.0f);
+      y.normal = lights[l].normal;
+      y.radiance = lights[l].radiance;
+      w[l] = TargetFunction(UnshadowedContribution(sp, y)) * lights[l].area + 1e-3;
+      total += w[l];
+    }
+    for (double v : w) cdfs[r].push_back(static_cast<float>((running += v) / total));
+  }
+  std::vector<float> u[3];
+  for (int j = 0; j < 3; ++j)
+    for (size_t k = 0; k < kDraws; ++k) u[j].push_back(UniformFloat(RngKey{3, 0, static_cast<uint32_t>(k), 0}, j));
+  const LightDraws draws{u[0].data(), u[1].data(), u[2].data(), kDraws};
+  std::vector<float> outF[10];
+  for (auto& v : outF) v.resize(kDraws);
+  std::vector<uint32_t> drawOf(kDraws);
+  LightDrawOutputs out;
+  for (int c = 0; c < 3; ++c) {
+    out.term[c] = outF[c].data();
+    out.org[c] = outF[3 + c].data();
+    out.dir[c] = outF[6 + c].data();
+  }
+  out.tmax = outF[9].data();
+  out.draw = drawOf.data();
+  size_t next = 0;
+  TimeOnTarget(state, target, static_cast<int64_t>(kDraws), [&] {
+    benchmark::DoNotOptimize(DrawLightSamples(receivers[next], materials, view, cdfs[next].data(), draws, out));
+    next = (next + 1) % kReceivers;
+    benchmark::DoNotOptimize(outF[9].data());
+  });
+}
+[[maybe_unused]] const bool kLightDrawKernelRegistered = RegisterPerTarget("BM_LightDrawKernel", BM_LightDrawKernel);
 
 // A 6-input GRIS combination (canonical + temporal-like + 4 neighbours) with analytic targets, per family.
 void BM_GrisCombine(benchmark::State& state) {

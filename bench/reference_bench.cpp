@@ -4,8 +4,9 @@
 //   reference   RenderReference from an empty cache (pilot, allocation, main pass), the fastest of `reps`.
 //   ray floor   the exact rays that render traced (recorded through a RayHook, sim/embree_probe.h), traced alone
 //               with Embree in the reference's own batching: each thread's shadow rays in the order it traced
-//               them, through EmbreeScene::OccludedBatch in blocks of kFloorBlock, and its BSDF rays with
-//               rtcIntersect1 one at a time; parallel over the blocks. The fastest of `reps`.
+//               them, as arrays (ShadowRaysSoa, as the light-draw kernel hands them to Embree) through
+//               EmbreeScene::OccludedBatch in blocks of kFloorBlock, and its BSDF rays with rtcIntersect1 one at
+//               a time; parallel over the blocks. The fastest of `reps`.
 //   ratio       ray floor / reference: the share of the reference's wall time Embree alone would need (1 = the
 //               reference traces at the ray floor; the target is >= 0.8).
 //
@@ -52,6 +53,17 @@ constexpr size_t kFloorBlock = 256;
 struct ThreadRays {
   std::vector<ShadowRay> shadow;  // in the order this thread traced them
   std::vector<ShadowRay> bsdf;    // closest-hit queries (tmax may be +inf)
+  std::vector<float> soa[7];      // `shadow` as arrays: origin, direction, length
+  ShadowRaysSoa Block(size_t begin, size_t end) const {
+    ShadowRaysSoa r;
+    for (int c = 0; c < 3; ++c) {
+      r.org[c] = soa[c].data() + begin;
+      r.dir[c] = soa[3 + c].data() + begin;
+    }
+    r.tmax = soa[6].data() + begin;
+    r.count = end - begin;
+    return r;
+  }
 };
 
 // Records every query of a render, per thread (so each thread's rays keep their order and batching).
@@ -100,7 +112,15 @@ void BM_Reference(benchmark::State& state) {
   SetRayHook(loop.Scene(), &capture);
   const ReferenceImage captured = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
   SetRayHook(loop.Scene(), nullptr);
-  const std::vector<ThreadRays> rays = capture.Take();
+  std::vector<ThreadRays> rays = capture.Take();
+  for (ThreadRays& t : rays)
+    for (const ShadowRay& r : t.shadow) {
+      for (int c = 0; c < 3; ++c) {
+        t.soa[c].push_back(r.org[c]);
+        t.soa[3 + c].push_back(r.dir[c]);
+      }
+      t.soa[6].push_back(r.tmax);
+    }
   struct Block {
     const ThreadRays* t;
     size_t begin, end;
@@ -128,7 +148,7 @@ void BM_Reference(benchmark::State& state) {
           for (size_t i = b.begin; i < b.end; ++i)
             benchmark::DoNotOptimize(IntersectRaw(scene, b.t->bsdf[i].org, b.t->bsdf[i].dir, b.t->bsdf[i].tmax));
         } else {
-          scene.OccludedBatch(b.t->shadow.data() + b.begin, occluded, b.end - b.begin);
+          scene.OccludedBatch(b.t->Block(b.begin, b.end), occluded);
           benchmark::DoNotOptimize(occluded[0]);
         }
       }

@@ -1,8 +1,8 @@
 // Highway kernel, scalar twin and dispatcher of the light-draw kernel (core/light_draw_kernel.h). The
 // per-target part is compiled once per Highway target (foreach_target.h); the rest once (HWY_ONCE).
 //
-// Bit-exactness (DESIGN §3): the cdf inversion is core/sampling.h SampleCdf's search lane by lane (every lane
-// halves the same lengths, only its lower bound differs), the point, the contribution and the ray are the
+// Bit-exactness (DESIGN §3): the cdf inversion returns what core/sampling.h SampleCdf does (a coarse count, then
+// its halving within a window: SampleCdfV), the point, the contribution and the ray are the
 // shared SIMD forms of their scalar equations (core/light-inl.h, core/shading-inl.h, core/shadow_ray-inl.h),
 // and the receiver is broadcast, so every target reproduces the twin bit for bit. NaN results are the one
 // thing the source cannot pin down; both sides canonicalise them.
@@ -40,26 +40,44 @@ struct DrawContext {
   VF total;  // cdf[n - 1]
 };
 
-// SampleCdf per lane: every lane halves the same lengths, only its lower bound differs.
+// SampleCdf per lane, in half its dependent gathers. For a non-decreasing cdf SampleCdf returns A = #{i : cdf[i]
+// <= target}, at most n - 1 (its halving keeps cdf[lo - 1] <= target < cdf[lo + len - 1]); so does this. A coarse
+// count over every S-th entry (S a power of two, at least 8, at most 16 such entries; broadcast compares, no
+// gathers) puts A in [lo, lo + S); SampleCdf's halving over that window, whose entries at n or beyond count as
+// above the target, gives A, with log2(S) + 1 gathers where the full halving takes about log2(n) + 1: 4 instead of
+// 8 at the flagship's 72 lights, on which the kernel's time waited most (perf annotate: a third of it on the
+// halving's gathers). Every lane halves the same lengths, only its lower bound differs.
 HWY_INLINE VI SampleCdfV(const float* cdf, size_t n, VF target) {
+  const DF df;
   const DI di;
-  VI lo = hn::Zero(di);
-  for (size_t len = n; len > 1;) {
+  size_t stride = 8;
+  while (n / stride > 16) stride *= 2;
+  VI coarse = hn::Zero(di);
+  for (size_t j = stride - 1; j < n; j += stride)
+    coarse = hn::Sub(coarse, hn::VecFromMask(di, hn::RebindMask(di, hn::Le(hn::Set(df, cdf[j]), target))));
+  VI lo = hn::Mul(coarse, hn::Set(di, static_cast<int32_t>(stride)));
+  const VI count = hn::Set(di, static_cast<int32_t>(n));
+  const VI last = hn::Set(di, static_cast<int32_t>(n - 1));
+  // cdf[i] <= target, false for i >= n.
+  const auto atOrBelow = [&](VI i) {
+    const VF v = hn::GatherIndex(df, cdf, hn::Min(i, last));
+    return hn::And(hn::RebindMask(di, hn::Le(v, target)), hn::Lt(i, count));
+  };
+  for (size_t len = stride; len > 1;) {
     const size_t half = len / 2;
-    const VF v = hn::GatherIndex(DF(), cdf, hn::Add(lo, hn::Set(di, static_cast<int32_t>(half - 1))));
-    lo = hn::IfThenElse(hn::RebindMask(di, hn::Le(v, target)), hn::Add(lo, hn::Set(di, static_cast<int32_t>(half))),
-                        lo);
+    lo = hn::IfThenElse(atOrBelow(hn::Add(lo, hn::Set(di, static_cast<int32_t>(half - 1)))),
+                        hn::Add(lo, hn::Set(di, static_cast<int32_t>(half))), lo);
     len -= half;
   }
-  const VF atLo = hn::GatherIndex(DF(), cdf, lo);
-  return hn::Min(hn::Add(lo, hn::IfThenElseZero(hn::RebindMask(di, hn::Le(atLo, target)), hn::Set(di, 1))),
-                 hn::Set(di, static_cast<int32_t>(n - 1)));
+  return hn::Min(hn::Add(lo, hn::IfThenElseZero(atOrBelow(lo), hn::Set(di, 1))), last);
 }
 
-// Draws [k, k + Lanes) of the uniforms, written to out at the same offsets.
+// Draws [k, k + Lanes) of the uniforms (those of `valid` lanes); the ones that count are appended to out at
+// `written`, which grows by their number. Writes Lanes entries from `written` on (CompressStore may fill the
+// lanes after the last kept one), so the caller keeps written + Lanes within the arrays.
 HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, const float* cdf, const float* uSelect,
-                           const float* uPoint0, const float* uPoint1, float* const (&out)[10], uint8_t* traced,
-                           size_t k) {
+                           const float* uPoint0, const float* uPoint1, MF valid, float* const (&out)[10],
+                           uint32_t* draw, size_t k, size_t& written) {
   const DF df;
   const DI di;
   const VF zero = hn::Zero(df);
@@ -95,8 +113,9 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   UnshadowedContributionV(ctx.sp, path, radiance, f);
 
   // The reference's test: (f.x > 0 || f.y > 0 || f.z > 0) && pdf > 0.
-  const MF counts =
-      hn::And(hn::Or(hn::Or(hn::Gt(f[0], zero), hn::Gt(f[1], zero)), hn::Gt(f[2], zero)), hn::Gt(pdf, zero));
+  const MF counts = hn::And(
+      valid,
+      hn::And(hn::Or(hn::Or(hn::Gt(f[0], zero), hn::Gt(f[1], zero)), hn::Gt(f[2], zero)), hn::Gt(pdf, zero)));
   // Its term f * (weight / pdf): under MIS the weight is PowerHeuristic(pdf d² / cos θy, PdfBsdf), else 1.
   VF weight = hn::Set(df, 1.0f);
   if (ctx.bsdfMis) {
@@ -107,21 +126,27 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   VF rayOrg[3], rayDir[3], length;
   ShadowRaySetupV(ctx.sp.x, ctx.sp.ng, ctx.errorScale, y, ny, hn::GatherIndex(df, L.errorScale, id), rayOrg,
                   rayDir, length);
+  // Packed by one permutation of the lanes for every output, then a full store: the source lanes in order
+  // (Compress of the lane indices), applied with TableLookupLanes (one vpermps / vpermd). Per output,
+  // CompressStore's masked store to memory is microcoded and many times slower on AMD Zen 4 (the kernel 2.7x
+  // slower on AVX-512, measured), and Highway's AVX2 Compress recomputes the permutation each time (2.3x).
+  const VI source = hn::Compress(hn::Iota(di, 0), hn::RebindMask(di, counts));
+  const auto pack = hn::IndicesFromVec(df, source);
   for (int c = 0; c < 3; ++c) {
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, hn::Mul(f[c], invPdf))), df, out[c] + k);
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayOrg[c])), df, out[3 + c] + k);
-    hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, rayDir[c])), df, out[6 + c] + k);
+    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(hn::Mul(f[c], invPdf)), pack), df, out[c] + written);
+    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayOrg[c]), pack), df, out[3 + c] + written);
+    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayDir[c]), pack), df, out[6 + c] + written);
   }
-  hn::StoreU(CanonicalNaNV(hn::IfThenElseZero(counts, length)), df, out[9] + k);
-  HWY_ALIGN int32_t flags[hn::MaxLanes(DI())];
-  hn::Store(hn::VecFromMask(di, hn::RebindMask(di, counts)), di, flags);
-  for (size_t l = 0; l < hn::Lanes(df); ++l) traced[k + l] = flags[l] != 0 ? 1 : 0;
+  hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(length), pack), df, out[9] + written);
+  const hn::RebindToUnsigned<DI> du;
+  hn::StoreU(hn::BitCast(du, hn::Add(source, hn::Set(di, static_cast<int32_t>(k)))), du, draw + written);
+  written += hn::CountTrue(df, counts);
 }
 
 }  // namespace
 
-void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& lights,
-                     const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
+size_t LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& lights,
+                       const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
   const DF df;
   const DI di;
   const size_t N = hn::Lanes(df);
@@ -141,13 +166,15 @@ void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const
 
   float* const o[10] = {out.term[0], out.term[1], out.term[2], out.org[0], out.org[1],
                         out.org[2],  out.dir[0],  out.dir[1],  out.dir[2], out.tmax};
-  size_t k = 0;
+  // A full packet at k writes [written, written + N) with written <= k, inside the caller's draws.count entries.
+  size_t k = 0, written = 0;
   for (; k + N <= draws.count; k += N)
-    DrawPacket(ctx, lights, cdf, draws.uSelect, draws.uPoint0, draws.uPoint1, o, out.traced, k);
-  if (k == draws.count) return;
+    DrawPacket(ctx, lights, cdf, draws.uSelect, draws.uPoint0, draws.uPoint1, hn::FirstN(df, N), o, out.draw, k,
+               written);
+  if (k == draws.count) return written;
 
-  // Tail: a full packet would read and write past the caller's arrays, so run one on a padded copy (uniforms
-  // 0: valid draws whose results are dropped).
+  // Tail: a full packet would read past the caller's uniforms and could write past its outputs, so run one on
+  // padded copies (uniforms 0, valid draws whose lanes are masked off) and keep what counts.
   constexpr size_t kMax = hn::MaxLanes(DF());
   const size_t rest = draws.count - k;
   HWY_ALIGN float u[3][kMax] = {};
@@ -157,14 +184,16 @@ void LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const
     u[2][l] = draws.uPoint1[k + l];
   }
   HWY_ALIGN float padded[10][kMax];
-  HWY_ALIGN uint8_t t[kMax];
+  HWY_ALIGN uint32_t index[kMax];
   float* const p[10] = {padded[0], padded[1], padded[2], padded[3], padded[4],
                         padded[5], padded[6], padded[7], padded[8], padded[9]};
-  DrawPacket(ctx, lights, cdf, u[0], u[1], u[2], p, t, 0);
-  for (size_t l = 0; l < rest; ++l) {
-    for (int f = 0; f < 10; ++f) o[f][k + l] = padded[f][l];
-    out.traced[k + l] = t[l];
+  size_t kept = 0;
+  DrawPacket(ctx, lights, cdf, u[0], u[1], u[2], hn::FirstN(df, rest), p, index, 0, kept);
+  for (size_t l = 0; l < kept; ++l) {
+    for (int f = 0; f < 10; ++f) o[f][written + l] = padded[f][l];
+    out.draw[written + l] = index[l] + static_cast<uint32_t>(k);
   }
+  return written + kept;
 }
 
 const char* LightDrawKernelTargetName() {
@@ -183,8 +212,8 @@ namespace restir {
 HWY_EXPORT(LightDrawKernel);
 HWY_EXPORT(LightDrawKernelTargetName);
 
-void DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
-                            const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
+size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
+                              const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
   ShadingPoint sp;
   sp.position = r.position;
   sp.geometricNormal = r.geometricNormal;
@@ -192,6 +221,7 @@ void DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials
   sp.wo = r.wo;
   sp.bsdf = materials.At(static_cast<size_t>(r.materialId));
   sp.errorScale = r.errorScale;
+  size_t written = 0;
   for (size_t k = 0; k < draws.count; ++k) {
     const uint32_t id = SampleCdf(cdf, L.count, draws.uSelect[k]);
     const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * id);
@@ -202,37 +232,34 @@ void DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials
     y.radiance = t.radiance;
     y.pdfArea = CdfPmf(cdf, L.count, id) / t.area;
     const Vec3 f = UnshadowedContribution(sp, y);
-    const bool counts = (f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f;
-    out.traced[k] = counts ? 1 : 0;
-    Vec3 term(0.0f);
-    ShadowRaySegment s;
-    s.org = s.dir = Vec3(0.0f);
-    if (counts) {
-      float weight = 1.0f;
-      if (r.bsdfMis) {
-        const LightPath path = ConnectToLight(sp, y.position, y.normal);
-        const float cosY = -glm::dot(y.normal, path.wi);
-        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
-        weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
-      }
-      term = f * (weight / y.pdfArea);
-      s = ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal,
-                         L.errorScale[id]);
+    if (!((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f)) continue;
+    float weight = 1.0f;
+    if (r.bsdfMis) {
+      const LightPath path = ConnectToLight(sp, y.position, y.normal);
+      const float cosY = -glm::dot(y.normal, path.wi);
+      const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+      weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
     }
+    const Vec3 term = f * (weight / y.pdfArea);
+    const ShadowRaySegment s =
+        ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, L.errorScale[id]);
     for (int c = 0; c < 3; ++c) {
-      out.term[c][k] = CanonicalNaN(term[c]);
-      out.org[c][k] = CanonicalNaN(s.org[c]);
-      out.dir[c][k] = CanonicalNaN(s.dir[c]);
+      out.term[c][written] = CanonicalNaN(term[c]);
+      out.org[c][written] = CanonicalNaN(s.org[c]);
+      out.dir[c][written] = CanonicalNaN(s.dir[c]);
     }
-    out.tmax[k] = CanonicalNaN(s.tmax);
+    out.tmax[written] = CanonicalNaN(s.tmax);
+    out.draw[written] = static_cast<uint32_t>(k);
+    ++written;
   }
+  return written;
 }
 
-void DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
-                      const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
-                      const LightDrawOutputs& out) {
+size_t DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+                        const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
+                        const LightDrawOutputs& out) {
   if (UseScalarTwins()) return DrawLightSamplesScalar(receiver, materials, lights, cdf, draws, out);
-  HWY_DYNAMIC_DISPATCH(LightDrawKernel)(receiver, materials, lights, cdf, draws, out);
+  return HWY_DYNAMIC_DISPATCH(LightDrawKernel)(receiver, materials, lights, cdf, draws, out);
 }
 
 const char* LightDrawKernelDispatchedTargetName() {

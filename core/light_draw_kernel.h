@@ -3,7 +3,9 @@
 // receiver's light distribution (core/sampling.h SampleCdf at uSelect[k]), takes the point
 // SampleTrianglePoint(uPoint0[k], uPoint1[k]) on it, and gives the light-sampling estimate's term f / p (f =
 // core/shading.h UnshadowedContribution, p = CdfPmf / area, the area density) with the shadow ray that
-// decides whether it counts (core/shadow_ray.h ShadowRaySetup). For a receiver that also samples its BSDF
+// decides whether it counts (core/shadow_ray.h ShadowRaySetup). Only the draws whose term can count (f nonzero,
+// p positive) are written, packed in draw order with their index, as the shadow-ray batch the caller traces
+// (EmbreeScene::OccludedBatch of ShadowRaysSoa). For a receiver that also samples its BSDF
 // (bsdfMis), the term carries the power heuristic's weight against core/bsdf.h PdfBsdf, as the reference's
 // light-sampling half of MIS; the BSDF half stays the caller's.
 //
@@ -75,24 +77,25 @@ struct LightDraws {
   size_t count = 0;                // draws
 };
 
-// One entry per draw. Where `traced` is 0 (f is zero or p is not positive) the term and the ray are +0. Any NaN
-// is written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
+// One entry per draw that counts (f is nonzero and p positive: its term counts if its ray is unoccluded), in
+// draw order from index 0; the kernel returns how many. Each array holds at least draws.count entries. Any NaN is
+// written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
 struct LightDrawOutputs {
-  float* term[3] = {};        // f / p, r g b
-  float* org[3] = {};         // the shadow ray's origin
-  float* dir[3] = {};         // its unit direction
-  float* tmax = nullptr;      // its length
-  uint8_t* traced = nullptr;  // 1: the term counts if the ray is unoccluded
+  float* term[3] = {};       // f / p, r g b
+  float* org[3] = {};        // the shadow ray's origin
+  float* dir[3] = {};        // its unit direction
+  float* tmax = nullptr;     // its length
+  uint32_t* draw = nullptr;  // the draw's index k
 };
 
-// Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar). `cdf` holds
-// lights.count cumulative values, non-decreasing, the last positive.
-void DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+// Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar) and returns the
+// number of draws that count. `cdf` holds lights.count cumulative values, non-decreasing, the last positive.
+size_t DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
                       const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
                       const LightDrawOutputs& out);
 
 // The scalar twin, callable directly (tests and benchmarks).
-void DrawLightSamplesScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+size_t DrawLightSamplesScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
                             const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
                             const LightDrawOutputs& out);
 

@@ -184,6 +184,53 @@ void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* 
   }
 }
 
+// OccludedPackets from arrays: a full packet's lanes are contiguous copies (the compiler vectorises them).
+void OccludedPacketsSoa(RTCScene scene, RTCIntersectContext& ctx, const ShadowRaysSoa& rays, uint8_t* occluded) {
+  constexpr size_t N = 4;
+  for (size_t base = 0; base < rays.count; base += N) {
+    alignas(16) RTCRay4 packet;
+    alignas(16) int valid[N];
+    const size_t lanes = std::min<size_t>(N, rays.count - base);
+    if (lanes == N) {
+      for (size_t i = 0; i < N; ++i) {
+        const float tmax = rays.tmax[base + i];
+        const bool active = tmax > 0.0f;
+        valid[i] = active ? -1 : 0;
+        packet.org_x[i] = active ? rays.org[0][base + i] : 0.0f;
+        packet.org_y[i] = active ? rays.org[1][base + i] : 0.0f;
+        packet.org_z[i] = active ? rays.org[2][base + i] : 0.0f;
+        packet.dir_x[i] = active ? rays.dir[0][base + i] : 0.0f;
+        packet.dir_y[i] = active ? rays.dir[1][base + i] : 0.0f;
+        packet.dir_z[i] = active ? rays.dir[2][base + i] : 1.0f;
+        packet.tfar[i] = active ? tmax : 0.0f;
+      }
+    } else {
+      for (size_t i = 0; i < N; ++i) {
+        const bool active = i < lanes && rays.tmax[base + i] > 0.0f;
+        const size_t r = base + (i < lanes ? i : 0);
+        valid[i] = active ? -1 : 0;
+        packet.org_x[i] = active ? rays.org[0][r] : 0.0f;
+        packet.org_y[i] = active ? rays.org[1][r] : 0.0f;
+        packet.org_z[i] = active ? rays.org[2][r] : 0.0f;
+        packet.dir_x[i] = active ? rays.dir[0][r] : 0.0f;
+        packet.dir_y[i] = active ? rays.dir[1][r] : 0.0f;
+        packet.dir_z[i] = active ? rays.dir[2][r] : 1.0f;
+        packet.tfar[i] = active ? rays.tmax[r] : 0.0f;
+      }
+    }
+    for (size_t i = 0; i < N; ++i) {
+      packet.tnear[i] = 0.0f;
+      packet.time[i] = 0.0f;
+      packet.mask[i] = 0xffffffffu;
+      packet.id[i] = static_cast<unsigned>(i);
+      packet.flags[i] = 0;
+    }
+    rtcOccluded4(valid, scene, &ctx, &packet);
+    for (size_t i = 0; i < lanes; ++i)
+      occluded[base + i] = valid[i] != 0 && packet.tfar[i] == -std::numeric_limits<float>::infinity() ? 1 : 0;
+  }
+}
+
 }  // namespace
 
 // Scene layout (every hit goes through exactly one instance level, the only one this Embree build supports):
@@ -595,6 +642,28 @@ void EmbreeScene::OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t
   }
 #endif
   impl_->OccludedBatch(OcclusionApi::k4, rays, occluded, count, frame);
+}
+
+void EmbreeScene::OccludedBatch(const ShadowRaysSoa& rays, uint8_t* occluded, SceneFrame frame) const {
+#ifdef RESTIR_RAY_HOOKS
+  if (impl_->hook != nullptr) {  // recorded or answered ray by ray
+    for (size_t i = 0; i < rays.count; ++i)
+      occluded[i] = Occluded(Vec3(rays.org[0][i], rays.org[1][i], rays.org[2][i]),
+                             Vec3(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]), rays.tmax[i], frame)
+                        ? 1
+                        : 0;
+    return;
+  }
+#endif
+  RTCScene scene = impl_->SceneFor(frame);
+  if (!scene) {
+    std::fill(occluded, occluded + rays.count, uint8_t{0});
+    return;
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;  // as the AoS batch: the same traversal, the same answers
+  OccludedPacketsSoa(scene, ctx, rays, occluded);
 }
 
 void EmbreeScene::Impl::OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,

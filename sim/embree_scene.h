@@ -54,6 +54,15 @@ struct ShadowRay {
   float tmax = 0.0f;
 };
 
+// A batch of shadow rays as structure of arrays (the reference's light-draw kernel writes them so,
+// core/light_draw_kernel.h): ray i from (org[0][i], org[1][i], org[2][i]) along dir (unit) up to tmax[i].
+struct ShadowRaysSoa {
+  const float* org[3] = {};
+  const float* dir[3] = {};
+  const float* tmax = nullptr;
+  size_t count = 0;
+};
+
 class EmbreeScene {
  public:
   explicit EmbreeScene(const Sequence& sequence);
@@ -77,6 +86,8 @@ class EmbreeScene {
   // docs/performance.md "Shadow-ray entry points"); occluded[i] = 1 when ray i is blocked.
   void OccludedBatch(const ShadowRay* rays, uint8_t* occluded, size_t count,
                      SceneFrame frame = SceneFrame::kCurrent) const;
+  // The same for rays given as arrays: the packets are filled by contiguous copies, not gathered field by field.
+  void OccludedBatch(const ShadowRaysSoa& rays, uint8_t* occluded, SceneFrame frame = SceneFrame::kCurrent) const;
 
   // Light triangles of the current frame in a fixed order (radiance zero while their light is off), and the
   // index of the Sequence::lights entry each came from.

@@ -6,7 +6,7 @@
 // weight against the BSDF's density (GGX from mirror to rough, layered with both pure ends), and batch sizes
 // around every vector width (tails, read and written next to memory that faults). What the twin computes is checked
 // against closed forms: its term is an unbiased estimate of Lambert's unshadowed reflected radiance
-// (t-tests), and its rays run from the receiver to the drawn point.
+// (t-tests), its rays run from the receiver to the drawn point, and it lists exactly the draws that count.
 #include "core/light_draw_kernel.h"
 
 #include <gtest/gtest.h>
@@ -127,11 +127,11 @@ std::vector<float> Uniforms(std::mt19937& rng, const std::vector<float>& cdf, si
 }
 
 struct Outputs {
-  explicit Outputs(size_t n) : traced(n) {
+  explicit Outputs(size_t n) : draw(n) {
     for (auto& f : fields) f = std::make_unique<GuardedArray<float>>(n);
   }
   std::unique_ptr<GuardedArray<float>> fields[10];
-  GuardedArray<uint8_t> traced;
+  GuardedArray<uint32_t> draw;
   LightDrawOutputs View() {
     LightDrawOutputs o;
     for (int c = 0; c < 3; ++c) {
@@ -140,7 +140,7 @@ struct Outputs {
       o.dir[c] = fields[6 + c]->data();
     }
     o.tmax = fields[9]->data();
-    o.traced = traced.data();
+    o.draw = draw.data();
     return o;
   }
 };
@@ -150,10 +150,12 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   const std::vector<Bsdf> bsdfs = Materials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
-  const std::vector<size_t> lightCounts{1, 2, 3, 5, 16, 17, 72, 300};
+  // Around the cdf search's window (8 entries) and its coarse strides (16 entries of 8 up to 128 lights, then
+  // doubling), and past the reference's per-pixel limit of 4096.
+  const std::vector<size_t> lightCounts{1, 2, 3, 5, 7, 8, 9, 16, 17, 72, 127, 128, 129, 300, 1000, 5000};
   const std::vector<size_t> drawCounts{0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 48, 64, 65, 100};
   size_t compared = 0, traced = 0;
-  for (int trial = 0; trial < 240; ++trial) {
+  for (int trial = 0; trial < 320; ++trial) {
     LightDrawReceiver r;
     const float far = trial % 4 == 0 ? 1000.0f : 1.0f;  // far from the origin: large error scales
     r.position = far * Vec3(u(rng) * 10 - 5, u(rng) * 4 - 2, u(rng) * 10 - 5);
@@ -180,19 +182,20 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
     }
     LightDraws draws{u0.data(), u1.data(), u2.data(), n};
     Outputs twin(n);
-    DrawLightSamplesScalar(r, materials, lights.View(), lights.cdf.data(), draws, twin.View());
-    for (size_t k = 0; k < n; ++k) traced += twin.traced.data()[k];
+    const size_t counted = DrawLightSamplesScalar(r, materials, lights.View(), lights.cdf.data(), draws, twin.View());
+    traced += counted;
+    for (size_t e = 1; e < counted; ++e) ASSERT_LT(twin.draw.data()[e - 1], twin.draw.data()[e]);  // in draw order
     for (SimdTarget t : SupportedSimdTargets()) {
       ASSERT_TRUE(SetSimdTarget(t));
       EXPECT_STREQ(LightDrawKernelDispatchedTargetName(), test::ExpectedDispatchName(t));
       Outputs got(n);
-      DrawLightSamples(r, materials, lights.View(), lights.cdf.data(), draws, got.View());
-      for (size_t k = 0; k < n; ++k) {
-        ASSERT_EQ(got.traced.data()[k], twin.traced.data()[k])
-            << SimdTargetName(t) << " trial " << trial << " draw " << k;
+      ASSERT_EQ(DrawLightSamples(r, materials, lights.View(), lights.cdf.data(), draws, got.View()), counted)
+          << SimdTargetName(t) << " trial " << trial;
+      for (size_t e = 0; e < counted; ++e) {
+        ASSERT_EQ(got.draw.data()[e], twin.draw.data()[e]) << SimdTargetName(t) << " trial " << trial << " entry " << e;
         for (int f = 0; f < 10; ++f)
-          ASSERT_EQ(Bits(got.fields[f]->data()[k]), Bits(twin.fields[f]->data()[k]))
-              << SimdTargetName(t) << " trial " << trial << " draw " << k << " field " << f;
+          ASSERT_EQ(Bits(got.fields[f]->data()[e]), Bits(twin.fields[f]->data()[e]))
+              << SimdTargetName(t) << " trial " << trial << " entry " << e << " field " << f;
         ++compared;
       }
     }
@@ -259,16 +262,16 @@ TEST_F(LightDrawKernel, TermIsAnUnbiasedEstimateOfLambertsReflectedRadiance) {
     std::vector<float> u0(kDraws), u1(kDraws), u2(kDraws);
     for (size_t k = 0; k < kDraws; ++k) u0[k] = uniform(rng), u1[k] = uniform(rng), u2[k] = uniform(rng);
     Outputs o(kDraws);
-    DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
-                     LightDraws{u0.data(), u1.data(), u2.data(), kDraws}, o.View());
+    const size_t counted = DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
+                                            LightDraws{u0.data(), u1.data(), u2.data(), kDraws}, o.View());
     Vec3 clipped[5];
     const size_t kept = ClipPolygonToHemisphere(c.x, c.n, q, 4, clipped);
     ASSERT_GE(kept, 3u) << c.name;
     const double e = PolygonIrradiance(c.x, c.n, std::vector<Vec3>(clipped, clipped + kept), 1.0);
     for (int ch = 0; ch < 3; ++ch) {
       double sum = 0.0, sumSq = 0.0;
-      for (size_t k = 0; k < kDraws; ++k) {
-        const double t = o.fields[ch]->data()[k];
+      for (size_t e = 0; e < counted; ++e) {  // the draws that do not count add 0
+        const double t = o.fields[ch]->data()[e];
         sum += t;
         sumSq += t * t;
       }
@@ -302,16 +305,14 @@ TEST_F(LightDrawKernel, RaysRunFromTheReceiverToTheDrawnPoint) {
     std::vector<float> u0(n), u1(n), u2(n);
     for (size_t k = 0; k < n; ++k) u0[k] = u(rng), u1[k] = u(rng), u2[k] = u(rng);
     Outputs o(n);
-    DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
-                     LightDraws{u0.data(), u1.data(), u2.data(), n}, o.View());
-    for (size_t k = 0; k < n; ++k) {
-      if (!o.traced.data()[k]) {
-        for (int f = 0; f < 10; ++f) EXPECT_EQ(Bits(o.fields[f]->data()[k]), 0u);  // +0 where nothing counts
-        continue;
-      }
-      const Vec3 org(o.fields[3]->data()[k], o.fields[4]->data()[k], o.fields[5]->data()[k]);
-      const Vec3 dir(o.fields[6]->data()[k], o.fields[7]->data()[k], o.fields[8]->data()[k]);
-      const float tmax = o.fields[9]->data()[k];
+    const size_t counted = DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
+                                            LightDraws{u0.data(), u1.data(), u2.data(), n}, o.View());
+    for (size_t e = 0; e < counted; ++e) {
+      const size_t k = o.draw.data()[e];
+      ASSERT_LT(k, n);
+      const Vec3 org(o.fields[3]->data()[e], o.fields[4]->data()[e], o.fields[5]->data()[e]);
+      const Vec3 dir(o.fields[6]->data()[e], o.fields[7]->data()[e], o.fields[8]->data()[e]);
+      const float tmax = o.fields[9]->data()[e];
       // The drawn point, recomputed from the uniforms: the light is the one SampleCdf picks.
       const LightTriangle& t = lights.triangles[SampleCdf(lights.cdf.data(), lights.cdf.size(), u0[k])];
       const Vec3 y = SampleTrianglePoint(t, u1[k], u2[k]);
@@ -322,6 +323,26 @@ TEST_F(LightDrawKernel, RaysRunFromTheReceiverToTheDrawnPoint) {
       EXPECT_LE(tmax, glm::length(y - r.position) * (1.0f + 1e-5f) + tolerance);
       ++checked;
     }
+    // The list holds exactly the draws that count: f nonzero and p positive, from the core functions.
+    ShadingPoint sp;
+    sp.position = r.position;
+    sp.geometricNormal = sp.shadingNormal = r.geometricNormal;
+    sp.wo = r.wo;
+    sp.bsdf = materials.At(0);
+    size_t e = 0;
+    for (size_t k = 0; k < n; ++k) {
+      const uint32_t id = SampleCdf(lights.cdf.data(), lights.cdf.size(), u0[k]);
+      LightSample y;
+      y.position = SampleTrianglePoint(lights.triangles[id], u1[k], u2[k]);
+      y.normal = lights.triangles[id].normal;
+      y.radiance = lights.triangles[id].radiance;
+      const Vec3 f = UnshadowedContribution(sp, y);
+      const bool counts = (f.x > 0 || f.y > 0 || f.z > 0) && CdfPmf(lights.cdf.data(), lights.cdf.size(), id) > 0;
+      const bool listed = e < counted && o.draw.data()[e] == k;
+      EXPECT_EQ(listed, counts) << "trial " << trial << " draw " << k;
+      e += listed ? 1 : 0;
+    }
+    EXPECT_EQ(e, counted);
   }
   EXPECT_GT(checked, 500u);
 }
