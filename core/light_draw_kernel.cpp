@@ -196,6 +196,52 @@ size_t LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, con
   return written + kept;
 }
 
+void CentroidTargetsKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& lights,
+                           float* out) {
+  const DF df;
+  const DI di;
+  const size_t N = hn::Lanes(df);
+  VF x[3], ng[3], ns[3], wo[3];
+  for (int c = 0; c < 3; ++c) {
+    x[c] = hn::Set(df, r.position[c]);
+    ng[c] = hn::Set(df, r.geometricNormal[c]);
+    ns[c] = hn::Set(df, r.shadingNormal[c]);
+    wo[c] = hn::Set(df, r.wo[c]);
+  }
+  const ShadingPointV sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(di, r.materialId)));
+  const VI last = hn::Set(di, static_cast<int32_t>(lights.count - 1));
+  const VF third = hn::Set(df, 1.0f / 3.0f);
+  for (size_t l = 0; l < lights.count; l += N) {
+    const VI id = hn::Min(hn::Iota(di, static_cast<int32_t>(l)), last);  // the tail repeats the last light
+    VF rec[16];
+#if HWY_TARGET != HWY_SCALAR
+    LoadRecords16(lights.records, id, rec);
+#else
+    for (size_t f = 0; f < kLightDrawRecordFloats; ++f)
+      rec[f] = hn::GatherIndex(df, lights.records + f,
+                               hn::Mul(id, hn::Set(di, static_cast<int32_t>(kLightDrawRecordFloats))));
+#endif
+    // The centroid as LightTriangle's p0 + (e1 + e2) * (1 / 3), component by component.
+    VF y[3], ny[3], radiance[3];
+    for (int c = 0; c < 3; ++c) {
+      y[c] = hn::Add(rec[c], hn::Mul(hn::Add(rec[3 + c], rec[6 + c]), third));
+      ny[c] = rec[9 + c];
+      radiance[c] = rec[12 + c];
+    }
+    const LightPathV path = ConnectToLightV(sp, y, ny);
+    VF f[3];
+    UnshadowedContributionV(sp, path, radiance, f);
+    const VF target = CanonicalNaNV(LuminanceV(f));
+    if (l + N <= lights.count) {
+      hn::StoreU(target, df, out + l);
+    } else {
+      HWY_ALIGN float rest[hn::MaxLanes(DF())];
+      hn::Store(target, df, rest);
+      for (size_t k = 0; l + k < lights.count; ++k) out[l + k] = rest[k];
+    }
+  }
+}
+
 const char* LightDrawKernelTargetName() {
   return hwy::TargetName(HWY_TARGET);
 }
@@ -211,6 +257,32 @@ namespace restir {
 
 HWY_EXPORT(LightDrawKernel);
 HWY_EXPORT(LightDrawKernelTargetName);
+HWY_EXPORT(CentroidTargetsKernel);
+
+void LightCentroidTargetsScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
+                                float* out) {
+  ShadingPoint sp;
+  sp.position = r.position;
+  sp.geometricNormal = r.geometricNormal;
+  sp.shadingNormal = r.shadingNormal;
+  sp.wo = r.wo;
+  sp.bsdf = materials.At(static_cast<size_t>(r.materialId));
+  sp.errorScale = r.errorScale;
+  for (size_t l = 0; l < L.count; ++l) {
+    const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * l);
+    LightSample c;
+    c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
+    c.normal = t.normal;
+    c.radiance = t.radiance;
+    out[l] = CanonicalNaN(TargetFunction(UnshadowedContribution(sp, c)));
+  }
+}
+
+void LightCentroidTargets(const LightDrawReceiver& receiver, const BsdfSoa& materials, const LightDrawLights& lights,
+                          float* out) {
+  if (UseScalarTwins()) return LightCentroidTargetsScalar(receiver, materials, lights, out);
+  HWY_DYNAMIC_DISPATCH(CentroidTargetsKernel)(receiver, materials, lights, out);
+}
 
 size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
                               const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {

@@ -99,6 +99,17 @@ size_t DrawLightSamplesScalar(const LightDrawReceiver& receiver, const BsdfSoa& 
                             const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
                             const LightDrawOutputs& out);
 
+// The reference's light distribution at a receiver that is not diffuse (sim/reference.cpp): for every light l,
+// out[l] = TargetFunction(UnshadowedContribution) of the receiver lit from the light's centroid p0 + (e1 + e2) / 3
+// with the light's normal and radiance (core/shading.h), the point estimate the distribution shapes itself by.
+// out holds lights.count values.
+void LightCentroidTargets(const LightDrawReceiver& receiver, const BsdfSoa& materials, const LightDrawLights& lights,
+                          float* out);
+
+// The scalar twin, callable directly (tests and benchmarks).
+void LightCentroidTargetsScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
+                                const LightDrawLights& lights, float* out);
+
 // Name of the Highway target DrawLightSamples runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
 const char* LightDrawKernelDispatchedTargetName();
 

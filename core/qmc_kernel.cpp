@@ -3,7 +3,8 @@
 //
 // Bit-exactness (DESIGN §3): per lane, v = shift + k alpha in double (k exact), floor(v) in place of the
 // twin's truncation through int64 (the same for v >= 0), v - floor(v) exact, rounded to float as static_cast
-// does, then std::min(x, 0x1.fffffep-1f) as its select. No MulAdd.
+// does, then std::min(x, 0x1.fffffep-1f) as its select. No MulAdd. The uniforms: core/rng.h RandomBits in
+// integer lanes (core/rng-inl.h), the top 24 bits converted exactly and scaled by 2^-24 as BitsToUnitFloat.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/qmc_kernel.cpp"
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
@@ -11,6 +12,8 @@
 #include "hwy/highway.h"
 
 #include "core/qmc_kernel.h"
+#include "core/rng-inl.h"
+#include "core/rng.h"
 #include "core/sampling.h"
 #include "core/simd.h"
 
@@ -39,6 +42,21 @@ void QmcKernel(const float* shifts, size_t copies, size_t count, double alpha, f
   }
 }
 
+void UniformKernel(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
+  const hn::ScalableTag<uint32_t> du;
+  const hn::RebindToSigned<decltype(du)> di;
+  const hn::RebindToFloat<decltype(du)> df;
+  const size_t N = hn::Lanes(du);
+  const auto strideV = hn::Set(du, stride);
+  size_t k = 0;
+  for (; k + N <= count; k += N) {
+    const auto dimension = hn::Add(hn::Set(du, first), hn::Mul(hn::Iota(du, static_cast<uint32_t>(k)), strideV));
+    const auto top = hn::ShiftRight<8>(RandomBitsV(du, key, dimension));  // < 2^24: exact as int32 and as float
+    hn::StoreU(hn::Mul(hn::ConvertTo(df, hn::BitCast(di, top)), hn::Set(df, 0x1.0p-24f)), df, out + k);
+  }
+  for (; k < count; ++k) out[k] = UniformFloat(key, first + static_cast<uint32_t>(k) * stride);
+}
+
 const char* QmcKernelTargetName() {
   return hwy::TargetName(HWY_TARGET);
 }
@@ -54,6 +72,16 @@ namespace restir {
 
 HWY_EXPORT(QmcKernel);
 HWY_EXPORT(QmcKernelTargetName);
+HWY_EXPORT(UniformKernel);
+
+void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
+  for (size_t k = 0; k < count; ++k) out[k] = UniformFloat(key, first + static_cast<uint32_t>(k) * stride);
+}
+
+void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
+  if (UseScalarTwins()) return UniformFloatsScalar(key, first, stride, count, out);
+  HWY_DYNAMIC_DISPATCH(UniformKernel)(key, first, stride, count, out);
+}
 
 void RobertsCoordinatesScalar(const float* shifts, size_t copies, size_t count, double alpha, float* out) {
   for (size_t r = 0; r < copies; ++r)

@@ -104,8 +104,10 @@ struct LightProxies {
 
 class PixelLightDistribution {
  public:
-  // Builds the distribution's cdf into cdf[0, n) (n lights), storage the caller owns, and views it.
-  void Build(const ShadingPoint& sp, const LightSampler& power, const LightProxies& proxies, float* cdf) {
+  // Builds the distribution's cdf into cdf[0, n) (n lights), storage the caller owns, and views it. `receiver`
+  // is sp for the light-draw kernels (its material in `materials`), `drawLights` the frame's lights for them.
+  void Build(const ShadingPoint& sp, const LightDrawReceiver& receiver, const BsdfSoa& materials,
+             const LightDrawLights& drawLights, const LightSampler& power, const LightProxies& proxies, float* cdf) {
     const std::vector<LightTriangle>& lights = power.Lights();
     const size_t n = lights.size();
     work_.resize(n);
@@ -122,14 +124,12 @@ class PixelLightDistribution {
       for (size_t l = 0; l < n; ++l)
         if (!(point[l] >= 0.0f)) work[l] = Exact(sp, lights[l], albedo);
       if (sp.bsdf.type != BsdfType::kDiffuse) {
+        // The BSDF at each light's centroid (the light-draw kernels: every light at once).
+        target_.resize(n);
+        LightCentroidTargets(receiver, materials, drawLights, target_.data());
         for (size_t l = 0; l < n; ++l) {
           if (work_[l] <= 0.0 && point_[l] == 0.0f) continue;  // facing away, dark or below the horizon
-          const LightTriangle& t = lights[l];
-          LightSample c;
-          c.position = Vec3(proxies.cx[l], proxies.cy[l], proxies.cz[l]);
-          c.normal = t.normal;
-          c.radiance = t.radiance;
-          work_[l] = 0.1 * work_[l] + double(TargetFunction(UnshadowedContribution(sp, c))) * t.area;
+          work_[l] = 0.1 * work_[l] + double(target_[l]) * lights[l].area;
         }
       }
       // Not finite (|w| <= max is false for NaN and infinities): no share.
@@ -221,6 +221,7 @@ class PixelLightDistribution {
 
   std::vector<double> work_;
   std::vector<float> point_;
+  std::vector<float> target_;
   double estimate_ = -1.0;
   const float* cdf_ = nullptr;
   size_t n_ = 0;
@@ -279,6 +280,19 @@ struct LightDrawSoa {
     view.count = lights.size();
   }
 };
+
+// The receiver as the light-draw kernels take it: sp, whose material is materialId in the frame's BsdfSoa.
+LightDrawReceiver ReceiverOf(const ShadingPoint& sp, int32_t materialId, bool bsdfMis) {
+  LightDrawReceiver r;
+  r.position = sp.position;
+  r.geometricNormal = sp.geometricNormal;
+  r.shadingNormal = sp.shadingNormal;
+  r.wo = sp.wo;
+  r.errorScale = sp.errorScale;
+  r.materialId = materialId;
+  r.bsdfMis = bsdfMis;
+  return r;
+}
 
 // The sky of a frame (null in a skyless one) and one receiver's light mixture, as SkySamples needs them.
 struct SkySampling {
@@ -389,14 +403,7 @@ void SkylessSamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScen
   const bool bsdfSampling = sp.bsdf.type != BsdfType::kDiffuse;
   for (std::vector<float>& v : b.drawn) v.resize(count);
   b.drawOf.resize(count);
-  LightDrawReceiver receiver;
-  receiver.position = sp.position;
-  receiver.geometricNormal = sp.geometricNormal;
-  receiver.shadingNormal = sp.shadingNormal;
-  receiver.wo = sp.wo;
-  receiver.errorScale = sp.errorScale;
-  receiver.materialId = materialId;
-  receiver.bsdfMis = bsdfSampling;
+  const LightDrawReceiver receiver = ReceiverOf(sp, materialId, bsdfSampling);
   LightDraws draws;
   draws.uSelect = u;
   draws.uPoint0 = u + count;
@@ -602,7 +609,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   if (hasLocal && nLights > kMaxPerPixelLights) {
     shared.resize(nLights);
     PixelLightDistribution once;
-    once.Build(ShadingPoint{}, lights, proxies, shared.data());
+    once.Build(ShadingPoint{}, LightDrawReceiver{}, bsdfs, drawLights.view, lights, proxies, shared.data());
   }
   // Without local lights (none, or all switched off) under a sky, no pixel has a light distribution.
   const bool keep = hasLocal && shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
@@ -630,7 +637,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
             else if (keep && builtBefore)
               dist.View(cdf, nLights);
             else
-              dist.Build(sp, lights, proxies, cdf);
+              dist.Build(sp, ReceiverOf(sp, g.bsdfId[i], false), bsdfs, drawLights.view, lights, proxies, cdf);
           }
           SkySampling skySampling;
           if (hasSky) {
@@ -665,8 +672,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
     u.resize(static_cast<size_t>(kPilotSamples) * dims);
     for (int j = 0; j < used; ++j)
-      for (int k = 0; k < kPilotSamples; ++k)
-        u[static_cast<size_t>(j) * kPilotSamples + k] = UniformFloat(key, static_cast<uint32_t>(k * dims + j));
+      UniformFloats(key, static_cast<uint32_t>(j), static_cast<uint32_t>(dims), kPilotSamples,
+                    u.data() + static_cast<size_t>(j) * kPilotSamples);
     values.resize(kPilotSamples);
     if (skyless)
       SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(),
@@ -703,9 +710,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     // is dimension rep * dims + j of the key.
     u.resize(n * dims);
     for (int j = 0; j < used; ++j) {
-      float shift[kReplicates];  // one loop over the replicates' hashes, which the compiler vectorises
-      for (int rep = 0; rep < kReplicates; ++rep)
-        shift[rep] = UniformFloat(key, static_cast<uint32_t>(rep * dims + j));
+      float shift[kReplicates];  // dimension rep * dims + j
+      UniformFloats(key, static_cast<uint32_t>(j), static_cast<uint32_t>(dims), kReplicates, shift);
       RobertsCoordinates(shift, kReplicates, static_cast<size_t>(m), hasSky ? rdSky.alpha[j] : rd.alpha[j],
                          u.data() + static_cast<size_t>(j) * n);
     }

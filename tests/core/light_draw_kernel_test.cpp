@@ -205,6 +205,61 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   EXPECT_GT(compared, 10000u);
 }
 
+// LightCentroidTargets: every target reproduces its twin bit for bit over the same receivers, materials and light
+// sets as the draws (tails around every vector width), and the twin is TargetFunction(UnshadowedContribution) at
+// each light's centroid, computed here from the triangles.
+TEST_F(LightDrawKernel, CentroidTargetsMatchTheirTwinAndTheCoreFunctions) {
+  std::mt19937 rng(20261126);
+  const std::vector<Bsdf> bsdfs = Materials();
+  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
+  size_t compared = 0, positive = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    LightDrawReceiver r;
+    const float far = trial % 4 == 0 ? 1000.0f : 1.0f;
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    r.position = far * Vec3(u(rng) * 10 - 5, u(rng) * 4 - 2, u(rng) * 10 - 5);
+    r.geometricNormal = RandomUnit(rng);
+    r.shadingNormal = trial % 3 == 0 ? r.geometricNormal : glm::normalize(r.geometricNormal + 0.3f * RandomUnit(rng));
+    r.wo = glm::normalize(r.geometricNormal * (trial % 7 == 0 ? -0.2f : 1.0f) + 0.8f * RandomUnit(rng));
+    r.errorScale = far * 6.0f;
+    r.materialId = static_cast<int32_t>(rng() % bsdfs.size());
+    const LightSet lights = RandomLights(rng, r.position, r.shadingNormal, 1 + rng() % 140);
+    const size_t n = lights.triangles.size();
+    GuardedArray<float> twin(n);
+    LightCentroidTargetsScalar(r, materials, lights.View(), twin.data());
+    ShadingPoint sp;
+    sp.position = r.position;
+    sp.geometricNormal = r.geometricNormal;
+    sp.shadingNormal = r.shadingNormal;
+    sp.wo = r.wo;
+    sp.bsdf = bsdfs[static_cast<size_t>(r.materialId)];
+    for (size_t l = 0; l < n; ++l) {
+      const LightTriangle& t = lights.triangles[l];
+      LightSample c;
+      c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
+      c.normal = t.normal;
+      c.radiance = t.radiance;
+      const float expected = TargetFunction(UnshadowedContribution(sp, c));
+      if (std::isnan(expected)) {
+        EXPECT_TRUE(std::isnan(twin.data()[l]));
+      } else {
+        ASSERT_EQ(Bits(twin.data()[l]), Bits(expected)) << "trial " << trial << " light " << l;
+      }
+      positive += expected > 0.0f ? 1 : 0;
+    }
+    for (SimdTarget t : SupportedSimdTargets()) {
+      ASSERT_TRUE(SetSimdTarget(t));
+      GuardedArray<float> got(n);
+      LightCentroidTargets(r, materials, lights.View(), got.data());
+      for (size_t l = 0; l < n; ++l)
+        ASSERT_EQ(Bits(got.data()[l]), Bits(twin.data()[l])) << SimdTargetName(t) << " trial " << trial << " light " << l;
+      compared += n;
+    }
+  }
+  EXPECT_GT(positive, 1000u);
+  EXPECT_GT(compared, 10000u);
+}
+
 // A receiver under a quad light (two triangles) whose cdf does not follow the triangles' areas: E[term] =
 // albedo / π · E, E by Lambert's polygon formula (core/polygon_irradiance.h) on the quad clipped to the
 // receiver's hemisphere, where the contribution is zero: the pmf and area density must cancel whatever the

@@ -1,0 +1,57 @@
+// Per-target Highway form of core/rng.h's hash: RandomBits (PCG4D) for a packet of dimensions of one key
+// (core/qmc_kernel.cpp draws the reference's uniforms with it).
+//
+// Include after "hwy/foreach_target.h" and "hwy/highway.h", outside any namespace: like every Highway -inl header
+// it is compiled once per target and opens restir::HWY_NAMESPACE itself.
+//
+// Bit-exactness (DESIGN §3): integer arithmetic modulo 2^32, lane by lane, as the scalar code's.
+
+// Highway's per-target include guard: the body is compiled once for each target foreach_target.h toggles.
+#if defined(RESTIR_CORE_RNG_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef RESTIR_CORE_RNG_INL_H_
+#undef RESTIR_CORE_RNG_INL_H_
+#else
+#define RESTIR_CORE_RNG_INL_H_
+#endif
+
+#include "hwy/highway.h"
+
+#include "core/rng.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace restir {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// RandomBits(key, dimension) (core/rng.h) per lane of `dimension`.
+template <class DU>
+HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimension) {
+  const auto lcg = [&](hn::Vec<DU> v) {
+    return hn::Add(hn::Mul(v, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
+  };
+  auto x = lcg(hn::Set(du, key.pixel));
+  auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
+  auto z = lcg(hn::Set(du, key.seed));
+  auto w = lcg(hn::Xor(hn::Set(du, key.pass << 20), hn::And(dimension, hn::Set(du, 0xFFFFFu))));
+  // Pcg4d's two mixing rounds around the shift.
+  x = hn::Add(x, hn::Mul(y, w));
+  y = hn::Add(y, hn::Mul(z, x));
+  z = hn::Add(z, hn::Mul(x, y));
+  w = hn::Add(w, hn::Mul(y, z));
+  x = hn::Xor(x, hn::ShiftRight<16>(x));
+  y = hn::Xor(y, hn::ShiftRight<16>(y));
+  z = hn::Xor(z, hn::ShiftRight<16>(z));
+  w = hn::Xor(w, hn::ShiftRight<16>(w));
+  x = hn::Add(x, hn::Mul(y, w));
+  y = hn::Add(y, hn::Mul(z, x));
+  z = hn::Add(z, hn::Mul(x, y));
+  w = hn::Add(w, hn::Mul(y, z));
+  return hn::Xor(x, hn::ShiftRight<7>(w));
+}
+
+// NOLINTNEXTLINE(google-readability-namespace-comments)
+}  // namespace HWY_NAMESPACE
+}  // namespace restir
+HWY_AFTER_NAMESPACE();
+
+#endif  // RESTIR_CORE_RNG_INL_H_ toggle
