@@ -1,6 +1,6 @@
 // Microbenchmarks of the resampling kernels (DESIGN §9), one BM_<kernel>/<target> per SIMD target this machine
 // supports plus the scalar twin: items are pixels (BM_TargetKernel: pairs; BM_GrisKernel and
-// BM_StochasticPairwiseKernel: combinations; BM_ShadowRayKernel: rays).
+// BM_StochasticPairwiseKernel: combinations; BM_ShadowRayKernel: rays; BM_LightDrawKernel: draws).
 #include <benchmark/benchmark.h>
 
 #include <functional>

@@ -42,19 +42,25 @@ void QmcKernel(const float* shifts, size_t copies, size_t count, double alpha, f
   }
 }
 
-void UniformKernel(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
+void UniformKernel(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out, size_t rows,
+                   uint32_t rowStride) {
   const hn::ScalableTag<uint32_t> du;
   const hn::RebindToSigned<decltype(du)> di;
   const hn::RebindToFloat<decltype(du)> df;
   const size_t N = hn::Lanes(du);
   const auto strideV = hn::Set(du, stride);
-  size_t k = 0;
-  for (; k + N <= count; k += N) {
-    const auto dimension = hn::Add(hn::Set(du, first), hn::Mul(hn::Iota(du, static_cast<uint32_t>(k)), strideV));
-    const auto top = hn::ShiftRight<8>(RandomBitsV(du, key, dimension));  // < 2^24: exact as int32 and as float
-    hn::StoreU(hn::Mul(hn::ConvertTo(df, hn::BitCast(di, top)), hn::Set(df, 0x1.0p-24f)), df, out + k);
+  for (size_t r = 0; r < rows; ++r) {
+    const uint32_t rowFirst = first + static_cast<uint32_t>(r) * rowStride;
+    float* o = out + r * count;
+    size_t k = 0;
+    for (; k + N <= count; k += N) {
+      const auto dimension =
+          hn::Add(hn::Set(du, rowFirst), hn::Mul(hn::Iota(du, static_cast<uint32_t>(k)), strideV));
+      const auto top = hn::ShiftRight<8>(RandomBitsV(du, key, dimension));  // < 2^24: exact as int32 and as float
+      hn::StoreU(hn::Mul(hn::ConvertTo(df, hn::BitCast(di, top)), hn::Set(df, 0x1.0p-24f)), df, o + k);
+    }
+    for (; k < count; ++k) o[k] = UniformFloat(key, rowFirst + static_cast<uint32_t>(k) * stride);
   }
-  for (; k < count; ++k) out[k] = UniformFloat(key, first + static_cast<uint32_t>(k) * stride);
 }
 
 const char* QmcKernelTargetName() {
@@ -74,13 +80,18 @@ HWY_EXPORT(QmcKernel);
 HWY_EXPORT(QmcKernelTargetName);
 HWY_EXPORT(UniformKernel);
 
-void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
-  for (size_t k = 0; k < count; ++k) out[k] = UniformFloat(key, first + static_cast<uint32_t>(k) * stride);
+void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out, size_t rows,
+                         uint32_t rowStride) {
+  for (size_t r = 0; r < rows; ++r)
+    for (size_t k = 0; k < count; ++k)
+      out[r * count + k] =
+          UniformFloat(key, first + static_cast<uint32_t>(r) * rowStride + static_cast<uint32_t>(k) * stride);
 }
 
-void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out) {
-  if (UseScalarTwins()) return UniformFloatsScalar(key, first, stride, count, out);
-  HWY_DYNAMIC_DISPATCH(UniformKernel)(key, first, stride, count, out);
+void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out, size_t rows,
+                   uint32_t rowStride) {
+  if (UseScalarTwins()) return UniformFloatsScalar(key, first, stride, count, out, rows, rowStride);
+  HWY_DYNAMIC_DISPATCH(UniformKernel)(key, first, stride, count, out, rows, rowStride);
 }
 
 void RobertsCoordinatesScalar(const float* shifts, size_t copies, size_t count, double alpha, float* out) {

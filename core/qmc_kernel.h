@@ -21,11 +21,14 @@ void RobertsCoordinates(const float* shifts, size_t copies, size_t count, double
 // The scalar twin, callable directly (tests and benchmarks).
 void RobertsCoordinatesScalar(const float* shifts, size_t copies, size_t count, double alpha, float* out);
 
-// out[k] = UniformFloat(key, first + k * stride) for k < count (dimensions modulo 2^32, as RandomBits folds them).
-void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out);
+// out[r * count + k] = UniformFloat(key, first + r * rowStride + k * stride) for r < rows, k < count (dimensions
+// modulo 2^32, as RandomBits folds them): rows of uniforms in one call, whose packets' hashes then overlap.
+void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out, size_t rows = 1,
+                   uint32_t rowStride = 0);
 
 // The scalar twin, callable directly (tests and benchmarks).
-void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out);
+void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out,
+                         size_t rows = 1, uint32_t rowStride = 0);
 
 // Name of the Highway target RobertsCoordinates runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
 const char* QmcKernelDispatchedTargetName();

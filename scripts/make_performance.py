@@ -170,7 +170,7 @@ def main(argv):
         b = reference[0]
         w(f"The reference of one flagship frame at the same size from an empty cache (`bench/reference_bench.cpp`), "
           "against its ray floor measured in the same run: the rays it traced, recorded and traced alone by Embree "
-          "in the reference's own batching (each thread's shadow rays in order through `OccludedBatch`, BSDF rays "
+          "in the reference's own batching (each thread's shadow rays in order, as arrays through `OccludedBatch`, BSDF rays "
           "`rtcIntersect1`). First row: README command 1's budget; second: the 768 spp issue 16 measured at.")
         w("")
         w("| budget spp | samples / pixel | rays | reference ms | reference Mrays/s | ray floor ms | "
@@ -414,7 +414,9 @@ def main(argv):
         w("## Kernels (bench/kernels_bench.cpp)")
         w("")
         w("One thread; items are pixels (BM_RisKernel, BM_InitialRis), (receiver, light point) pairs "
-          "(BM_TargetKernel), GRIS combinations (BM_GrisKernel) or shadow rays (BM_ShadowRayKernel).")
+          "(BM_TargetKernel), GRIS combinations (BM_GrisKernel), shadow rays (BM_ShadowRayKernel) or the "
+          "reference's light draws (BM_LightDrawKernel: 768 per call at 72 lights, the draws that count packed "
+          "with their rays).")
         w("")
         w("| benchmark | ns / item | Mitems/s | vs scalar twin |")
         w("|---|---:|---:|---:|")

@@ -671,9 +671,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     const bool skyless = !hasSky;
     const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
     u.resize(static_cast<size_t>(kPilotSamples) * dims);
-    for (int j = 0; j < used; ++j)
-      UniformFloats(key, static_cast<uint32_t>(j), static_cast<uint32_t>(dims), kPilotSamples,
-                    u.data() + static_cast<size_t>(j) * kPilotSamples);
+    UniformFloats(key, 0, static_cast<uint32_t>(dims), kPilotSamples, u.data(), static_cast<size_t>(used), 1);
     values.resize(kPilotSamples);
     if (skyless)
       SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(),
@@ -709,12 +707,11 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     // Coordinate j of point k of replicate rep is u[j * n + rep * m + k]; the replicate's shift of coordinate j
     // is dimension rep * dims + j of the key.
     u.resize(n * dims);
-    for (int j = 0; j < used; ++j) {
-      float shift[kReplicates];  // dimension rep * dims + j
-      UniformFloats(key, static_cast<uint32_t>(j), static_cast<uint32_t>(dims), kReplicates, shift);
-      RobertsCoordinates(shift, kReplicates, static_cast<size_t>(m), hasSky ? rdSky.alpha[j] : rd.alpha[j],
-                         u.data() + static_cast<size_t>(j) * n);
-    }
+    float shifts[kSkySampleDims * kReplicates];  // coordinate j's of replicate rep at j * kReplicates + rep
+    UniformFloats(key, 0, static_cast<uint32_t>(dims), kReplicates, shifts, static_cast<size_t>(used), 1);
+    for (int j = 0; j < used; ++j)
+      RobertsCoordinates(shifts + j * kReplicates, kReplicates, static_cast<size_t>(m),
+                         hasSky ? rdSky.alpha[j] : rd.alpha[j], u.data() + static_cast<size_t>(j) * n);
     values.resize(n);
     if (skyless)
       SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(), n, batch,

@@ -2,13 +2,15 @@
 // scalar twin bit for bit (DESIGN §3) over shifts at the edges of [0, 1), the Roberts sequences' own alphas
 // and random ones, point indices up to 2^16 and counts around every vector width (tails written next to
 // memory that faults); the twin is RobertsCoordinate of each point. Likewise the uniforms (UniformFloats): every
-// target reproduces core/rng.h UniformFloat over keys with every field at its extremes, dimension strides that
-// wrap past 2^20 (where RandomBits folds the dimension) and 2^32, and the uniforms are uniform (chi-square).
+// target reproduces core/rng.h UniformFloat over keys with every field at its extremes, dimension strides (within
+// and between rows) that wrap past 2^20 (where RandomBits folds the dimension) and 2^32, and the uniforms are
+// uniform (chi-square).
 #include "core/qmc_kernel.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "core/kernel_test_support.h"
@@ -68,21 +70,26 @@ TEST_F(QmcKernel, UniformsMatchUniformFloatOnEveryTarget) {
   for (const RngKey& key : keys)
     for (uint32_t first : {0u, 3u, 0xFFFFFu, 0xFFFFFFF0u})
       for (uint32_t stride : {1u, 5u, 7u, 4097u, 0x80000001u})
-        for (size_t count : {0, 1, 3, 4, 5, 8, 15, 16, 17, 33, 48, 768, 1000}) {
-          GuardedArray<float> twin(count);
-          UniformFloatsScalar(key, first, stride, count, twin.data());
-          for (size_t k = 0; k < count; ++k)
-            ASSERT_EQ(Bits(twin.data()[k]), Bits(UniformFloat(key, first + static_cast<uint32_t>(k) * stride)));
-          for (SimdTarget t : SupportedSimdTargets()) {
-            ASSERT_TRUE(SetSimdTarget(t));
-            GuardedArray<float> got(count);
-            UniformFloats(key, first, stride, count, got.data());
-            for (size_t k = 0; k < count; ++k)
-              ASSERT_EQ(Bits(got.data()[k]), Bits(twin.data()[k]))
-                  << SimdTargetName(t) << " first " << first << " stride " << stride << " at " << k;
-            compared += count;
+        for (size_t count : {0, 1, 3, 4, 5, 8, 15, 16, 17, 33, 48, 768, 1000})
+          for (const auto [rows, rowStride] : {std::pair<size_t, uint32_t>{1, 0}, {3, 1}, {7, 0xFFFFFu}}) {
+            GuardedArray<float> twin(rows * count);
+            UniformFloatsScalar(key, first, stride, count, twin.data(), rows, rowStride);
+            for (size_t r = 0; r < rows; ++r)
+              for (size_t k = 0; k < count; ++k)
+                ASSERT_EQ(Bits(twin.data()[r * count + k]),
+                          Bits(UniformFloat(key, first + static_cast<uint32_t>(r) * rowStride +
+                                                     static_cast<uint32_t>(k) * stride)));
+            for (SimdTarget t : SupportedSimdTargets()) {
+              ASSERT_TRUE(SetSimdTarget(t));
+              GuardedArray<float> got(rows * count);
+              UniformFloats(key, first, stride, count, got.data(), rows, rowStride);
+              for (size_t i = 0; i < rows * count; ++i)
+                ASSERT_EQ(Bits(got.data()[i]), Bits(twin.data()[i]))
+                    << SimdTargetName(t) << " first " << first << " stride " << stride << " rows " << rows
+                    << " at " << i;
+              compared += rows * count;
+            }
           }
-        }
   EXPECT_GT(compared, 100000u);
 }
 
