@@ -4,7 +4,7 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
-#include <ImfStdIO.h>
+#include <ImfIO.h>
 #include <ImfThreading.h>
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -34,6 +34,30 @@ void AddScalarLayer(Imf::Header& header, Imf::FrameBuffer& fb, const std::string
   fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(values.data())),
                              sizeof(float), sizeof(float) * width));
 }
+
+// An OpenEXR output stream into one string reserved for the whole file: Imf::StdOSStream's ostringstream grows by
+// doubling (each step a copy into fresh pages) and str() copies the file once more; on README command 1 those
+// copies and their page faults were most of the EXRs' cost after the run-length coding itself. Seeks (the offset
+// table is written last) overwrite in place.
+class StringOStream final : public Imf::OStream {
+ public:
+  explicit StringOStream(size_t reserve) : Imf::OStream("memory") { bytes_.reserve(reserve); }
+  void write(const char c[], int n) override {
+    const size_t count = static_cast<size_t>(n);
+    const size_t inside = pos_ < bytes_.size() ? std::min(count, bytes_.size() - pos_) : 0;
+    if (pos_ > bytes_.size()) bytes_.resize(pos_, '\0');
+    bytes_.replace(pos_, inside, c, inside);
+    bytes_.append(c + inside, count - inside);
+    pos_ += count;
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override { pos_ = static_cast<size_t>(pos); }
+  const std::string& Bytes() const { return bytes_; }
+
+ private:
+  std::string bytes_;
+  size_t pos_ = 0;
+};
 
 float SrgbEncode(float v) {
   v = std::clamp(v, 0.0f, 1.0f);
@@ -79,8 +103,11 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   }
   if (layers.ensembleBias) AddRgbLayer(header, fb, "bias", *layers.ensembleBias);
   if (layers.ensembleVariance) AddRgbLayer(header, fb, "variance", *layers.ensembleVariance);
-  // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes.
-  Imf::StdOSStream stream;
+  // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes. Reserved for the raw
+  // channels plus a little: run-length coding rarely grows a chunk, and the string grows if it does.
+  size_t channels = 0;
+  for (auto it = header.channels().begin(); it != header.channels().end(); ++it) ++channels;
+  StringOStream stream(channels * est.Size() * sizeof(float) + (size_t{64} << 10));
   {
     // ZIP compresses 16-line chunks independently; OpenEXR's own pool (SetExrThreads) compresses them in
     // parallel, with the same bytes whatever the thread count.
@@ -88,7 +115,7 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
     file.setFrameBuffer(fb);
     file.writePixels(h);
   }
-  WriteFileAtomic(path, stream.str());
+  WriteFileAtomic(path, stream.Bytes());
 }
 
 std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool srgb) {

@@ -83,8 +83,8 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
       px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) + presets * (2.0 * kRgb + members * kReservoir));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   // EXR: the error image and four scalar layers built for it, then the encoded file in memory (at most the raw
-  // float channels: 3 RGB layers, 3 more with a reference, 6 with an ensemble, 6 scalars), copied once by the
-  // stream that holds it.
+  // float channels: 3 RGB layers, 3 more with a reference, 6 with an ensemble, 6 scalars), counted twice: the
+  // stream reserves the raw size and may grow once past it (sim/frame_writer.cpp StringOStream).
   const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
   const double exr = s.writeImages ? px * (kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float)) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
