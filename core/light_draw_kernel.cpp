@@ -40,6 +40,29 @@ struct DrawContext {
   VF total;  // cdf[n - 1]
 };
 
+// The receiver in every lane, its BSDF gathered from the frame's table.
+HWY_INLINE ShadingPointV BroadcastReceiverV(const LightDrawReceiver& r, const BsdfSoa& materials) {
+  const DF df;
+  VF x[3], ng[3], ns[3], wo[3];
+  for (int c = 0; c < 3; ++c) {
+    x[c] = hn::Set(df, r.position[c]);
+    ng[c] = hn::Set(df, r.geometricNormal[c]);
+    ns[c] = hn::Set(df, r.shadingNormal[c]);
+    wo[c] = hn::Set(df, r.wo[c]);
+  }
+  return MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(DI(), r.materialId)));
+}
+
+// The records (WriteLightDrawRecord's fields) of lights `id`, one field per register.
+HWY_INLINE void LoadLightRecordsV(const float* records, VI id, VF (&r)[16]) {
+#if HWY_TARGET != HWY_SCALAR
+  LoadRecords16(records, id, r);
+#else
+  for (size_t f = 0; f < kLightDrawRecordFloats; ++f)
+    r[f] = hn::GatherIndex(DF(), records + f, hn::Mul(id, hn::Set(DI(), static_cast<int32_t>(kLightDrawRecordFloats))));
+#endif
+}
+
 // SampleCdf per lane, in half its dependent gathers. For a non-decreasing cdf SampleCdf returns A = #{i : cdf[i]
 // <= target}, at most n - 1 (its halving keeps cdf[lo - 1] <= target < cdf[lo + len - 1]); so does this. A coarse
 // count over every S-th entry (S a power of two, at least 8, at most 16 such entries; broadcast compares, no
@@ -90,13 +113,7 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
       notFirst, hn::GatherIndex(df, cdf, hn::Max(hn::Sub(id, hn::Set(di, 1)), hn::Zero(di))));
   const VF pmf = hn::Div(hn::Sub(at, before), ctx.total);
   VF r[16];
-#if HWY_TARGET != HWY_SCALAR
-  LoadRecords16(L.records, id, r);
-#else
-  for (size_t f = 0; f < kLightDrawRecordFloats; ++f)
-    r[f] = hn::GatherIndex(df, L.records + f,
-                           hn::Mul(id, hn::Set(di, static_cast<int32_t>(kLightDrawRecordFloats))));
-#endif
+  LoadLightRecordsV(L.records, id, r);
   const VF pdf = hn::Div(pmf, r[15]);
   VF p0[3], e1[3], e2[3], ny[3], radiance[3];
   for (int c = 0; c < 3; ++c) {
@@ -148,17 +165,9 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
 size_t LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& lights,
                        const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
   const DF df;
-  const DI di;
   const size_t N = hn::Lanes(df);
   DrawContext ctx;
-  VF x[3], ng[3], ns[3], wo[3];
-  for (int c = 0; c < 3; ++c) {
-    x[c] = hn::Set(df, r.position[c]);
-    ng[c] = hn::Set(df, r.geometricNormal[c]);
-    ns[c] = hn::Set(df, r.shadingNormal[c]);
-    wo[c] = hn::Set(df, r.wo[c]);
-  }
-  ctx.sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(di, r.materialId)));
+  ctx.sp = BroadcastReceiverV(r, materials);
   ctx.bsdf = materials.At(static_cast<size_t>(r.materialId));
   ctx.bsdfMis = r.bsdfMis;
   ctx.errorScale = hn::Set(df, r.errorScale);
@@ -201,26 +210,13 @@ void CentroidTargetsKernel(const LightDrawReceiver& r, const BsdfSoa& materials,
   const DF df;
   const DI di;
   const size_t N = hn::Lanes(df);
-  VF x[3], ng[3], ns[3], wo[3];
-  for (int c = 0; c < 3; ++c) {
-    x[c] = hn::Set(df, r.position[c]);
-    ng[c] = hn::Set(df, r.geometricNormal[c]);
-    ns[c] = hn::Set(df, r.shadingNormal[c]);
-    wo[c] = hn::Set(df, r.wo[c]);
-  }
-  const ShadingPointV sp = MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(di, r.materialId)));
+  const ShadingPointV sp = BroadcastReceiverV(r, materials);
   const VI last = hn::Set(di, static_cast<int32_t>(lights.count - 1));
   const VF third = hn::Set(df, 1.0f / 3.0f);
   for (size_t l = 0; l < lights.count; l += N) {
     const VI id = hn::Min(hn::Iota(di, static_cast<int32_t>(l)), last);  // the tail repeats the last light
     VF rec[16];
-#if HWY_TARGET != HWY_SCALAR
-    LoadRecords16(lights.records, id, rec);
-#else
-    for (size_t f = 0; f < kLightDrawRecordFloats; ++f)
-      rec[f] = hn::GatherIndex(df, lights.records + f,
-                               hn::Mul(id, hn::Set(di, static_cast<int32_t>(kLightDrawRecordFloats))));
-#endif
+    LoadLightRecordsV(lights.records, id, rec);
     // The centroid as LightTriangle's p0 + (e1 + e2) * (1 / 3), component by component.
     VF y[3], ny[3], radiance[3];
     for (int c = 0; c < 3; ++c) {
@@ -259,8 +255,10 @@ HWY_EXPORT(LightDrawKernel);
 HWY_EXPORT(LightDrawKernelTargetName);
 HWY_EXPORT(CentroidTargetsKernel);
 
-void LightCentroidTargetsScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
-                                float* out) {
+namespace {
+
+// The twins' receiver: the ShadingPoint the kernels broadcast.
+ShadingPoint ReceiverPoint(const LightDrawReceiver& r, const BsdfSoa& materials) {
   ShadingPoint sp;
   sp.position = r.position;
   sp.geometricNormal = r.geometricNormal;
@@ -268,6 +266,14 @@ void LightCentroidTargetsScalar(const LightDrawReceiver& r, const BsdfSoa& mater
   sp.wo = r.wo;
   sp.bsdf = materials.At(static_cast<size_t>(r.materialId));
   sp.errorScale = r.errorScale;
+  return sp;
+}
+
+}  // namespace
+
+void LightCentroidTargetsScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
+                                float* out) {
+  const ShadingPoint sp = ReceiverPoint(r, materials);
   for (size_t l = 0; l < L.count; ++l) {
     const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * l);
     LightSample c;
@@ -286,13 +292,7 @@ void LightCentroidTargets(const LightDrawReceiver& receiver, const BsdfSoa& mate
 
 size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
                               const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
-  ShadingPoint sp;
-  sp.position = r.position;
-  sp.geometricNormal = r.geometricNormal;
-  sp.shadingNormal = r.shadingNormal;
-  sp.wo = r.wo;
-  sp.bsdf = materials.At(static_cast<size_t>(r.materialId));
-  sp.errorScale = r.errorScale;
+  const ShadingPoint sp = ReceiverPoint(r, materials);
   size_t written = 0;
   for (size_t k = 0; k < draws.count; ++k) {
     const uint32_t id = SampleCdf(cdf, L.count, draws.uSelect[k]);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/ris_kernel.h"
+#include "core/rng-inl.h"
 #include "core/rng.h"
 #include "core/light-inl.h"
 #include "core/shading-inl.h"
@@ -60,15 +61,7 @@ HWY_INLINE VF UniformV(DF df, const PixelWords& p, const KeyWords& k, uint32_t d
   VU y = hn::Add(p.zx0, hn::Set(du, k.y1 + k.z1 * s));               // y += z * x
   VU z = hn::Add(hn::Set(du, k.z1), hn::Mul(x, y));                  // z += x * y
   VU w = hn::Add(hn::Set(du, w1), hn::Mul(y, z));                    // w += y * z
-  x = hn::Xor(x, hn::ShiftRight<16>(x));
-  y = hn::Xor(y, hn::ShiftRight<16>(y));
-  z = hn::Xor(z, hn::ShiftRight<16>(z));
-  w = hn::Xor(w, hn::ShiftRight<16>(w));
-  x = hn::Add(x, hn::Mul(y, w));
-  y = hn::Add(y, hn::Mul(z, x));
-  z = hn::Add(z, hn::Mul(x, y));
-  w = hn::Add(w, hn::Mul(y, z));
-  const VU bits = hn::Xor(x, hn::ShiftRight<7>(w));
+  const VU bits = Pcg4dFinishV(x, y, z, w);
   // bits >> 8 < 2^24: exact as int32 and as float.
   return hn::Mul(hn::ConvertTo(df, hn::BitCast(di, hn::ShiftRight<8>(bits))), hn::Set(df, 0x1.0p-24f));
 }

@@ -1,5 +1,6 @@
 // Per-target Highway form of core/rng.h's hash: RandomBits (PCG4D) for a packet of dimensions of one key
-// (core/qmc_kernel.cpp draws the reference's uniforms with it).
+// (core/qmc_kernel.cpp draws the reference's uniforms with it), and PCG4D's second half, which the RIS kernel's
+// hash (core/ris_kernel.cpp, its first half specialised to lanes that share y z w) finishes with.
 //
 // Include after "hwy/foreach_target.h" and "hwy/highway.h", outside any namespace: like every Highway -inl header
 // it is compiled once per target and opens restir::HWY_NAMESPACE itself.
@@ -23,6 +24,22 @@ namespace restir {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// Pcg4d's second half (core/rng.h) and RandomBits' output word: the shift round and the last mixing round of
+// x y z w, then x ^ (w >> 7). Callers whose first half is partly uniform across lanes (core/ris_kernel.cpp) start
+// here.
+template <class V>
+HWY_INLINE V Pcg4dFinishV(V x, V y, V z, V w) {
+  x = hn::Xor(x, hn::ShiftRight<16>(x));
+  y = hn::Xor(y, hn::ShiftRight<16>(y));
+  z = hn::Xor(z, hn::ShiftRight<16>(z));
+  w = hn::Xor(w, hn::ShiftRight<16>(w));
+  x = hn::Add(x, hn::Mul(y, w));
+  y = hn::Add(y, hn::Mul(z, x));
+  z = hn::Add(z, hn::Mul(x, y));
+  w = hn::Add(w, hn::Mul(y, z));
+  return hn::Xor(x, hn::ShiftRight<7>(w));
+}
+
 // RandomBits(key, dimension) (core/rng.h) per lane of `dimension`.
 template <class DU>
 HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimension) {
@@ -33,20 +50,12 @@ HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimensi
   auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
   auto z = lcg(hn::Set(du, key.seed));
   auto w = lcg(hn::Xor(hn::Set(du, key.pass << 20), hn::And(dimension, hn::Set(du, 0xFFFFFu))));
-  // Pcg4d's two mixing rounds around the shift.
+  // Pcg4d's first mixing round, then its second half.
   x = hn::Add(x, hn::Mul(y, w));
   y = hn::Add(y, hn::Mul(z, x));
   z = hn::Add(z, hn::Mul(x, y));
   w = hn::Add(w, hn::Mul(y, z));
-  x = hn::Xor(x, hn::ShiftRight<16>(x));
-  y = hn::Xor(y, hn::ShiftRight<16>(y));
-  z = hn::Xor(z, hn::ShiftRight<16>(z));
-  w = hn::Xor(w, hn::ShiftRight<16>(w));
-  x = hn::Add(x, hn::Mul(y, w));
-  y = hn::Add(y, hn::Mul(z, x));
-  z = hn::Add(z, hn::Mul(x, y));
-  w = hn::Add(w, hn::Mul(y, z));
-  return hn::Xor(x, hn::ShiftRight<7>(w));
+  return Pcg4dFinishV(x, y, z, w);
 }
 
 // NOLINTNEXTLINE(google-readability-namespace-comments)
