@@ -184,43 +184,26 @@ void OccludedPackets(RTCScene scene, RTCIntersectContext& ctx, const ShadowRay* 
   }
 }
 
-// OccludedPackets from arrays: a full packet's lanes are contiguous copies (the compiler vectorises them).
+// OccludedPackets from arrays: the lanes are contiguous copies (the compiler vectorises a full packet's).
 void OccludedPacketsSoa(RTCScene scene, RTCIntersectContext& ctx, const ShadowRaysSoa& rays, uint8_t* occluded) {
   constexpr size_t N = 4;
   for (size_t base = 0; base < rays.count; base += N) {
     alignas(16) RTCRay4 packet;
     alignas(16) int valid[N];
     const size_t lanes = std::min<size_t>(N, rays.count - base);
-    if (lanes == N) {
-      for (size_t i = 0; i < N; ++i) {
-        const float tmax = rays.tmax[base + i];
-        const bool active = tmax > 0.0f;
-        valid[i] = active ? -1 : 0;
-        packet.org_x[i] = active ? rays.org[0][base + i] : 0.0f;
-        packet.org_y[i] = active ? rays.org[1][base + i] : 0.0f;
-        packet.org_z[i] = active ? rays.org[2][base + i] : 0.0f;
-        packet.dir_x[i] = active ? rays.dir[0][base + i] : 0.0f;
-        packet.dir_y[i] = active ? rays.dir[1][base + i] : 0.0f;
-        packet.dir_z[i] = active ? rays.dir[2][base + i] : 1.0f;
-        packet.tfar[i] = active ? tmax : 0.0f;
-      }
-    } else {
-      for (size_t i = 0; i < N; ++i) {
-        const bool active = i < lanes && rays.tmax[base + i] > 0.0f;
-        const size_t r = base + (i < lanes ? i : 0);
-        valid[i] = active ? -1 : 0;
-        packet.org_x[i] = active ? rays.org[0][r] : 0.0f;
-        packet.org_y[i] = active ? rays.org[1][r] : 0.0f;
-        packet.org_z[i] = active ? rays.org[2][r] : 0.0f;
-        packet.dir_x[i] = active ? rays.dir[0][r] : 0.0f;
-        packet.dir_y[i] = active ? rays.dir[1][r] : 0.0f;
-        packet.dir_z[i] = active ? rays.dir[2][r] : 1.0f;
-        packet.tfar[i] = active ? rays.tmax[r] : 0.0f;
-      }
-    }
     for (size_t i = 0; i < N; ++i) {
+      const size_t r = base + (i < lanes ? i : 0);
+      const bool active = i < lanes && rays.tmax[r] > 0.0f;
+      valid[i] = active ? -1 : 0;
+      packet.org_x[i] = active ? rays.org[0][r] : 0.0f;
+      packet.org_y[i] = active ? rays.org[1][r] : 0.0f;
+      packet.org_z[i] = active ? rays.org[2][r] : 0.0f;
       packet.tnear[i] = 0.0f;
+      packet.dir_x[i] = active ? rays.dir[0][r] : 0.0f;
+      packet.dir_y[i] = active ? rays.dir[1][r] : 0.0f;
+      packet.dir_z[i] = active ? rays.dir[2][r] : 1.0f;
       packet.time[i] = 0.0f;
+      packet.tfar[i] = active ? rays.tmax[r] : 0.0f;
       packet.mask[i] = 0xffffffffu;
       packet.id[i] = static_cast<unsigned>(i);
       packet.flags[i] = 0;
