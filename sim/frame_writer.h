@@ -33,6 +33,14 @@ void SetExrThreads(int threads);
 // (or estimate) so that its 90th luminance percentile maps to 0.8 (emitters saturate), clamped, sRGB, 8 bits.
 void WritePreviewPng(const std::string& path, const ImageRgb& estimate, const ImageRgb* reference);
 
+// The parts of that preview, for runs that write many previews of one reference (its panel and the exposure are
+// the same for every preset's): the exposure chosen from an image, an image tone-mapped at an exposure (rows top
+// to bottom, 3 bytes a pixel), and panels of w x h such bytes side by side as the PNG at `path`.
+float PreviewExposure(const ImageRgb& exposureSource);
+std::vector<unsigned char> TonemapPreview(const ImageRgb& img, float exposure);
+void WritePreviewPng(const std::string& path, const std::vector<const std::vector<unsigned char>*>& panels, int w,
+                     int h);
+
 // An 8-bit RGB image (w x h, rows top to bottom, 3 bytes a pixel) encoded as PNG, in memory, so that the bytes
 // reach their file through WriteFileAtomic's checked writes (sim/atomic_file.h) rather than the codec's own.
 std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool srgb);

@@ -82,20 +82,32 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double checkpoint =
       px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) + presets * (2.0 * kRgb + members * kReservoir));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
-  // EXR: the error image and four scalar layers built for it, then the encoded file in memory (at most the raw
-  // float channels: 3 RGB layers, 3 more with a reference, 6 with an ensemble, 6 scalars), counted twice: the
-  // stream reserves the raw size and may grow once past it (sim/frame_writer.cpp StringOStream).
-  const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
-  const double exr = s.writeImages ? px * (kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float)) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), s.sky) : 0.0;
-  const double transient = std::max({checkpoint, flip, exr, cacheEntry, referenceRender});
+  const double transient = std::max({checkpoint, flip, cacheEntry, referenceRender});
   add(transient == checkpoint        ? "checkpoint"
       : transient == flip            ? "FLIP"
-      : transient == exr             ? "EXR encoding"
       : transient == referenceRender ? "reference rendering"
                                      : "reference cache entry",
       transient);
+
+  if (s.writeImages) {
+    // The background writer, alongside the frame loop's transients: the image jobs (the waiting ones, the one it
+    // writes and the one being submitted), each a preset's estimate, FLIP map and ensemble images; each job's
+    // frame inputs (the reference, its standard error and five G-buffer arrays), for as many frames as the jobs
+    // can span plus the frame the loop is in (no more than the run has); and one EXR's encoding: the error image and four scalar layers built for it, then
+    // the encoded file in memory (at most the raw float channels: 3 RGB layers, 3 more with a reference, 6 with
+    // an ensemble, 6 scalars), counted twice: the stream reserves the raw size and may grow once past it
+    // (sim/frame_writer.cpp StringOStream).
+    const double runFrames = double(std::max<int64_t>(1, s.frames));
+    const double jobs = std::min(kImageJobsWaiting + 2.0, runFrames * presets);
+    const double job = kRgb + (s.reference ? sizeof(float) : 0.0) + (members > 1 ? 2.0 * kRgb : 0.0);
+    const double frameInputs = (s.reference ? 2.0 * kRgb : 0.0) + 1.0 + 4.0 * sizeof(float);
+    const double frames = std::min(runFrames, std::min(jobs, std::ceil(jobs / presets) + 1.0) + 1.0);
+    const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
+    const double exr = kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float);
+    add("images being written", px * (jobs * job + frames * frameInputs + exr));
+  }
 
   add("metrics rows", double(s.frames) * presets * kRowBytes);
   add("scene", double(s.sceneTriangles + s.lightTriangles) * kBytesPerSceneTriangle +

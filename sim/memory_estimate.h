@@ -28,14 +28,18 @@ struct RunShape {
   double processBytes = 0.0;     // what the process holds already (libraries, the parsed sequence)
 };
 
+// Image jobs (one preset's frame files each) that may wait for the run's background writer besides the one it
+// writes (sim/runner.cpp, sim/background_writer.h); what they hold counts toward the peak.
+constexpr int kImageJobsWaiting = 2;
+
 struct MemoryEstimate {
   double bytes = 0.0;                                     // the peak, all parts together
   std::vector<std::pair<std::string, double>> parts;      // named parts, largest first, for the message
 };
 
 // An upper estimate of the run's peak resident memory: the long-lived per-pixel arrays (G-buffers, reservoirs,
-// images, references) plus the largest transient (checkpoint serialisation, FLIP, EXR encoding), the metrics rows
-// and the scene. Each part is computed from the sizes of the structures that hold it; tests/sim/memory_estimate_test
+// images, references) plus the largest transient of the frame loop (checkpoint serialisation, FLIP, the reference's
+// render), the images the background writer holds with its EXR encoding, the metrics rows and the scene. Each part is computed from the sizes of the structures that hold it; tests/sim/memory_estimate_test
 // checks the sum against the measured peak of real runs.
 MemoryEstimate EstimateRunMemory(const RunShape& shape);
 

@@ -10,12 +10,14 @@
 #include <iterator>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "core/simd.h"
 #include "sim/atomic_file.h"
+#include "sim/background_writer.h"
 #include "sim/checkpoint.h"
 #include "sim/clock.h"
 #include "sim/flip.h"
@@ -37,6 +39,42 @@
 namespace restir {
 
 namespace {
+
+// A frame's inputs to its presets' image files that the frame loop does not keep: the reference, and the G-buffer
+// arrays the EXR shows (disocclusion, depth, shading normal; the snapshot's other arrays stay empty).
+struct FrameImageInputs {
+  bool hasReference = false;
+  ImageRgb reference, referenceStdError;
+  GBuffer gbuffer;
+  // With a reference, every preset's preview of the frame shares its exposure and its reference panel: made once,
+  // by the frame's first image job.
+  mutable std::once_flag previewOnce;
+  mutable float exposure = 1.0f;
+  mutable std::vector<unsigned char> referencePanel;
+};
+
+std::shared_ptr<const FrameImageInputs> SnapshotImageInputs(const ReferenceImage& ref, bool hasReference,
+                                                            const GBuffer& g) {
+  auto in = std::make_shared<FrameImageInputs>();
+  in->hasReference = hasReference;
+  if (hasReference) {
+    in->reference = ref.mean;
+    in->referenceStdError = ref.standardError;
+  }
+  in->gbuffer.width = g.width;
+  in->gbuffer.height = g.height;
+  in->gbuffer.disoccluded = g.disoccluded;
+  in->gbuffer.depth = g.depth;
+  in->gbuffer.nsX = g.nsX, in->gbuffer.nsY = g.nsY, in->gbuffer.nsZ = g.nsZ;
+  return in;
+}
+
+// One preset's images of a frame, as its image job owns them.
+struct PresetImages {
+  ImageRgb estimate;
+  std::vector<float> flip;                  // empty without a reference
+  ImageRgb ensembleBias, ensembleVariance;  // empty without an ensemble
+};
 
 std::string FormatCsvNumber(double v) {
   char buf[64];
@@ -331,6 +369,11 @@ RunResult Run(const RunOptions& opt) {
 
   auto lastCheckpoint = Clock::now();
   bool checkpointWritten = false;
+  // Frame images are encoded and written on a thread of their own while the next preset renders. Declared after
+  // outputTemporaries, so it stops (and its temporaries are cleaned) before them; drained wherever the files must
+  // exist: before a checkpoint (it says the frames before it are done) and at the end.
+  std::optional<BackgroundWriter> imageWriter;
+  if (opt.writeImages) imageWriter.emplace(size_t{kImageJobsWaiting});  // sim/memory_estimate.h
   for (int frame = firstFrame; frame < frameEnd; ++frame) {
     loop.BeginFrame(frame);
     const FrameState& frameState = loop.State();
@@ -354,6 +397,11 @@ RunResult Run(const RunOptions& opt) {
         refRendered.cachedFrames += 1;
       }
     }
+
+    // What this frame's image files read after the loop has moved on: the reference (moved into previousReference
+    // at the frame's end) and the G-buffer layers the EXR shows (the loop reuses its buffers).
+    std::shared_ptr<const FrameImageInputs> imageInputs;
+    if (opt.writeImages) imageInputs = SnapshotImageInputs(ref, opt.reference, current);
 
     // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
     // once per preset.
@@ -426,17 +474,35 @@ RunResult Run(const RunOptions& opt) {
       if (opt.writeImages) {
         char name[32];
         std::snprintf(name, sizeof(name), "%04d", frame);
-        const auto dir = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name;
-        FrameLayers layers;
-        layers.estimate = &fr.image;
-        layers.reference = opt.reference ? &ref.mean : nullptr;
-        layers.referenceStdError = opt.reference ? &ref.standardError : nullptr;
-        layers.gbuffer = &current;
-        layers.flip = opt.reference ? &flipMap.values : nullptr;
-        layers.ensembleBias = ensembleBias.Size() ? &ensembleBias : nullptr;
-        layers.ensembleVariance = ensembleVariance.Size() ? &ensembleVariance : nullptr;
-        WriteFrameExr((dir / (std::string(name) + ".exr")).string(), layers);
-        WritePreviewPng((dir / (std::string(name) + ".png")).string(), fr.image, layers.reference);
+        const auto stem = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name / name;
+        // The job owns what it writes: this preset's images (copied: the estimate lives on as previousImage) and
+        // the frame's shared inputs.
+        auto images = std::make_shared<const PresetImages>(
+            PresetImages{fr.image, opt.reference ? flipMap.values : std::vector<float>{}, std::move(ensembleBias),
+                         std::move(ensembleVariance)});
+        imageWriter->Submit([stem, images, frameInputs = imageInputs] {
+          FrameLayers layers;
+          layers.estimate = &images->estimate;
+          layers.reference = frameInputs->hasReference ? &frameInputs->reference : nullptr;
+          layers.referenceStdError = frameInputs->hasReference ? &frameInputs->referenceStdError : nullptr;
+          layers.gbuffer = &frameInputs->gbuffer;
+          layers.flip = frameInputs->hasReference ? &images->flip : nullptr;
+          layers.ensembleBias = images->ensembleBias.Size() ? &images->ensembleBias : nullptr;
+          layers.ensembleVariance = images->ensembleVariance.Size() ? &images->ensembleVariance : nullptr;
+          WriteFrameExr(stem.string() + ".exr", layers);
+          const ImageRgb& estimate = images->estimate;
+          if (!frameInputs->hasReference) {
+            WritePreviewPng(stem.string() + ".png", estimate, nullptr);
+          } else {
+            std::call_once(frameInputs->previewOnce, [&] {
+              frameInputs->exposure = PreviewExposure(frameInputs->reference);
+              frameInputs->referencePanel = TonemapPreview(frameInputs->reference, frameInputs->exposure);
+            });
+            const std::vector<unsigned char> left = TonemapPreview(estimate, frameInputs->exposure);
+            WritePreviewPng(stem.string() + ".png", {&left, &frameInputs->referencePanel}, estimate.width,
+                            estimate.height);
+          }
+        });
       }
       ps.previousImage = std::move(fr.image);
     }
@@ -446,6 +512,7 @@ RunResult Run(const RunOptions& opt) {
     if (opt.reference) previousReference = std::move(ref.mean);
     if (!checkpointWritten || opt.checkpointSeconds <= 0.0 ||
         std::chrono::duration<double>(Clock::now() - lastCheckpoint).count() >= opt.checkpointSeconds) {
+      if (imageWriter) imageWriter->Drain();  // a resume starts after this frame: its images must be on disk
       SaveCheckpoint(checkpointPath, configKey, state, frame + 1);
       lastCheckpoint = Clock::now();
       checkpointWritten = true;
@@ -453,6 +520,7 @@ RunResult Run(const RunOptions& opt) {
     progress.FrameDone();
     progress.Show(frame - opt.frameBegin + 1, "done");
   }
+  if (imageWriter) imageWriter->Drain();
   progress.Finish();
   result.wallSeconds = std::chrono::duration<double>(Clock::now() - tRun).count();
   std::error_code ec;
