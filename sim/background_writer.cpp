@@ -40,6 +40,11 @@ void BackgroundWriter::Drain() {
   RethrowLocked(lock);
 }
 
+void BackgroundWriter::Check() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  RethrowLocked(lock);
+}
+
 void BackgroundWriter::Run() {
   pthread_setname_np(pthread_self(), "restir-writer");  // for top -H and perf: where the output time goes
   std::unique_lock<std::mutex> lock(mutex_);

@@ -28,6 +28,8 @@ class BackgroundWriter {
   void Submit(std::function<void()> job);
   // Returns when every submitted job has finished; rethrows the first failure.
   void Drain();
+  // Rethrows the first failure if a job has failed already; does not wait.
+  void Check();
 
  private:
   void Run();

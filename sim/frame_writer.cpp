@@ -103,11 +103,14 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   }
   if (layers.ensembleBias) AddRgbLayer(header, fb, "bias", *layers.ensembleBias);
   if (layers.ensembleVariance) AddRgbLayer(header, fb, "variance", *layers.ensembleVariance);
-  // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes. Reserved for the raw
-  // channels plus a little: run-length coding rarely grows a chunk, and the string grows if it does.
+  // Encoded in memory, so the bytes reach the file through WriteFileAtomic's checked writes. Reserved for the whole
+  // file, so the string never grows: OpenEXR stores a chunk raw where its compression would not be smaller (a
+  // 640x360 file of 18 channels of uniform noise: the raw floats plus 6,760 bytes), so the file is at most the
+  // raw channels, 16 bytes a scanline (its offset and its chunk's header) and the header.
   size_t channels = 0;
   for (auto it = header.channels().begin(); it != header.channels().end(); ++it) ++channels;
-  StringOStream stream(channels * est.Size() * sizeof(float) + (size_t{64} << 10));
+  StringOStream stream(channels * est.Size() * sizeof(float) + size_t{16} * static_cast<size_t>(h) +
+                       (size_t{64} << 10));
   {
     // ZIP compresses 16-line chunks independently; OpenEXR's own pool (SetExrThreads) compresses them in
     // parallel, with the same bytes whatever the thread count.

@@ -84,29 +84,36 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), s.sky) : 0.0;
-  const double transient = std::max({checkpoint, flip, cacheEntry, referenceRender});
-  add(transient == checkpoint        ? "checkpoint"
-      : transient == flip            ? "FLIP"
-      : transient == referenceRender ? "reference rendering"
-                                     : "reference cache entry",
-      transient);
-
+  // The background writer, when images are written, beside the frame loop's transients: the image jobs (the
+  // waiting ones, the one it writes and the one being submitted), each a preset's estimate, FLIP map and ensemble
+  // images; the frames' inputs they share (the reference, its standard error, five G-buffer arrays and the
+  // preview's reference panel) for as many frames as the jobs span, the loop's current one included; and one
+  // EXR's encoding: the error image and four scalar layers built for it, then the encoded file in memory (at most
+  // the raw float channels: 3 RGB layers, 3 more with a reference, 6 with an ensemble, 6 scalars, and 16 bytes a
+  // scanline, which the stream reserves whole: sim/frame_writer.cpp).
+  double writer = 0.0, frameInputs = 0.0;
   if (s.writeImages) {
-    // The background writer, alongside the frame loop's transients: the image jobs (the waiting ones, the one it
-    // writes and the one being submitted), each a preset's estimate, FLIP map and ensemble images; each job's
-    // frame inputs (the reference, its standard error and five G-buffer arrays), for as many frames as the jobs
-    // can span plus the frame the loop is in (no more than the run has); and one EXR's encoding: the error image and four scalar layers built for it, then
-    // the encoded file in memory (at most the raw float channels: 3 RGB layers, 3 more with a reference, 6 with
-    // an ensemble, 6 scalars), counted twice: the stream reserves the raw size and may grow once past it
-    // (sim/frame_writer.cpp StringOStream).
     const double runFrames = double(std::max<int64_t>(1, s.frames));
     const double jobs = std::min(kImageJobsWaiting + 2.0, runFrames * presets);
-    const double job = kRgb + (s.reference ? sizeof(float) : 0.0) + (members > 1 ? 2.0 * kRgb : 0.0);
-    const double frameInputs = (s.reference ? 2.0 * kRgb : 0.0) + 1.0 + 4.0 * sizeof(float);
-    const double frames = std::min(runFrames, std::min(jobs, std::ceil(jobs / presets) + 1.0) + 1.0);
+    // The ensemble's bias and variance images move into the job: the one being submitted holds the loop's own.
+    const double job = kRgb + (s.reference ? sizeof(float) : 0.0);
+    const double ensembleImages = members > 1 ? (jobs - 1.0) * 2.0 * kRgb : 0.0;
+    frameInputs = px * ((s.reference ? 2.0 * kRgb + 3.0 : 0.0) + 1.0 + 4.0 * sizeof(float));
+    const double frames = std::min({runFrames, jobs, std::ceil(jobs / presets) + 1.0});
     const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
-    const double exr = kRgb + 4.0 * sizeof(float) + 2.0 * exrChannels * sizeof(float);
-    add("images being written", px * (jobs * job + frames * frameInputs + exr));
+    const double exr = px * (kRgb + 4.0 * sizeof(float) + exrChannels * sizeof(float)) + 16.0 * double(s.height);
+    writer = px * (jobs * job + ensembleImages) + exr + frames * frameInputs;
+  }
+  // A checkpoint drains the writer first: beside it only the current frame's inputs stay.
+  const double loopTransient = std::max({flip, cacheEntry, referenceRender});
+  if (checkpoint + frameInputs >= loopTransient + writer) {
+    add("checkpoint", checkpoint + frameInputs);
+  } else {
+    add(loopTransient == flip              ? "FLIP"
+        : loopTransient == referenceRender ? "reference rendering"
+                                           : "reference cache entry",
+        loopTransient);
+    if (writer > 0.0) add("images being written", writer);
   }
 
   add("metrics rows", double(s.frames) * presets * kRowBytes);

@@ -30,7 +30,7 @@ struct RunShape {
 
 // Image jobs (one preset's frame files each) that may wait for the run's background writer besides the one it
 // writes (sim/runner.cpp, sim/background_writer.h); what they hold counts toward the peak.
-constexpr int kImageJobsWaiting = 2;
+constexpr int kImageJobsWaiting = 1;
 
 struct MemoryEstimate {
   double bytes = 0.0;                                     // the peak, all parts together

@@ -506,7 +506,10 @@ RunResult Run(const RunOptions& opt) {
       }
       ps.previousImage = std::move(fr.image);
     }
-    // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame.
+    // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame. It may
+    // lead the frame files by the jobs the writer holds (a failed one is reported here or at the next Submit);
+    // the checkpoint never does.
+    if (imageWriter) imageWriter->Check();
     WriteFileAtomic(csvPath, MetricsCsv(result.rows));
     loop.EndFrame();
     if (opt.reference) previousReference = std::move(ref.mean);

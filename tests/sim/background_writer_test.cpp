@@ -45,7 +45,7 @@ TEST(BackgroundWriter, HoldsAtMostItsQueueOfJobs) {
       for (int k = 0; k < 40; ++k) {
         auto token = std::make_shared<Token>(&alive, &peak);
         // Slow jobs, so the submitting side outruns the writer and the queue fills.
-        writer.Submit([token] { std::this_thread::sleep_for(std::chrono::microseconds(300)); });
+        writer.Submit([token] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
       }
       writer.Drain();
       EXPECT_EQ(alive.load(), 0) << "a finished job's captures are released";
@@ -86,7 +86,7 @@ TEST(BackgroundWriter, DestructionDropsWaitingJobsWithoutThrowing) {
   std::atomic<int> ran{0};
   {
     BackgroundWriter writer(8);
-    writer.Submit([] { std::this_thread::sleep_for(std::chrono::milliseconds(20)); });
+    writer.Submit([] { std::this_thread::sleep_for(std::chrono::milliseconds(200)); });
     for (int k = 0; k < 8; ++k) writer.Submit([&ran] { ++ran; });
   }
   EXPECT_LT(ran.load(), 8);

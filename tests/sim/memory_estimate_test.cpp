@@ -84,6 +84,9 @@ TEST(EstimateRunMemory, BoundsTheMeasuredPeakOfRealRuns) {
       {512, 512, 2, {"ris", "restir-unbiased", "restir-spmis"}, 1, true, true},
       {512, 512, 2, {"ris"}, 3, true, false},
       {960, 540, 2, {"restir-biased"}, 1, true, true},
+      // Long enough for the background writer's queue to fill (one fast preset, large frames).
+      {1280, 720, 5, {"ris"}, 1, true, true},
+      {960, 540, 4, {"ris"}, 3, true, true},
   };
   for (const Config& c : configs) {
     std::string presetList;

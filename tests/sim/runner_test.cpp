@@ -134,6 +134,38 @@ TEST(Run, WritesFramesMetricsAndRunRecord) {
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
 }
 
+// The frame files are written on a background thread (sim/background_writer.h): a file that cannot be written in a
+// later frame still ends the run with an error naming it, the frames before it are whole on disk, and no temporary
+// is left behind. A directory stands where frame 3's EXR would go, so its rename fails.
+TEST(Run, AFrameFileThatCannotBeWrittenInALaterFrameEndsTheRun) {
+  const std::string out = TempOut("restir-run-late-failure");
+  RunOptions o = SmokeOptions(out);
+  o.frameBegin = 0;
+  o.frameEnd = 6;
+  o.presets = {"ris", "restir-unbiased"};
+  std::filesystem::create_directories(out + "/frames/ris/0003.exr/occupied");
+  try {
+    restir::Run(o);
+    ADD_FAILURE() << "the run went on past a frame file it could not write";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("0003.exr"), std::string::npos) << e.what();
+  }
+  for (const char* preset : {"ris", "restir-unbiased"})
+    for (int f = 0; f < 3; ++f) {
+      char name[16];
+      std::snprintf(name, sizeof(name), "%04d", f);
+      for (const char* ext : {".exr", ".png"}) {
+        const std::string path = out + "/frames/" + preset + "/" + name + ext;
+        auto in = OIIO::ImageInput::open(path);
+        ASSERT_TRUE(in) << path << ": " << OIIO::geterror();
+        std::vector<float> pixels(static_cast<size_t>(in->spec().image_pixels()) * in->spec().nchannels);
+        EXPECT_TRUE(in->read_image(0, 0, 0, in->spec().nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) << path;
+      }
+    }
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().string().find("restir-sim-tmp"), std::string::npos) << e.path();
+}
+
 // The EXRs are readable by OpenEXR's and OpenImageIO's own command-line tools (installed by scripts/setup.sh).
 TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   const std::string out = TempOut("restir-run-exrheader");
