@@ -76,6 +76,27 @@ struct PresetImages {
   ImageRgb ensembleBias, ensembleVariance;  // empty without an ensemble
 };
 
+// One preset's frame files, on the background writer: the EXR (sim/frame_writer.h's layers) and the PNG preview,
+// whose exposure and reference panel the frame's first job makes for all of them.
+void WritePresetFiles(const std::string& stem, const PresetImages& images, const FrameImageInputs& frame) {
+  FrameLayers layers;
+  layers.estimate = &images.estimate;
+  layers.reference = frame.hasReference ? &frame.reference : nullptr;
+  layers.referenceStdError = frame.hasReference ? &frame.referenceStdError : nullptr;
+  layers.gbuffer = &frame.gbuffer;
+  layers.flip = frame.hasReference ? &images.flip : nullptr;
+  layers.ensembleBias = images.ensembleBias.Size() ? &images.ensembleBias : nullptr;
+  layers.ensembleVariance = images.ensembleVariance.Size() ? &images.ensembleVariance : nullptr;
+  WriteFrameExr(stem + ".exr", layers);
+  if (!frame.hasReference) return WritePreviewPng(stem + ".png", images.estimate, nullptr);
+  std::call_once(frame.previewOnce, [&] {
+    frame.exposure = PreviewExposure(frame.reference);
+    frame.referencePanel = TonemapPreview(frame.reference, frame.exposure);
+  });
+  const std::vector<unsigned char> left = TonemapPreview(images.estimate, frame.exposure);
+  WritePreviewPng(stem + ".png", {&left, &frame.referencePanel}, images.estimate.width, images.estimate.height);
+}
+
 std::string FormatCsvNumber(double v) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.9g", v);
@@ -481,27 +502,7 @@ RunResult Run(const RunOptions& opt) {
             PresetImages{fr.image, opt.reference ? flipMap.values : std::vector<float>{}, std::move(ensembleBias),
                          std::move(ensembleVariance)});
         imageWriter->Submit([stem, images, frameInputs = imageInputs] {
-          FrameLayers layers;
-          layers.estimate = &images->estimate;
-          layers.reference = frameInputs->hasReference ? &frameInputs->reference : nullptr;
-          layers.referenceStdError = frameInputs->hasReference ? &frameInputs->referenceStdError : nullptr;
-          layers.gbuffer = &frameInputs->gbuffer;
-          layers.flip = frameInputs->hasReference ? &images->flip : nullptr;
-          layers.ensembleBias = images->ensembleBias.Size() ? &images->ensembleBias : nullptr;
-          layers.ensembleVariance = images->ensembleVariance.Size() ? &images->ensembleVariance : nullptr;
-          WriteFrameExr(stem.string() + ".exr", layers);
-          const ImageRgb& estimate = images->estimate;
-          if (!frameInputs->hasReference) {
-            WritePreviewPng(stem.string() + ".png", estimate, nullptr);
-          } else {
-            std::call_once(frameInputs->previewOnce, [&] {
-              frameInputs->exposure = PreviewExposure(frameInputs->reference);
-              frameInputs->referencePanel = TonemapPreview(frameInputs->reference, frameInputs->exposure);
-            });
-            const std::vector<unsigned char> left = TonemapPreview(estimate, frameInputs->exposure);
-            WritePreviewPng(stem.string() + ".png", {&left, &frameInputs->referencePanel}, estimate.width,
-                            estimate.height);
-          }
+          WritePresetFiles(stem.string(), *images, *frameInputs);
         });
       }
       ps.previousImage = std::move(fr.image);
