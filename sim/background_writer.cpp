@@ -6,7 +6,8 @@
 
 namespace restir {
 
-BackgroundWriter::BackgroundWriter(size_t maxQueued) : maxQueued_(maxQueued > 0 ? maxQueued : 1), thread_([this] { Run(); }) {}
+BackgroundWriter::BackgroundWriter(size_t maxQueued)
+    : maxQueued_(maxQueued > 0 ? maxQueued : 1), thread_([this] { Run(); }) {}
 
 BackgroundWriter::~BackgroundWriter() {
   {

@@ -15,7 +15,7 @@ namespace restir {
 // A queue of jobs (each writes its own files, e.g. through WriteFileAtomic) run in submission order on one thread.
 // At most `maxQueued` jobs wait besides the one running, so the memory the jobs hold stays bounded: Submit blocks
 // until there is room. The first job that throws stops the queue (later jobs are dropped unrun), and its exception
-// is rethrown by the next Submit or Drain on the submitting thread, so a failed write still ends the run with its
+// is rethrown by the next Submit, Drain or Check on the submitting thread, so a failed write still ends the run with its
 // message. The destructor waits for the running job and drops the rest without rethrowing (it runs while an
 // exception unwinds); call Drain first wherever the files must exist.
 class BackgroundWriter {

@@ -130,7 +130,7 @@ std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool 
   if (srgb) spec.attribute("oiio:ColorSpace", "sRGB");
   spec.attribute("png:compressionLevel", 1);  // previews: speed over the last few percent of bytes
   // No row filter (PNG_FILTER_NONE): on noisy tone-mapped renders libpng's adaptive choice among the five filters
-  // cost more than it saved (README command 1's 8-frame prefix: 1.4 s of CPU, and the files 3% larger with it).
+  // cost more than it saved (README command 1's 8-frame prefix: 1.5 s of CPU, and the files 3% larger with it).
   spec.attribute("png:filter", 0x08);
   if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) ||
       !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close())

@@ -95,14 +95,15 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   if (s.writeImages) {
     const double runFrames = double(std::max<int64_t>(1, s.frames));
     const double jobs = std::min(kImageJobsWaiting + 2.0, runFrames * presets);
-    // The ensemble's bias and variance images move into the job: the one being submitted holds the loop's own.
-    const double job = kRgb + (s.reference ? sizeof(float) : 0.0);
-    const double ensembleImages = members > 1 ? (jobs - 1.0) * 2.0 * kRgb : 0.0;
+    // The estimate is copied into each job; the FLIP map and the ensemble's bias and variance images move into
+    // it, so the job being submitted holds the loop's own (counted under "images").
+    const double job = kRgb;
+    const double moved = (jobs - 1.0) * ((s.reference ? sizeof(float) : 0.0) + (members > 1 ? 2.0 * kRgb : 0.0));
     frameInputs = px * ((s.reference ? 2.0 * kRgb + 3.0 : 0.0) + 1.0 + 4.0 * sizeof(float));
     const double frames = std::min({runFrames, jobs, std::ceil(jobs / presets) + 1.0});
     const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;
     const double exr = px * (kRgb + 4.0 * sizeof(float) + exrChannels * sizeof(float)) + 16.0 * double(s.height);
-    writer = px * (jobs * job + ensembleImages) + exr + frames * frameInputs;
+    writer = px * (jobs * job + moved) + exr + frames * frameInputs;
   }
   // A checkpoint drains the writer first: beside it only the current frame's inputs stay.
   const double loopTransient = std::max({flip, cacheEntry, referenceRender});

@@ -39,7 +39,8 @@ struct MemoryEstimate {
 
 // An upper estimate of the run's peak resident memory: the long-lived per-pixel arrays (G-buffers, reservoirs,
 // images, references) plus the largest transient of the frame loop (checkpoint serialisation, FLIP, the reference's
-// render), the images the background writer holds with its EXR encoding, the metrics rows and the scene. Each part is computed from the sizes of the structures that hold it; tests/sim/memory_estimate_test
+// render), the images the background writer holds with its EXR encoding, the metrics rows and the scene. Each part
+// is computed from the sizes of the structures that hold it; tests/sim/memory_estimate_test
 // checks the sum against the measured peak of real runs.
 MemoryEstimate EstimateRunMemory(const RunShape& shape);
 

@@ -454,7 +454,7 @@ RunResult Run(const RunOptions& opt) {
       }
       ImageRgb accumMean(width, height);
       for (size_t i = 0; i < accumMean.Size(); ++i) accumMean.pixels[i] = ps.accumSum.pixels[i] / float(accumFrames);
-      const FlipMap flipMap = opt.reference ? HdrFlip(*flipReference, fr.image) : FlipMap{};
+      FlipMap flipMap = opt.reference ? HdrFlip(*flipReference, fr.image) : FlipMap{};
 
       FrameMeasurement m;
       m.frame = frame;
@@ -496,11 +496,10 @@ RunResult Run(const RunOptions& opt) {
         char name[32];
         std::snprintf(name, sizeof(name), "%04d", frame);
         const auto stem = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name / name;
-        // The job owns what it writes: this preset's images (copied: the estimate lives on as previousImage) and
-        // the frame's shared inputs.
-        auto images = std::make_shared<const PresetImages>(
-            PresetImages{fr.image, opt.reference ? flipMap.values : std::vector<float>{}, std::move(ensembleBias),
-                         std::move(ensembleVariance)});
+        // The job owns what it writes: this preset's images (the estimate copied, as it lives on as previousImage;
+        // the FLIP map and ensemble images moved, measured already) and the frame's shared inputs.
+        auto images = std::make_shared<const PresetImages>(PresetImages{
+            fr.image, std::move(flipMap.values), std::move(ensembleBias), std::move(ensembleVariance)});
         imageWriter->Submit([stem, images, frameInputs = imageInputs] {
           WritePresetFiles(stem.string(), *images, *frameInputs);
         });
