@@ -5,8 +5,8 @@
 # acos 1,145, exp 2,726, log 415, sin 2,941 of 4 M). The project calls some of them (Lambert's polygon formula in
 # the reference's light distributions, the sky's row areas, texture decoding, FLIP's filters) where a changed
 # last bit could reach an image. So a cluster whose nodes differ in FMA must still merge to a local run's bits:
-# this runs the committed-hash tests, and whole runs of a sky and an asset scene, with glibc forced to its
-# baseline variants (GLIBC_TUNABLES), and compares them with this machine's own.
+# this runs the committed-hash tests, and whole runs of a sky scene, an asset scene and the flagship, with glibc
+# forced to its baseline variants (GLIBC_TUNABLES), and compares them with this machine's own.
 #
 #   tests/cli/baseline_libm.sh RESTIR_SIM SIM_TESTS [WORKDIR]
 set -euo pipefail
@@ -49,6 +49,11 @@ run() {  # variant tunables sequence resolution frames
     --cache-dir "$W/$1/$(basename "$3" .json)/cache" --out "$W/$1/$(basename "$3" .json)/run" \
     >"$W/$1-$(basename "$3" .json).log" 2>&1 || { cat "$W/$1-$(basename "$3" .json).log" >&2; return 1; }
 }
+strip() {  # metrics.csv without its timing columns (ms_*)
+  awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) keep[i] = $i !~ /^ms_/ }
+           { line = ""; for (i = 1; i <= NF; i++) if (keep[i]) line = line "," $i; print line }' "$1"
+}
+files() { (cd "$1" && find . -name '*.exr' -o -name 'ref-*.bin' | sort | xargs md5sum); }
 status=0
 for case in "tests/data/sky_smoke.json 48x27 0:2" "sequences/asset_table.json 64x36 0:2" \
             "sequences/window_bars_pan.json 64x36 8:10"; do
@@ -56,11 +61,6 @@ for case in "tests/data/sky_smoke.json 48x27 0:2" "sequences/asset_table.json 64
   run own "" "$seq" "$res" "$frames"
   run base "$BASELINE" "$seq" "$res" "$frames"
   name=$(basename "$seq" .json)
-  strip() {  # metrics.csv without its timing columns (ms_*)
-    awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) keep[i] = $i !~ /^ms_/ }
-             { line = ""; for (i = 1; i <= NF; i++) if (keep[i]) line = line "," $i; print line }' "$1"
-  }
-  files() { (cd "$1" && find . -name '*.exr' -o -name 'ref-*.bin' | sort | xargs md5sum); }
   if ! diff <(strip "$W/own/$name/run/metrics.csv") <(strip "$W/base/$name/run/metrics.csv") >/dev/null; then
     echo "FAIL: $name: metrics differ between libm variants" >&2
     status=1
