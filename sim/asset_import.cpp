@@ -2,6 +2,7 @@
 #include "sim/asset_import.h"
 
 #include <assimp/GltfMaterial.h>
+#include <assimp/SceneCombiner.h>
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -13,6 +14,9 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <set>
+#include <utility>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "sim/input_file.h"
@@ -100,6 +104,69 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
     keys.push_back(k);
   }
   return keys;
+}
+
+// glTF 2.0 (section 3.7.4): "When a mesh primitive uses any triangle-based topology, the determinant of the node's
+// global transform defines the winding order of that primitive": counter-clockwise front faces where it is
+// positive, clockwise where it is negative. The simulator keeps one rule, counter-clockwise (an emitter's front is
+// cross(e1, e2)), so the triangles of every mesh placed by a mirroring node (negative determinant) are reversed
+// before the transforms are baked; a mesh placed both by mirroring and other nodes is copied for the mirroring
+// ones. OBJ and PLY have no node transforms, so this only ever concerns glTF.
+void ReverseMirroredWinding(aiScene& scene) {
+  if (!scene.mRootNode || scene.mNumMeshes == 0) return;
+  // Each node with meshes and whether its global transform mirrors (parent × local, as Assimp composes them).
+  std::vector<std::pair<aiNode*, bool>> placed;
+  std::vector<std::pair<aiNode*, aiMatrix4x4>> stack{{scene.mRootNode, scene.mRootNode->mTransformation}};
+  std::set<const aiNode*> seen;  // Assimp refuses cyclic node graphs; this loop does not rely on it
+  while (!stack.empty()) {
+    auto [node, global] = stack.back();
+    stack.pop_back();
+    if (!seen.insert(node).second) continue;
+    const double a[3][3] = {{global.a1, global.a2, global.a3}, {global.b1, global.b2, global.b3},
+                            {global.c1, global.c2, global.c3}};
+    const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                       a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                       a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    if (node->mNumMeshes > 0) placed.emplace_back(node, det < 0.0);
+    for (unsigned c = 0; c < node->mNumChildren; ++c)
+      if (node->mChildren[c]) stack.emplace_back(node->mChildren[c], global * node->mChildren[c]->mTransformation);
+  }
+  // Per mesh: placed by a mirroring node, by another node.
+  std::vector<uint8_t> mirrored(scene.mNumMeshes, 0), plain(scene.mNumMeshes, 0);
+  for (const auto& [node, mirrors] : placed)
+    for (unsigned k = 0; k < node->mNumMeshes; ++k)
+      if (node->mMeshes[k] < scene.mNumMeshes) (mirrors ? mirrored : plain)[node->mMeshes[k]] = 1;
+  // The mesh the mirroring nodes use: the mesh itself, reversed, or a reversed copy appended to the scene.
+  std::vector<unsigned> reversedIndex(scene.mNumMeshes);
+  std::vector<aiMesh*> copies;
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    reversedIndex[m] = m;
+    if (!mirrored[m]) continue;
+    aiMesh* target = scene.mMeshes[m];
+    if (plain[m]) {
+      aiMesh* copy = nullptr;
+      Assimp::SceneCombiner::Copy(&copy, target);
+      copies.push_back(copy);
+      reversedIndex[m] = scene.mNumMeshes + static_cast<unsigned>(copies.size() - 1);
+      target = copy;
+    }
+    for (unsigned f = 0; f < target->mNumFaces; ++f) {
+      aiFace& face = target->mFaces[f];
+      if (face.mNumIndices == 3) std::swap(face.mIndices[1], face.mIndices[2]);
+    }
+  }
+  if (!copies.empty()) {
+    aiMesh** meshes = new aiMesh*[scene.mNumMeshes + copies.size()];
+    std::copy(scene.mMeshes, scene.mMeshes + scene.mNumMeshes, meshes);
+    std::copy(copies.begin(), copies.end(), meshes + scene.mNumMeshes);
+    delete[] scene.mMeshes;
+    scene.mMeshes = meshes;
+    scene.mNumMeshes += static_cast<unsigned>(copies.size());
+  }
+  for (const auto& [node, mirrors] : placed)
+    if (mirrors)
+      for (unsigned k = 0; k < node->mNumMeshes; ++k)
+        if (node->mMeshes[k] < reversedIndex.size()) node->mMeshes[k] = reversedIndex[node->mMeshes[k]];
 }
 
 class Converter {
@@ -318,13 +385,17 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
       gltf ? GltfMaterialKeys(bytes, path, ext == ".glb") : std::vector<GltfMaterialKey>{};
   if (!gltf) std::string().swap(bytes);  // only glTF needs them; Assimp reads the file itself
   Assimp::Importer importer;
-  // PreTransformVertices bakes every node's transform into its meshes' vertices (and normals), so the asset
-  // arrives in its root space; SortByPType puts points and lines in meshes of their own, which are skipped.
-  const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_PreTransformVertices |
-                         aiProcess_ValidateDataStructure;
+  // SortByPType puts points and lines in meshes of their own, which are skipped.
+  const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
   const aiScene* scene = importer.ReadFile(path, flags);
   if (!scene) Fail(path, std::string("cannot import the asset (Assimp: ") + importer.GetErrorString() + ")");
   if (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) Fail(path, "the asset is incomplete (Assimp flagged it)");
+  // PreTransformVertices then bakes every node's transform into its meshes' vertices (and normals), so the asset
+  // arrives in its root space; it keeps the winding of meshes under a mirroring node, which glTF says to reverse
+  // first. Assimp's importer owns the scene and lets it be edited between the two calls.
+  ReverseMirroredWinding(const_cast<aiScene&>(*scene));
+  scene = importer.ApplyPostProcessing(aiProcess_PreTransformVertices);
+  if (!scene) Fail(path, std::string("cannot import the asset (Assimp: ") + importer.GetErrorString() + ")");
   ImportedAsset asset = Converter(path, *scene, limits).Convert(gltfMaterials, gltf);
   if (asset.meshes.empty()) Fail(path, "the asset has no triangles");
   return asset;

@@ -10,7 +10,9 @@
 //    KHR_materials_emissive_strength, optionally × an emissive texture), placed by the sequence's keyframe
 //    (and in some cases a glTF node hierarchy), above a diffuse floor. Per configuration:
 //    - the imported light triangles equal the world vertices computed here (within 8 float ulps of the
-//      largest coordinate), in the quad's vertex order, with the radiance computed here (1e-6 relative);
+//      largest coordinate), each counter-clockwise seen from the front glTF 2.0 gives it (section 3.7.4: the
+//      file's order, reversed under a node whose global transform mirrors), that front computed here from the
+//      transforms and never from the imported winding, with the radiance computed here (1e-6 relative);
 //    - (a) the reference equals the reference of the same scene with a sequence quad light ("type": "quad",
 //      centre, u and v computed here): one floor object and one light either way, so the same frame state and
 //      the same random numbers. Where the two paths give the same float triangles the images must be
@@ -22,7 +24,8 @@
 //      above 1% of it (near the emitter's plane a rounding of the plane's tilt is a larger share of a small
 //      value);
 //    - (b) per pixel and channel, the reference against Lambert's closed form on the scene's light triangles
-//      (each clipped to the floor's horizon) × albedo/π, with the radiance computed here. z = (ref − closed
+//      (each clipped to the floor's horizon, lighting only the side of the front computed here) × albedo/π,
+//      with the radiance computed here. z = (ref − closed
 //      form) / ref standard error is Student t with 15 dof (16 replicates). Three claims per channel, as
 //      tests/sim/closed_form_test.cpp makes them: mean z² within 15/13 ± q·sqrt(3.389/pixels), q the normal
 //      quantile of 1e-4 two-sided (false-failure rate 1e-4); max |z| below the t15 quantile of 1e-3/pixels
@@ -35,9 +38,10 @@
 //    The grid: binary-exact transforms through a node hierarchy (bit-identity), tilted 40°, tilted 75° 1000 m
 //    from the origin, tiny 1 cm tilted 30°, tiny 1 cm 1000 m from the origin, huge 100 m at 100 m, a node
 //    hierarchy (parent translation, child rotation and non-uniform scale) under a rotated, non-uniformly
-//    scaled keyframe, a uniform 4×4 sRGB emissive texture, and a four-quadrant emissive texture whose two
-//    triangles read two diagonal quadrants (each triangle's mean is one colour exactly; a flipped u or v
-//    would read another).
+//    scaled keyframe, nodes mirrored in x and (non-uniformly, 1000 m from the origin) in z, a node scaled −1 on
+//    two axes (a half turn: no mirror), a uniform 4×4 sRGB emissive texture, and a four-quadrant emissive
+//    texture whose two triangles read two diagonal quadrants (each triangle's mean is one colour exactly; a
+//    flipped u or v would read another). The mirroring cases have (b) only: see (a).
 // Seeds are fixed, so every outcome is deterministic.
 #include <gtest/gtest.h>
 
@@ -152,6 +156,42 @@ std::vector<EmitterCase> EmitterGrid() {
     c.emissiveFactor = {1.0, 0.8, 0.9};
     out.push_back(c);
   }
+  // Mirroring nodes (glTF 2.0 section 3.7.4: a negative determinant makes the front faces clockwise). In each the
+  // front, as the test computes it, faces the floor: an importer that kept the file's winding would light
+  // nothing, or the other way round.
+  {
+    EmitterCase c;
+    c.name = "node mirrored in x, turned 20 deg about z";
+    c.key = {{0.1, 0.5, 0}, {0, 15, 0}, D3(0.15)};
+    c.hierarchy = true;
+    c.parentTranslation = {0.2, 0.1, 0.0};
+    c.childAxis = {0, 0, 1};
+    c.childDegrees = 20.0;
+    c.childScale = {-1.0, 1.0, 0.8};
+    out.push_back(c);
+  }
+  {
+    EmitterCase c;
+    c.name = "node mirrored in z, non-uniform, turned 35 deg about (1, 0, 1), 1000 m from the origin";
+    c.origin = Far(1000.0);
+    c.key = {c.origin + D3(0, 0.45, 0), {0, -30, 0}, D3(0.15)};
+    c.hierarchy = true;
+    c.childAxis = {1, 0, 1};
+    c.childDegrees = 35.0;
+    c.childScale = {1.2, 1.0, -0.6};
+    c.emissiveFactor = {0.8, 1.0, 0.7};
+    out.push_back(c);
+  }
+  {
+    // Two negative scales make a half turn, not a mirror: the winding stays, and the keyframe's half turn
+    // about x brings the front (now up) back down to the floor.
+    EmitterCase c;
+    c.name = "node scaled -1 on x and y (a half turn), keyframe turned over";
+    c.key = {{0, 0.5, 0.1}, {180, 0, 0}, D3(0.15)};
+    c.hierarchy = true;
+    c.childScale = {-1.0, -1.0, 1.0};
+    out.push_back(c);
+  }
   {
     EmitterCase c;
     c.name = "uniform emissive texture";
@@ -263,15 +303,29 @@ Json EmitterScene(const EmitterCase& c, const std::string& name) {
       {"camera", CameraJson(view + D3(0, c.cameraDistance, c.cameraDistance / 2), view, 62.0)}};
 }
 
+// The emitting side's normal in the world, as glTF 2.0 defines it (section 3.7.4), computed here from the case's
+// transforms and never from the imported winding: the local quad's front −ŷ mapped by the inverse transpose of
+// the local → world map. (The triangles' own cross product is det(A) times that: it turns over under a mirror.)
+D3 ExpectedFront(const EmitterCase& c) {
+  return glm::normalize(glm::transpose(glm::inverse(EmitterToWorld(c).a)) * D3(0, -1, 0));
+}
+
+bool Mirrors(const EmitterCase& c) {
+  return glm::determinant(EmitterToWorld(c).a) < 0.0;
+}
+
 // Outgoing radiance at floor point x, channel `ch`: albedo/π Σ_t L_t E_t(x), each light triangle (as the
-// scene holds it) on x's side of its plane clipped to x's horizon.
-double FloorClosedForm(const Light& light, const std::vector<D3>& radiance, int ch, const Vec3& x) {
+// scene holds it) clipped to x's horizon, where x is on its emitting side: the side of the triangle's plane (as
+// the scene holds it: at 1000 m its rounded corners tilt it) that `front`, the test's own, points to.
+double FloorClosedForm(const Light& light, const std::vector<D3>& radiance, const D3& front, int ch,
+                       const Vec3& x) {
   const Vec3 n(0, 1, 0);
   double sum = 0.0;
   for (size_t t = 0; t < radiance.size(); ++t) {
     const std::vector<Vec3> tri(light.vertices.begin() + 3 * t, light.vertices.begin() + 3 * t + 3);
-    const D3 front = glm::cross(D3(tri[1]) - D3(tri[0]), D3(tri[2]) - D3(tri[0]));
-    if (glm::dot(front, D3(x) - D3(tri[0])) <= 0.0) continue;
+    D3 side = glm::cross(D3(tri[1]) - D3(tri[0]), D3(tri[2]) - D3(tri[0]));
+    if (glm::dot(side, front) < 0.0) side = -side;
+    if (glm::dot(side, D3(x) - D3(tri[0])) <= 0.0) continue;
     const std::vector<Vec3> clipped = ClipPolygonToHemisphere(x, n, tri);
     if (clipped.size() >= 3) sum += PolygonIrradiance(x, n, clipped, radiance[t][ch]);
   }
@@ -286,7 +340,7 @@ double FloorClosedForm(const Light& light, const std::vector<D3>& radiance, int 
 // to floor points up to ~30 µm behind its plane, where Lambert's formula says 0. Elsewhere the band is below
 // 1e-6 m and empty.
 Verdict CompareWithLambert(const GBuffer& g, const ReferenceImage& ref, const Light& light,
-                           const std::vector<D3>& radiance, int ch, int* excluded) {
+                           const std::vector<D3>& radiance, const D3& front, int ch, int* excluded) {
   Verdict v;
   std::vector<double> exact(g.Size(), 0.0);
   double brightest = 0.0, magnitude = 0.0;
@@ -295,7 +349,7 @@ Verdict CompareWithLambert(const GBuffer& g, const ReferenceImage& ref, const Li
   *excluded = 0;
   for (size_t i = 0; i < g.Size(); ++i)
     if (g.IsSurface(i))
-      brightest = std::max(brightest, exact[i] = FloorClosedForm(light, radiance, ch, g.Position(i)));
+      brightest = std::max(brightest, exact[i] = FloorClosedForm(light, radiance, front, ch, g.Position(i)));
   double sumRelative = 0.0, sumRelativeVar = 0.0;
   int lit = 0;
   for (size_t i = 0; i < g.Size(); ++i) {
@@ -365,17 +419,31 @@ TEST(AssetClosedForm, EmissiveQuadMatchesSequenceLightAndLambert) {
     const Light& light = asset.lights[0];
     ASSERT_EQ(light.vertices.size(), 6u);
     const Affine toWorld = EmitterToWorld(c);
-    const int order[6] = {0, 1, 2, 0, 2, 3};
+    const bool mirrors = Mirrors(c);
+    const D3 front = ExpectedFront(c);
+    // Each triangle counter-clockwise seen from its front: the file's corners, reversed under a mirroring node
+    // (where the file's order is clockwise seen from the front). Where the triangle starts is free.
+    const int fileOrder[6] = {0, 1, 2, 0, 2, 3}, reversedOrder[6] = {0, 2, 1, 0, 3, 2};
+    const int* order = mirrors ? reversedOrder : fileOrder;
     double magnitude = 0.0, worstVertex = 0.0;
     for (int k = 0; k < 4; ++k) magnitude = std::max(magnitude, CompMax(glm::abs(toWorld(kLocalCorners[k]))));
-    for (int k = 0; k < 6; ++k) {
-      const D3 expected = toWorld(kLocalCorners[order[k]]);
-      const double error = CompMax(glm::abs(D3(light.vertices[k]) - expected));
+    for (int t = 0; t < 2; ++t) {
+      double error = INFINITY;
+      for (int start = 0; start < 3; ++start) {
+        double e = 0.0;
+        for (int k = 0; k < 3; ++k)
+          e = std::max(e, CompMax(glm::abs(D3(light.vertices[3 * t + (start + k) % 3]) -
+                                           toWorld(kLocalCorners[order[3 * t + k]]))));
+        error = std::min(error, e);
+      }
       worstVertex = std::max(worstVertex, error);
-      EXPECT_LE(error, FloatTolerance(magnitude))
-          << "vertex " << k << ": imported (" << light.vertices[k].x << ", " << light.vertices[k].y << ", "
-          << light.vertices[k].z << "), expected (" << expected.x << ", " << expected.y << ", " << expected.z
-          << ")";
+      EXPECT_LE(error, FloatTolerance(magnitude)) << "triangle " << t << ": imported (" << light.vertices[3 * t].x
+                                                  << ", " << light.vertices[3 * t].y << ", "
+                                                  << light.vertices[3 * t].z << "), ...";
+      const D3 p0(light.vertices[3 * t]);
+      EXPECT_GT(glm::dot(glm::cross(D3(light.vertices[3 * t + 1]) - p0, D3(light.vertices[3 * t + 2]) - p0), front),
+                0.0)
+          << "triangle " << t << " faces away from the front glTF gives it";
     }
     const double side = glm::length(toWorld(kLocalCorners[1]) - toWorld(kLocalCorners[0]));
     std::printf(
@@ -392,8 +460,9 @@ TEST(AssetClosedForm, EmissiveQuadMatchesSequenceLightAndLambert) {
 
     // (a) The same scene with a sequence quad light (one light, two triangles: the same frame state, so the
     // same random numbers). The four-quadrant case has two radiances, which needs two sequence lights, hence
-    // another frame state and other random numbers: it has (b) only.
-    if (c.texture != EmissionTexture::kQuadrants) {
+    // another frame state and other random numbers: it has (b) only. So have the mirroring cases: a sequence
+    // quad whose front is the mirrored one lists its triangles in another order, so its samples pick others.
+    if (c.texture != EmissionTexture::kQuadrants && !mirrors) {
       const D3 centre = toWorld(D3(0.0)), u = toWorld.a * D3(1, 0, 0), v = toWorld.a * D3(0, 0, 1);
       Json plain = EmitterScene(c, "sequence_light");
       plain["lights"].push_back({{"name", "lamp"},
@@ -451,7 +520,7 @@ TEST(AssetClosedForm, EmissiveQuadMatchesSequenceLightAndLambert) {
     // (b) Lambert, per channel.
     for (int ch = 0; ch < 3; ++ch) {
       int excluded = 0;
-      const Verdict v = CompareWithLambert(g, ref, light, radiance, ch, &excluded);
+      const Verdict v = CompareWithLambert(g, ref, light, radiance, front, ch, &excluded);
       ExpectAgreement(v, v.meanZ2, v.pixels, t15,
                       std::string("(b) Lambert, channel ") + "RGB"[ch] + ", " + std::to_string(excluded) +
                           " px on the plane");
