@@ -48,6 +48,8 @@ void Fields(IO& io, Asset& a) {
     io.Pod(t.width);
     io.Pod(t.height);
     io.Vector(t.rgb);
+    io.Pod(t.wrapU);
+    io.Pod(t.wrapV);
   }
   n = a.encodedTextures.size();
   io.Count(n);
@@ -57,6 +59,8 @@ void Fields(IO& io, Asset& a) {
     io.String(t.bytes);
     io.Pod(t.rawWidth);
     io.Pod(t.rawHeight);
+    io.Pod(t.wrapU);
+    io.Pod(t.wrapV);
   }
   n = a.meshes.size();
   io.Count(n);
@@ -67,6 +71,7 @@ void Fields(IO& io, Asset& a) {
     io.Vector(m.positions);
     io.Vector(m.normals);
     io.Vector(m.texcoords);
+    io.Vector(m.emissionTexcoords);
     io.Vector(m.triangles);
   }
 }
@@ -122,6 +127,11 @@ void ValidateAsset(const ImportedAsset& a, const std::string& path, const AssetL
     for (float v : t.rgb)
       if (!std::isfinite(v) || v < 0.0f) Fail(path, "texture '" + t.name + "' has a negative or non-finite texel");
   }
+  auto wrapOk = [](TextureWrap w) { return w <= TextureWrap::kMirroredRepeat; };
+  for (const Texture& t : a.textures)
+    if (!wrapOk(t.wrapU) || !wrapOk(t.wrapV)) Fail(path, "texture '" + t.name + "' has an unknown wrap mode");
+  for (const EncodedTexture& t : a.encodedTextures)
+    if (!wrapOk(t.wrapU) || !wrapOk(t.wrapV)) Fail(path, "texture '" + t.name + "' has an unknown wrap mode");
   const size_t textureCount = std::max(a.textures.size(), a.encodedTextures.size());
   auto textureOk = [&](int32_t k) { return k >= -1 && k < static_cast<int32_t>(textureCount); };
   for (size_t i = 0; i < a.materials.size(); ++i) {
@@ -139,7 +149,8 @@ void ValidateAsset(const ImportedAsset& a, const std::string& path, const AssetL
     const std::string what = "mesh '" + m.name + "' (#" + std::to_string(i) + ")";
     if (m.material >= a.materials.size()) Fail(path, what + " uses a material the asset does not have");
     if ((!m.normals.empty() && m.normals.size() != m.positions.size()) ||
-        (!m.texcoords.empty() && m.texcoords.size() != m.positions.size()))
+        (!m.texcoords.empty() && m.texcoords.size() != m.positions.size()) ||
+        (!m.emissionTexcoords.empty() && m.emissionTexcoords.size() != m.positions.size()))
       Fail(path, what + " has normals or texture coordinates for some vertices only");
     for (size_t v = 0; v < m.positions.size(); ++v) {
       for (int c = 0; c < 3; ++c) {

@@ -42,6 +42,45 @@ std::string Lower(std::string s) {
 // KHR_materials_emissive_strength, which Assimp 5.2 does not read. Assimp numbers glTF materials in the order its
 // reader first meets them, not the file's, so each file material is kept with what identifies it (its name and
 // factors), and an Assimp material takes the strength of the file materials that look exactly like it.
+// How a material reads one of its textures (glTF 2.0 section 5.22 textureInfo, 5.26 sampler; KHR_texture_transform),
+// which Assimp 5.2 either does not keep (the transform is only its own re-parametrisation, whose composition with
+// its TransformUVCoords step is not the extension's) or keeps per material slot (set, wrap), so it is read here from
+// the JSON with the material's other keys.
+struct GltfTextureUse {
+  bool present = false;
+  std::string image;  // images[source].uri ("" for an image in a buffer view): tells materials apart
+  int texCoord = 0;   // the UV set (TEXCOORD_n); the transform's own texCoord overrides the textureInfo's
+  // KHR_texture_transform, in glTF's texture space (s right, t down from the top-left corner): (s', t') = offset +
+  // R diag(scale) (s, t) with R = [cos r, sin r; -sin r, cos r], as the ratified extension's GLSL has it
+  // (mat3(cos, -sin, 0, sin, cos, 0, 0, 0, 1), column-major). Its draft had the transpose; Khronos'
+  // TextureTransformTest model marks that sign as wrong (its arrow then points at the red marker).
+  double offset[2] = {0.0, 0.0};
+  double rotation = 0.0;
+  double scale[2] = {1.0, 1.0};
+  TextureWrap wrapS = TextureWrap::kRepeat;
+  TextureWrap wrapT = TextureWrap::kRepeat;
+  bool Transformed() const {
+    return offset[0] != 0.0 || offset[1] != 0.0 || rotation != 0.0 || scale[0] != 1.0 || scale[1] != 1.0;
+  }
+  // The same UVs: set and transform (the sampler aside).
+  bool SameUvs(const GltfTextureUse& o) const {
+    return texCoord == o.texCoord && offset[0] == o.offset[0] && offset[1] == o.offset[1] &&
+           rotation == o.rotation && scale[0] == o.scale[0] && scale[1] == o.scale[1];
+  }
+  bool operator==(const GltfTextureUse& o) const {
+    return present == o.present && image == o.image && SameUvs(o) && wrapS == o.wrapS && wrapT == o.wrapT;
+  }
+  // A UV as Assimp delivers it (v up: v = 1 - t) through the transform, back in the same convention. In double,
+  // then rounded once.
+  Vec2 Apply(const Vec2& uv) const {
+    const double s = uv.x, t = 1.0 - double(uv.y);
+    const double c = std::cos(rotation), n = std::sin(rotation);
+    const double ss = scale[0] * s, st = scale[1] * t;
+    const double s2 = offset[0] + c * ss + n * st, t2 = offset[1] - n * ss + c * st;
+    return Vec2(static_cast<float>(s2), static_cast<float>(1.0 - t2));
+  }
+};
+
 struct GltfMaterialKey {
   std::string name;
   Vec3 baseColor{1.0f};  // baseColorFactor rgb
@@ -49,7 +88,14 @@ struct GltfMaterialKey {
   float metallic = 1.0f;
   float roughness = 1.0f;
   float strength = 1.0f;  // emissiveStrength, 1 where absent
+  GltfTextureUse baseColorTexture;
+  GltfTextureUse emissiveTexture;
 };
+
+// glTF's sampler wrap enums (OpenGL's values); an unknown value reads as the default, REPEAT.
+TextureWrap WrapOf(int gl) {
+  return gl == 33071 ? TextureWrap::kClampToEdge : gl == 33648 ? TextureWrap::kMirroredRepeat : TextureWrap::kRepeat;
+}
 
 // `bytes` is the file at `path` (read once by the caller, which Assimp then reads again itself).
 std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const std::string& path, bool binary) {
@@ -84,6 +130,48 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
     return Vec3((*v)[0].get<float>(), (*v)[1].get<float>(), (*v)[2].get<float>());
   };
   static const Json kNone = Json::object();
+  auto member = [](const Json& o, const char* k) -> const Json& {
+    return o.is_object() && o.contains(k) ? o[k] : kNone;
+  };
+  auto element = [&](const char* array, const Json& index) -> const Json& {
+    const Json& a = member(doc, array);
+    if (!a.is_array() || !index.is_number_unsigned() || index.get<uint64_t>() >= a.size()) return kNone;
+    return a[index.get<size_t>()];
+  };
+  auto integer = [](const Json& o, const char* k, int fallback) {
+    const auto v = o.is_object() ? o.find(k) : o.end();
+    return v != o.end() && v->is_number_unsigned() && v->get<uint64_t>() < (uint64_t(1) << 20) ? v->get<int>()
+                                                                                              : fallback;
+  };
+  auto textureUse = [&](const Json& holder, const char* k) {
+    GltfTextureUse use;
+    const Json& info = member(holder, k);
+    if (!info.is_object() || !info.contains("index")) return use;
+    use.present = true;
+    const Json& texture = element("textures", info["index"]);
+    const Json& image = element("images", member(texture, "source"));
+    if (image.contains("uri") && image["uri"].is_string()) use.image = image["uri"].get<std::string>();
+    const Json& sampler = element("samplers", member(texture, "sampler"));
+    use.wrapS = WrapOf(integer(sampler, "wrapS", 10497));
+    use.wrapT = WrapOf(integer(sampler, "wrapT", 10497));
+    use.texCoord = integer(info, "texCoord", 0);
+    const Json& t = member(member(info, "extensions"), "KHR_texture_transform");
+    if (t.is_object()) {
+      auto pair = [&](const char* name, double* out) {
+        const Json& v = member(t, name);
+        if (v.is_array() && v.size() == 2 && v[0].is_number() && v[1].is_number())
+          out[0] = v[0].get<double>(), out[1] = v[1].get<double>();
+      };
+      pair("offset", use.offset);
+      pair("scale", use.scale);
+      if (member(t, "rotation").is_number()) use.rotation = t["rotation"].get<double>();
+      use.texCoord = integer(t, "texCoord", use.texCoord);
+      if (!std::isfinite(use.offset[0]) || !std::isfinite(use.offset[1]) || !std::isfinite(use.rotation) ||
+          !std::isfinite(use.scale[0]) || !std::isfinite(use.scale[1]))
+        Fail(path, std::string("material texture '") + k + "' has a non-finite KHR_texture_transform");
+    }
+    return use;
+  };
   for (const Json& m : *materials) {
     GltfMaterialKey k;
     if (!m.is_object()) {
@@ -101,6 +189,8 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
                          ? ext["KHR_materials_emissive_strength"]
                          : kNone;
     k.strength = number(es, "emissiveStrength", 1.0f);
+    k.baseColorTexture = textureUse(pbr, "baseColorTexture");
+    k.emissiveTexture = textureUse(m, "emissiveTexture");
     keys.push_back(k);
   }
   return keys;
@@ -195,10 +285,12 @@ class Converter {
         for (unsigned v = 0; v < m.mNumVertices; ++v)
           out.normals.emplace_back(m.mNormals[v].x, m.mNormals[v].y, m.mNormals[v].z);
       }
-      if (m.mTextureCoords[0]) {
-        for (unsigned v = 0; v < m.mNumVertices; ++v)
-          out.texcoords.emplace_back(m.mTextureCoords[0][v].x, m.mTextureCoords[0][v].y);
-      }
+      // The base-colour texture's UVs (else the emission texture's, else the first set as it is); the emission
+      // texture's apart where they differ.
+      const MaterialUvs& uvs = out.material < materialUvs_.size() ? materialUvs_[out.material] : MaterialUvs{};
+      out.texcoords = Texcoords(m, uvs.baseColor.present ? uvs.baseColor : uvs.emission);
+      if (uvs.baseColor.present && uvs.emission.present && !uvs.baseColor.SameUvs(uvs.emission))
+        out.emissionTexcoords = Texcoords(m, uvs.emission);
       for (unsigned f = 0; f < m.mNumFaces; ++f) {
         const aiFace& face = m.mFaces[f];
         if (face.mNumIndices != 3) {
@@ -222,6 +314,81 @@ class Converter {
   }
 
  private:
+  // UV set `use.texCoord` of `m`, through the use's transform; empty where the mesh has no such set.
+  static std::vector<Vec2> Texcoords(const aiMesh& m, const GltfTextureUse& use) {
+    std::vector<Vec2> out;
+    const unsigned set = static_cast<unsigned>(use.texCoord);
+    if (set >= AI_MAX_NUMBER_OF_TEXTURECOORDS || !m.mTextureCoords[set]) return out;
+    out.reserve(m.mNumVertices);
+    const bool transformed = use.Transformed();
+    for (unsigned v = 0; v < m.mNumVertices; ++v) {
+      const Vec2 uv(m.mTextureCoords[set][v].x, m.mTextureCoords[set][v].y);
+      out.push_back(transformed ? use.Apply(uv) : uv);
+    }
+    return out;
+  }
+
+  // Which file materials `m` may be (Assimp keeps no index into the file's list): those with its name and factors,
+  // else, as Assimp names an unnamed material itself, those with its factors.
+  std::vector<const GltfMaterialKey*> Candidates(const AssetMaterial& m, const std::vector<GltfMaterialKey>& keys) const {
+    std::vector<const GltfMaterialKey*> out;
+    for (const bool byName : {true, false}) {
+      for (const GltfMaterialKey& k : keys)
+        if (!((byName && k.name != m.name) || k.baseColor != m.baseColor || k.emissive != m.emission ||
+              k.metallic != m.metallic || k.roughness != m.roughness))
+          out.push_back(&k);
+      if (!out.empty()) break;
+    }
+    return out;
+  }
+
+  // How the material reads its texture of `type` (Assimp's reference `ref`): the file's textureInfo among the
+  // candidates; where they disagree, those whose image is `ref`; still disagreeing, an error, since which one Assimp
+  // gave this material is unknowable. Without candidates (Assimp's default material), glTF's defaults.
+  GltfTextureUse UseOf(const std::vector<const GltfMaterialKey*>& candidates, GltfTextureUse GltfMaterialKey::*field,
+                       const std::string& ref, const std::string& materialName) const {
+    std::vector<GltfTextureUse> uses;
+    for (const GltfMaterialKey* k : candidates)
+      if ((k->*field).present) uses.push_back(k->*field);
+    auto agree = [](const std::vector<GltfTextureUse>& u) {
+      return std::all_of(u.begin(), u.end(), [&](const GltfTextureUse& x) { return x == u.front(); });
+    };
+    if (!agree(uses)) {
+      std::vector<GltfTextureUse> same;
+      for (const GltfTextureUse& u : uses)
+        if (u.image == ref) same.push_back(u);
+      if (same.empty() || !agree(same))
+        Fail(path_, "materials like '" + materialName + "' look the same but read their textures differently "
+                    "(UV set, KHR_texture_transform or sampler); Assimp does not say which is which (give them "
+                    "distinct names)");
+      uses = same;
+    }
+    GltfTextureUse use = uses.empty() ? GltfTextureUse{} : uses.front();
+    use.present = true;
+    return use;
+  }
+
+  // The wrap modes Assimp read for a texture (OBJ's -clamp), as the sampler's.
+  static GltfTextureUse AssimpUse(const aiMaterial& mat, aiTextureType type) {
+    GltfTextureUse use;
+    use.present = true;
+    auto wrap = [&](const char* key) {
+      int mode = aiTextureMapMode_Wrap;
+      if (mat.Get(key, type, 0, mode) != AI_SUCCESS) return TextureWrap::kRepeat;
+      return mode == aiTextureMapMode_Clamp    ? TextureWrap::kClampToEdge
+             : mode == aiTextureMapMode_Mirror ? TextureWrap::kMirroredRepeat
+                                               : TextureWrap::kRepeat;
+    };
+    use.wrapS = wrap(_AI_MATKEY_MAPPINGMODE_U_BASE);
+    use.wrapT = wrap(_AI_MATKEY_MAPPINGMODE_V_BASE);
+    return use;
+  }
+
+  static std::string TextureRef(const aiMaterial& mat, aiTextureType type) {
+    aiString ref;
+    return mat.GetTextureCount(type) > 0 && mat.GetTexture(type, 0, &ref) == AI_SUCCESS ? ref.C_Str() : "";
+  }
+
   AssetMaterial ConvertMaterial(const aiMaterial& mat, const std::vector<GltfMaterialKey>& gltfMaterials,
                                 bool gltf) {
     AssetMaterial out;
@@ -240,9 +407,18 @@ class Converter {
       if (mat.Get(AI_MATKEY_METALLIC_FACTOR, f) == AI_SUCCESS) out.metallic = f;
       if (mat.Get(AI_MATKEY_ROUGHNESS_FACTOR, f) == AI_SUCCESS) out.roughness = f;
       out.specular = 0.04f;
-      out.baseColorTexture = TextureOf(mat, aiTextureType_BASE_COLOR);
-      if (out.baseColorTexture < 0) out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE);
       if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
+      const std::vector<const GltfMaterialKey*> candidates = Candidates(out, gltfMaterials);
+      const aiTextureType baseType =
+          TextureRef(mat, aiTextureType_BASE_COLOR).empty() ? aiTextureType_DIFFUSE : aiTextureType_BASE_COLOR;
+      MaterialUvs uvs;
+      if (const std::string ref = TextureRef(mat, baseType); !ref.empty())
+        uvs.baseColor = UseOf(candidates, &GltfMaterialKey::baseColorTexture, ref, out.name);
+      if (const std::string ref = TextureRef(mat, aiTextureType_EMISSIVE); !ref.empty())
+        uvs.emission = UseOf(candidates, &GltfMaterialKey::emissiveTexture, ref, out.name);
+      out.baseColorTexture = TextureOf(mat, baseType, uvs.baseColor);
+      out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE, uvs.emission);
+      materialUvs_.push_back(uvs);
       out.emission *= EmissiveStrength(out, gltfMaterials);
     } else {
       // OBJ/MTL and PLY: Kd, Ks, Ns, Ke as the table in docs/sequence-format.md maps them.
@@ -259,10 +435,15 @@ class Converter {
       // Phong exponent to GGX width, alpha = sqrt(2 / (Ns + 2)) (Walter et al. 2007, Sec. 5.2).
       const float alpha = std::sqrt(2.0f / (std::max(ns, 0.0f) + 2.0f));
       out.roughness = std::sqrt(alpha);
-      out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE);
       if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
+      // The first UV set as it is; the wrap modes Assimp read (MTL's -clamp).
+      MaterialUvs uvs;
+      if (!TextureRef(mat, aiTextureType_DIFFUSE).empty()) uvs.baseColor = AssimpUse(mat, aiTextureType_DIFFUSE);
+      if (!TextureRef(mat, aiTextureType_EMISSIVE).empty()) uvs.emission = AssimpUse(mat, aiTextureType_EMISSIVE);
+      out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE, uvs.baseColor);
+      out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE, uvs.emission);
+      materialUvs_.push_back(uvs);
     }
-    out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE);
     return out;
   }
 
@@ -289,14 +470,19 @@ class Converter {
     return 1.0f;
   }
 
-  // The material's first texture of `type`, read once per distinct reference; -1 when it has none.
-  int32_t TextureOf(const aiMaterial& mat, aiTextureType type) {
+  // The material's first texture of `type`, read once per distinct reference and wrap modes (`use`'s); -1 when it
+  // has none.
+  int32_t TextureOf(const aiMaterial& mat, aiTextureType type, const GltfTextureUse& use) {
     if (mat.GetTextureCount(type) == 0) return -1;
     aiString ref;
     if (mat.GetTexture(type, 0, &ref) != AI_SUCCESS) return -1;
     const std::string key = ref.C_Str();
-    if (auto it = textureIndex_.find(key); it != textureIndex_.end()) return it->second;
+    const std::string indexKey =
+        key + "|" + std::to_string(int(use.wrapS)) + std::to_string(int(use.wrapT));
+    if (auto it = textureIndex_.find(indexKey); it != textureIndex_.end()) return it->second;
     EncodedTexture t;
+    t.wrapU = use.wrapS;
+    t.wrapV = use.wrapT;
     if (const aiTexture* et = scene_.GetEmbeddedTexture(key.c_str())) {
       t.name = path_ + "#" + key + "." + (et->achFormatHint[0] ? et->achFormatHint : "img");
       if (!et->pcData) Fail(path_, "embedded texture '" + key + "' has no data");
@@ -322,7 +508,7 @@ class Converter {
     }
     const int32_t index = static_cast<int32_t>(asset_.encodedTextures.size());
     asset_.encodedTextures.push_back(std::move(t));
-    textureIndex_.emplace(key, index);
+    textureIndex_.emplace(indexKey, index);
     return index;
   }
 
@@ -331,6 +517,12 @@ class Converter {
   const AssetLimits& limits_;
   ImportedAsset asset_;
   std::map<std::string, int32_t> textureIndex_;
+  // Per material (asset_.materials' order): how its textures read the mesh's UVs.
+  struct MaterialUvs {
+    GltfTextureUse baseColor;  // present: the material has a base-colour texture
+    GltfTextureUse emission;   // present: it has an emission texture
+  };
+  std::vector<MaterialUvs> materialUvs_;
 };
 
 }  // namespace
@@ -345,6 +537,8 @@ void DecodeAssetTextures(ImportedAsset& asset) {
   for (const EncodedTexture& e : asset.encodedTextures) {
     if (e.rawWidth <= 0) {
       asset.textures.push_back(DecodeTexture(e.bytes, e.name));
+      asset.textures.back().wrapU = e.wrapU;
+      asset.textures.back().wrapV = e.wrapV;
       continue;
     }
     // Raw BGRA8 texels, sRGB-encoded like every 8-bit colour texture.
@@ -355,6 +549,8 @@ void DecodeAssetTextures(ImportedAsset& asset) {
     t.name = e.name;
     t.width = e.rawWidth;
     t.height = e.rawHeight;
+    t.wrapU = e.wrapU;
+    t.wrapV = e.wrapV;
     t.rgb.resize(size_t(t.width) * t.height * 3);
     for (size_t p = 0; p < size_t(t.width) * t.height; ++p)
       for (int c = 0; c < 3; ++c)  // aiTexel is b, g, r, a

@@ -37,7 +37,9 @@ struct AssetMesh {
   uint32_t material = 0;              // index into ImportedAsset::materials
   std::vector<Vec3> positions;        // finite
   std::vector<Vec3> normals;          // per position, or empty (flat shading)
-  std::vector<Vec2> texcoords;        // per position (first UV channel, v up), or empty
+  std::vector<Vec2> texcoords;        // per position (v up), or empty: the base-colour texture's UV set (glTF
+                                      // texCoord; the first elsewhere) with its KHR_texture_transform applied
+  std::vector<Vec2> emissionTexcoords;  // the emission texture's, where its set or transform differ; else empty
   std::vector<glm::uvec3> triangles;  // indices into positions, all in range
 };
 
@@ -47,6 +49,8 @@ struct EncodedTexture {
   std::string bytes;  // the encoded image, or rawWidth x rawHeight x 4 bytes
   int rawWidth = 0;   // > 0: raw texels
   int rawHeight = 0;
+  TextureWrap wrapU = TextureWrap::kRepeat;  // the sampler's, carried to the decoded Texture
+  TextureWrap wrapV = TextureWrap::kRepeat;
 };
 
 struct ImportedAsset {

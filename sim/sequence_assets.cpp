@@ -105,9 +105,9 @@ void AddAsset(ImportedAsset asset, const AssetPlacement& place, const AssetBudge
         }
         Vec3 radiance = emission;
         if (tex) {
-          const bool uv = !mesh.texcoords.empty();
-          radiance *= uv ? MeanOverTriangle(*tex, mesh.texcoords[t.x], mesh.texcoords[t.y], mesh.texcoords[t.z])
-                         : SampleBilinear(*tex, 0.0f, 0.0f);
+          const std::vector<Vec2>& uvs = am.emissionTexcoords.empty() ? mesh.texcoords : am.emissionTexcoords;
+          radiance *= !uvs.empty() ? MeanOverTriangle(*tex, uvs[t.x], uvs[t.y], uvs[t.z])
+                                   : SampleBilinear(*tex, 0.0f, 0.0f);
         }
         if (!(std::max({radiance.x, radiance.y, radiance.z}) > 0.0f)) {
           ++seq.skippedDarkEmitters;

@@ -20,16 +20,43 @@ namespace {
 constexpr int kMaxTextureSide = 16384;
 constexpr int64_t kMaxTextureTexels = int64_t(1) << 26;
 
-int64_t Wrap(int64_t i, int64_t n) {
+int64_t Wrap(int64_t i, int64_t n, TextureWrap mode) {
+  switch (mode) {
+    case TextureWrap::kClampToEdge:
+      return std::clamp<int64_t>(i, 0, n - 1);
+    case TextureWrap::kMirroredRepeat: {
+      int64_t r = i % (2 * n);
+      if (r < 0) r += 2 * n;
+      return r < n ? r : 2 * n - 1 - r;
+    }
+    case TextureWrap::kRepeat:
+      break;
+  }
   const int64_t r = i % n;
   return r < 0 ? r + n : r;
+}
+
+// A coordinate's equivalent in a bounded range, taken in double before the texel indices are formed, so that huge
+// coordinates keep their fraction and the indices fit: its fraction (repeat: period 1), its value modulo 2 (a
+// mirrored repeat's period), or the value clamped to [-1, 2], beyond which every tap lands on the edge anyway.
+double Reduce(float c, TextureWrap mode) {
+  const double d = c;
+  switch (mode) {
+    case TextureWrap::kClampToEdge:
+      return std::clamp(d, -1.0, 2.0);
+    case TextureWrap::kMirroredRepeat:
+      return d - 2.0 * std::floor(d / 2.0);
+    case TextureWrap::kRepeat:
+      break;
+  }
+  return d - std::floor(d);
 }
 
 }  // namespace
 
 Vec3 Texture::Texel(int64_t x, int64_t y) const {
-  const size_t i = 3 * (static_cast<size_t>(Wrap(y, height)) * static_cast<size_t>(width) +
-                        static_cast<size_t>(Wrap(x, width)));
+  const size_t i = 3 * (static_cast<size_t>(Wrap(y, height, wrapV)) * static_cast<size_t>(width) +
+                        static_cast<size_t>(Wrap(x, width, wrapU)));
   return Vec3(rgb[i], rgb[i + 1], rgb[i + 2]);
 }
 
@@ -37,9 +64,8 @@ Vec3 SampleBilinear(const Texture& t, float u, float v) {
   if (t.width <= 0 || t.height <= 0) return Vec3(1.0f);
   // Non-finite coordinates (a broken asset's UVs) read the first texel rather than index with garbage.
   if (!std::isfinite(u) || !std::isfinite(v)) return t.Texel(0, 0);
-  // Wrap first, in double, so huge coordinates keep their fraction and the texel index fits.
-  const double fu = double(u) - std::floor(double(u));
-  const double fv = double(v) - std::floor(double(v));
+  const double fu = Reduce(u, t.wrapU);
+  const double fv = Reduce(v, t.wrapV);
   const double x = fu * t.width - 0.5;
   const double y = (1.0 - fv) * t.height - 0.5;
   const double x0 = std::floor(x), y0 = std::floor(y);

@@ -1,5 +1,5 @@
 // Base-colour and emission textures of imported assets (docs/sequence-format.md "Assets"): linear RGB texels,
-// sampled bilinearly with repeat wrapping at a surface point, or averaged over a triangle for an emitter.
+// sampled bilinearly at a surface point with the sampler's wrap modes, or averaged over a triangle for an emitter.
 #pragma once
 
 #include <cstdint>
@@ -10,20 +10,30 @@
 
 namespace restir {
 
+// How texel indices outside the image are brought back into it, per axis: glTF's sampler wrapS / wrapT (10497
+// REPEAT, 33071 CLAMP_TO_EDGE, 33648 MIRRORED_REPEAT), with OpenGL's definitions (OpenGL 4.6 core, section 8.14.2).
+enum class TextureWrap : uint8_t {
+  kRepeat,          // index mod size: the image tiles
+  kClampToEdge,     // the nearest edge texel
+  kMirroredRepeat,  // the image and its mirror image alternate, the mirror image first below 0
+};
+
 struct Texture {
   std::string name;          // where it came from (file path, or "<asset>#<index>" for an embedded image)
   int width = 0;             // texels per row
   int height = 0;            // rows; row 0 is the image's top
   std::vector<float> rgb;    // linear RGB, row-major, 3 floats per texel, all finite and >= 0
-  // The texel at (x, y) with repeat wrapping (any integers).
+  TextureWrap wrapU = TextureWrap::kRepeat;  // across columns (glTF wrapS)
+  TextureWrap wrapV = TextureWrap::kRepeat;  // across rows (glTF wrapT)
+  // The texel at (x, y), any integers, brought into the image by wrapU and wrapV.
   Vec3 Texel(int64_t x, int64_t y) const;
 };
 
 // Texture coordinates follow OpenGL's convention as Assimp delivers them: u to the right, v up, so v = 1 is the
 // image's top row. The filter is bilinear between the four texel centres around (u W - 0.5, (1 - v) H - 0.5),
-// repeat-wrapped; glTF's default sampler is the same (REPEAT, linear magnification). No mip-mapping: the texture
-// is read once per pixel at the primary hit, where the footprint matters only to anti-aliasing, which the
-// simulator does not model (one primary ray per pixel centre).
+// each of the four texels wrapped by the texture's wrap modes; glTF's default sampler is REPEAT with linear
+// magnification. No mip-mapping: the texture is read once per pixel at the primary hit, where the footprint
+// matters only to anti-aliasing, which the simulator does not model (one primary ray per pixel centre).
 Vec3 SampleBilinear(const Texture& texture, float u, float v);
 
 // The mean of SampleBilinear over a triangle of texture space (the triangle's UVs), for an emissive triangle's
