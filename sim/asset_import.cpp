@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <set>
 #include <utility>
@@ -51,9 +52,10 @@ struct GltfTextureUse {
   std::string image;  // images[source].uri ("" for an image in a buffer view): tells materials apart
   int texCoord = 0;   // the UV set (TEXCOORD_n); the transform's own texCoord overrides the textureInfo's
   // KHR_texture_transform, in glTF's texture space (s right, t down from the top-left corner): (s', t') = offset +
-  // R diag(scale) (s, t) with R = [cos r, sin r; -sin r, cos r], as the ratified extension's GLSL has it
-  // (mat3(cos, -sin, 0, sin, cos, 0, 0, 0, 1), column-major). Its draft had the transpose; Khronos'
-  // TextureTransformTest model marks that sign as wrong (its arrow then points at the red marker).
+  // R diag(scale) (s, t) with R = [cos r, sin r; -sin r, cos r]. The extension's own example (offset (0, 1),
+  // rotation pi/2, scale 1/2 selects the lower-left quadrant) and Khronos' TextureTransformTest model (its arrow
+  // points at the green marker) agree on this R; the GLSL in the extension's text, read as column-major, gives
+  // the transpose, with which the model's arrow points at its red "rotated the wrong way" marker.
   double offset[2] = {0.0, 0.0};
   double rotation = 0.0;
   double scale[2] = {1.0, 1.0};
@@ -77,7 +79,11 @@ struct GltfTextureUse {
     const double c = std::cos(rotation), n = std::sin(rotation);
     const double ss = scale[0] * s, st = scale[1] * t;
     const double s2 = offset[0] + c * ss + n * st, t2 = offset[1] - n * ss + c * st;
-    return Vec2(static_cast<float>(s2), static_cast<float>(1.0 - t2));
+    // Out of float range: not finite (Texcoords refuses it), never a conversion out of range.
+    constexpr double kMax = std::numeric_limits<float>::max();
+    const double u = s2, v = 1.0 - t2;
+    return Vec2(std::fabs(u) <= kMax ? static_cast<float>(u) : INFINITY,
+                std::fabs(v) <= kMax ? static_cast<float>(v) : INFINITY);
   }
 };
 
@@ -138,10 +144,11 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
     if (!a.is_array() || !index.is_number_unsigned() || index.get<uint64_t>() >= a.size()) return kNone;
     return a[index.get<size_t>()];
   };
-  auto integer = [](const Json& o, const char* k, int fallback) {
+  // k's value where it is a non-negative integer below 2^20; `absent` where there is none, `invalid` otherwise.
+  auto integer = [](const Json& o, const char* k, int absent, int invalid) {
     const auto v = o.is_object() ? o.find(k) : o.end();
-    return v != o.end() && v->is_number_unsigned() && v->get<uint64_t>() < (uint64_t(1) << 20) ? v->get<int>()
-                                                                                              : fallback;
+    if (v == o.end()) return absent;
+    return v->is_number_unsigned() && v->get<uint64_t>() < (uint64_t(1) << 20) ? v->get<int>() : invalid;
   };
   auto textureUse = [&](const Json& holder, const char* k) {
     GltfTextureUse use;
@@ -152,9 +159,9 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
     const Json& image = element("images", member(texture, "source"));
     if (image.contains("uri") && image["uri"].is_string()) use.image = image["uri"].get<std::string>();
     const Json& sampler = element("samplers", member(texture, "sampler"));
-    use.wrapS = WrapOf(integer(sampler, "wrapS", 10497));
-    use.wrapT = WrapOf(integer(sampler, "wrapT", 10497));
-    use.texCoord = integer(info, "texCoord", 0);
+    use.wrapS = WrapOf(integer(sampler, "wrapS", 10497, 10497));
+    use.wrapT = WrapOf(integer(sampler, "wrapT", 10497, 10497));
+    use.texCoord = integer(info, "texCoord", 0, -1);
     const Json& t = member(member(info, "extensions"), "KHR_texture_transform");
     if (t.is_object()) {
       auto pair = [&](const char* name, double* out) {
@@ -165,7 +172,7 @@ std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const st
       pair("offset", use.offset);
       pair("scale", use.scale);
       if (member(t, "rotation").is_number()) use.rotation = t["rotation"].get<double>();
-      use.texCoord = integer(t, "texCoord", use.texCoord);
+      use.texCoord = integer(t, "texCoord", use.texCoord, -1);
       if (!std::isfinite(use.offset[0]) || !std::isfinite(use.offset[1]) || !std::isfinite(use.rotation) ||
           !std::isfinite(use.scale[0]) || !std::isfinite(use.scale[1]))
         Fail(path, std::string("material texture '") + k + "' has a non-finite KHR_texture_transform");
@@ -217,7 +224,7 @@ void ReverseMirroredWinding(aiScene& scene) {
     const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
                        a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
                        a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-    if (node->mNumMeshes > 0) placed.emplace_back(node, det < 0.0);
+    if (node->mNumMeshes > 0 && node->mMeshes) placed.emplace_back(node, det < 0.0);
     for (unsigned c = 0; c < node->mNumChildren; ++c)
       if (node->mChildren[c]) stack.emplace_back(node->mChildren[c], global * node->mChildren[c]->mTransformation);
   }
@@ -288,9 +295,9 @@ class Converter {
       // The base-colour texture's UVs (else the emission texture's, else the first set as it is); the emission
       // texture's apart where they differ.
       const MaterialUvs& uvs = out.material < materialUvs_.size() ? materialUvs_[out.material] : MaterialUvs{};
-      out.texcoords = Texcoords(m, uvs.baseColor.present ? uvs.baseColor : uvs.emission);
+      out.texcoords = Texcoords(m, uvs.baseColor.present ? uvs.baseColor : uvs.emission, false, i);
       if (uvs.baseColor.present && uvs.emission.present && !uvs.baseColor.SameUvs(uvs.emission))
-        out.emissionTexcoords = Texcoords(m, uvs.emission);
+        out.emissionTexcoords = Texcoords(m, uvs.emission, true, i);
       for (unsigned f = 0; f < m.mNumFaces; ++f) {
         const aiFace& face = m.mFaces[f];
         if (face.mNumIndices != 3) {
@@ -314,16 +321,31 @@ class Converter {
   }
 
  private:
-  // UV set `use.texCoord` of `m`, through the use's transform; empty where the mesh has no such set.
-  static std::vector<Vec2> Texcoords(const aiMesh& m, const GltfTextureUse& use) {
+  // UV set `use.texCoord` of `m`, through the use's transform. A mesh without UVs at all (no set 0) reads every
+  // texture at (0, 0): `fill` then gives one (0, 0) per vertex (where the texture's UVs must differ from the
+  // mesh's other texture's), else none. A set that is not a small integer, or that the mesh lacks while it has
+  // set 0, is an error, as is a transform that takes a UV out of float range.
+  std::vector<Vec2> Texcoords(const aiMesh& m, const GltfTextureUse& use, bool fill, size_t meshIndex) const {
     std::vector<Vec2> out;
+    const std::string mesh = "mesh '" + std::string(m.mName.C_Str()) + "' (#" + std::to_string(meshIndex) + ")";
+    if (use.texCoord < 0 || use.texCoord >= AI_MAX_NUMBER_OF_TEXTURECOORDS)
+      Fail(path_, mesh + ": a texture names a UV set that is not one of TEXCOORD_0 to TEXCOORD_" +
+                      std::to_string(AI_MAX_NUMBER_OF_TEXTURECOORDS - 1));
     const unsigned set = static_cast<unsigned>(use.texCoord);
-    if (set >= AI_MAX_NUMBER_OF_TEXTURECOORDS || !m.mTextureCoords[set]) return out;
+    if (!m.mTextureCoords[set]) {
+      if (set > 0 && m.mTextureCoords[0])
+        Fail(path_, mesh + ": a texture reads UV set TEXCOORD_" + std::to_string(set) + ", which the mesh does not have");
+      if (fill) out.assign(m.mNumVertices, Vec2(0.0f));
+      return out;
+    }
     out.reserve(m.mNumVertices);
     const bool transformed = use.Transformed();
     for (unsigned v = 0; v < m.mNumVertices; ++v) {
       const Vec2 uv(m.mTextureCoords[set][v].x, m.mTextureCoords[set][v].y);
-      out.push_back(transformed ? use.Apply(uv) : uv);
+      const Vec2 t = transformed ? use.Apply(uv) : uv;
+      if (transformed && !(std::isfinite(t.x) && std::isfinite(t.y)))
+        Fail(path_, mesh + ": its KHR_texture_transform takes vertex " + std::to_string(v) + "'s UV out of range");
+      out.push_back(t);
     }
     return out;
   }
@@ -590,7 +612,8 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
   // arrives in its root space; it keeps the winding of meshes under a mirroring node, which glTF says to reverse
   // first. Assimp's importer owns the scene and lets it be edited between the two calls.
   ReverseMirroredWinding(const_cast<aiScene&>(*scene));
-  scene = importer.ApplyPostProcessing(aiProcess_PreTransformVertices);
+  // PreTransformVertices merges meshes by material, whatever their primitives: SortByPType splits them again.
+  scene = importer.ApplyPostProcessing(aiProcess_PreTransformVertices | aiProcess_SortByPType);
   if (!scene) Fail(path, std::string("cannot import the asset (Assimp: ") + importer.GetErrorString() + ")");
   ImportedAsset asset = Converter(path, *scene, limits).Convert(gltfMaterials, gltf);
   if (asset.meshes.empty()) Fail(path, "the asset has no triangles");

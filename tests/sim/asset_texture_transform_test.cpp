@@ -21,6 +21,10 @@
 //    UVs must be the transforms of the file's, computed here in double from the extension's definition
 //    (1e-6), the emission texture's apart.
 //
+// SamplerWrapModesReachTheTexturePerAxis: assimp-testmodels' BoxTextured-glTF declares MIRRORED_REPEAT on s and
+//    CLAMP_TO_EDGE on t, its binary variant the default; the imported textures carry those, axis by axis.
+// ImpossibleTextureReadsAreRefused: a UV set the mesh lacks, one beyond TEXCOORD_7, a transform out of float
+//    range: InputError naming the file.
 // MtlClampOptionClampsTheMap: an MTL map with "-clamp on" clamps, one without repeats.
 #include <gtest/gtest.h>
 
@@ -33,6 +37,7 @@
 
 #include "asset_scene_writer.h"
 #include "sim/asset_import.h"
+#include "sim/sequence.h"  // InputError
 #include "sim/texture.h"
 
 namespace restir {
@@ -235,6 +240,72 @@ TEST(AssetTextureTransform, UvSetsAndTransformsFollowTheTextureInfo) {
     EXPECT_NEAR(m.texcoords[k].y, 1.0 - base.y, 1e-6) << k;
     EXPECT_NEAR(m.emissionTexcoords[k].x, emission.x, 1e-6) << k;
     EXPECT_NEAR(m.emissionTexcoords[k].y, 1.0 - emission.y, 1e-6) << k;
+  }
+}
+
+// A sampler written by someone else with a different mode per axis: assimp-testmodels' BoxTextured-glTF has wrapS
+// MIRRORED_REPEAT (33648), wrapT CLAMP_TO_EDGE (33071); its .glb and embedded variants the default REPEAT.
+TEST(AssetTextureTransform, SamplerWrapModesReachTheTexturePerAxis) {
+  const std::string dir = "/usr/share/assimp/models/glTF2/";
+  struct Case {
+    const char* file;
+    TextureWrap u, v;
+  };
+  for (const Case& c : {Case{"BoxTextured-glTF/BoxTextured.gltf", TextureWrap::kMirroredRepeat, TextureWrap::kClampToEdge},
+                        Case{"BoxTextured-glTF-Binary/BoxTextured.glb", TextureWrap::kRepeat, TextureWrap::kRepeat}}) {
+    SCOPED_TRACE(c.file);
+    ASSERT_TRUE(std::filesystem::is_regular_file(dir + c.file));
+    const ImportedAsset a = ImportAssetInProcess(dir + c.file);
+    ASSERT_EQ(a.textures.size(), 1u);
+    EXPECT_EQ(a.textures[0].wrapU, c.u);
+    EXPECT_EQ(a.textures[0].wrapV, c.v);
+  }
+}
+
+// What the textureInfo asks that the mesh cannot give is an InputError naming the file: a UV set the mesh lacks
+// (the emission texture must not fall back to the base colour's UVs), a set beyond TEXCOORD_7, a transform that
+// takes UVs out of float range.
+TEST(AssetTextureTransform, ImpossibleTextureReadsAreRefused) {
+  struct Case {
+    const char* name;
+    Json base, emissive;  // textureInfo extras
+    const char* says;
+  };
+  const Json shift = {{"extensions", {{"KHR_texture_transform", {{"offset", {0.5, 0.25}}}}}}};
+  const std::vector<Case> cases = {
+      {"emission on a set the mesh lacks", shift, {{"texCoord", 1}}, "TEXCOORD_1"},
+      {"set beyond TEXCOORD_7", {{"texCoord", 5000000}}, Json::object(), "TEXCOORD_0 to TEXCOORD_7"},
+      {"transform out of float range",
+       {{"extensions", {{"KHR_texture_transform", {{"scale", {1e308, 1e308}}}}}}},
+       Json::object(),
+       "out of range"}};
+  int index = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Scratch scratch("refused" + std::to_string(index++));
+    WritePng(*scratch / "a.png", 2, 2, {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255});
+    Gltf g;
+    const int texture = g.Texture("a.png");
+    Json base = c.base, emissive = c.emissive;
+    base["index"] = texture;
+    emissive["index"] = texture;
+    const int material = g.Material({{"name", "m"},
+                                     {"pbrMetallicRoughness", {{"baseColorTexture", base}}},
+                                     {"emissiveFactor", {1.0, 1.0, 1.0}},
+                                     {"emissiveTexture", emissive}});
+    const std::vector<D3> positions = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}};
+    const int mesh = g.Mesh(Json::array({Gltf::Primitive(g.Positions(positions), g.Indices({0, 1, 2}), material,
+                                                         g.Texcoords({{0.1, 0.2}, {0.9, 0.3}, {0.4, 0.8}}))}));
+    WriteText(*scratch / "x.gltf", g.Text({g.Node({{"name", "n"}, {"mesh", mesh}})}));
+    const std::string path = (*scratch / "x.gltf").string();
+    try {
+      ImportAssetInProcess(path);
+      ADD_FAILURE() << "imported";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path), std::string::npos) << what;
+      EXPECT_NE(what.find(c.says), std::string::npos) << what;
+    }
   }
 }
 

@@ -7,7 +7,8 @@
 // reflection given as a matrix, and the second mesh placed only by a mirroring node. Every imported triangle must
 // be one of the instances computed here, corner for corner (8 float ulps of the largest coordinate), with its
 // cross product along the front normal computed here: the inverse transpose of the global transform applied to
-// the local front. No sampling: every claim is exact geometry.
+// the local front. No sampling: every claim is exact geometry. Also: lines beside triangles in one mesh are
+// skipped after the transforms are baked (the importer's step order), mirrored or not.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -123,6 +124,28 @@ TEST(AssetWinding, MirroringNodesReverseTheirTrianglesAsGltfSays) {
         << ", " << front.z << ")";
   }
   EXPECT_EQ(mirroring, 4);  // mirrored in x, the parent, the reflection, the second mesh's node
+}
+
+// Points and lines beside triangles in one mesh (same material) stay out of the imported mesh after the node
+// transforms are baked, mirrored or not: a line whose vertex lies beyond the importer's 1e7 coordinate limit must
+// be skipped and counted, not refused as the mesh's vertex.
+TEST(AssetWinding, LinesBesideTrianglesAreSkippedWhereverTheNodeIs) {
+  for (const double sx : {1.0, -1.0}) {
+    SCOPED_TRACE(sx < 0 ? "mirrored" : "plain");
+    Gltf g;
+    const int material = g.Material({{"name", "grey"}});
+    const std::vector<D3> tri(kTriangles[0], kTriangles[0] + 3);
+    Json lines = Gltf::Primitive(g.Positions({{0, 0, 0}, {5e7, 0, 0}}), g.Indices({0, 1}), material);
+    lines["mode"] = 1;
+    const int mesh = g.Mesh(Json::array({Gltf::Primitive(g.Positions(tri), g.Indices({0, 1, 2}), material), lines}));
+    const Scratch scratch("lines");
+    WriteText(*scratch / "lines.gltf", g.Text({g.Node({{"name", "n"}, {"mesh", mesh}, {"scale", {sx, 1.0, 1.0}}})}));
+    const ImportedAsset a = ImportAssetInProcess((*scratch / "lines.gltf").string());
+    ASSERT_EQ(a.meshes.size(), 1u);
+    EXPECT_EQ(a.meshes[0].triangles.size(), 1u);
+    EXPECT_EQ(a.meshes[0].positions.size(), 3u);
+    EXPECT_EQ(a.skippedPrimitives, 1u);
+  }
 }
 
 }  // namespace

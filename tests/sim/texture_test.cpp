@@ -88,15 +88,19 @@ TEST(Texture, BilinearLookupWrapsAsOpenGlDefinesIt) {
 }
 
 // Far from the origin the lookup must keep the coordinate's position within its period (repeat: 1, mirrored: 2)
-// and clamp to the edge; 1000.3 and -999.7 are 0.3 past a whole number of periods of either, and as floats within
-// 3e-5 of it (their spacing is 6.1e-5).
+// and clamp to the edge. The formula above, evaluated in double at such coordinates, would itself round away the
+// half texel (at 1e15 x 5 texels the spacing of doubles is 1), so the expected value is the formula's at the
+// coordinate shifted by a whole number of periods of both modes, exactly (fmod by 2 is exact), or, clamped, at
+// -1 or 2 (beyond which every tap is the edge texel). 1000.3 and -999.7 lie 0.3 past a period; 1e15 and -3e15
+// are whole even numbers (floats that large are).
 TEST(Texture, BilinearLookupKeepsTheFractionOfLargeCoordinates) {
   const TextureWrap modes[3] = {TextureWrap::kRepeat, TextureWrap::kClampToEdge, TextureWrap::kMirroredRepeat};
   for (TextureWrap w : modes) {
     const Texture t = Distinct(w, w);
     SCOPED_TRACE(Name(w));
-    for (const float big : {1000.3f, -999.7f, 2.0e6f + 0.25f}) {
-      const glm::dvec3 want = SpecSample(t, double(big), double(big));
+    for (const float big : {1000.3f, -999.7f, 2.0e6f + 0.25f, 1.0e15f, -3.0e15f}) {
+      const double near = w == TextureWrap::kClampToEdge ? (big > 0 ? 2.0 : -1.0) : std::fmod(double(big), 2.0);
+      const glm::dvec3 want = SpecSample(t, near, near);
       const Vec3 got = SampleBilinear(t, big, big);
       for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-4 * std::fabs(want[c])) << big;
     }
