@@ -334,7 +334,8 @@ class Converter {
     const unsigned set = static_cast<unsigned>(use.texCoord);
     if (!m.mTextureCoords[set]) {
       if (set > 0 && m.mTextureCoords[0])
-        Fail(path_, mesh + ": a texture reads UV set TEXCOORD_" + std::to_string(set) + ", which the mesh does not have");
+        Fail(path_, mesh + ": a texture reads UV set TEXCOORD_" + std::to_string(set) +
+                        ", which the mesh does not have");
       if (fill) out.assign(m.mNumVertices, Vec2(0.0f));
       return out;
     }
@@ -352,7 +353,8 @@ class Converter {
 
   // Which file materials `m` may be (Assimp keeps no index into the file's list): those with its name and factors,
   // else, as Assimp names an unnamed material itself, those with its factors.
-  std::vector<const GltfMaterialKey*> Candidates(const AssetMaterial& m, const std::vector<GltfMaterialKey>& keys) const {
+  std::vector<const GltfMaterialKey*> Candidates(const AssetMaterial& m,
+                                                 const std::vector<GltfMaterialKey>& keys) const {
     std::vector<const GltfMaterialKey*> out;
     for (const bool byName : {true, false}) {
       for (const GltfMaterialKey& k : keys)

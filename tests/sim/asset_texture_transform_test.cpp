@@ -251,8 +251,10 @@ TEST(AssetTextureTransform, SamplerWrapModesReachTheTexturePerAxis) {
     const char* file;
     TextureWrap u, v;
   };
-  for (const Case& c : {Case{"BoxTextured-glTF/BoxTextured.gltf", TextureWrap::kMirroredRepeat, TextureWrap::kClampToEdge},
-                        Case{"BoxTextured-glTF-Binary/BoxTextured.glb", TextureWrap::kRepeat, TextureWrap::kRepeat}}) {
+  const Case cases[] = {
+      {"BoxTextured-glTF/BoxTextured.gltf", TextureWrap::kMirroredRepeat, TextureWrap::kClampToEdge},
+      {"BoxTextured-glTF-Binary/BoxTextured.glb", TextureWrap::kRepeat, TextureWrap::kRepeat}};
+  for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
     ASSERT_TRUE(std::filesystem::is_regular_file(dir + c.file));
     const ImportedAsset a = ImportAssetInProcess(dir + c.file);

@@ -38,7 +38,8 @@ const D3 kTriangles[2][3] = {{{0, 0, 0}, {1, 0, 0}, {0.25, 0, 2}}, {{0, 0, 0}, {
 
 TEST(AssetWinding, MirroringNodesReverseTheirTrianglesAsGltfSays) {
   Gltf g;
-  const int material = g.Material({{"name", "grey"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}}}});
+  const int material =
+      g.Material({{"name", "grey"}, {"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}}}});
   int meshes[2];
   for (int m = 0; m < 2; ++m) {
     const std::vector<D3> p(kTriangles[m], kTriangles[m] + 3);
