@@ -40,9 +40,6 @@ std::string Lower(std::string s) {
   throw InputError(OneLine(path + ": error: " + what));
 }
 
-// KHR_materials_emissive_strength, which Assimp 5.2 does not read. Assimp numbers glTF materials in the order its
-// reader first meets them, not the file's, so each file material is kept with what identifies it (its name and
-// factors), and an Assimp material takes the strength of the file materials that look exactly like it.
 // How a material reads one of its textures (glTF 2.0 section 5.22 textureInfo, 5.26 sampler; KHR_texture_transform),
 // which Assimp 5.2 either does not keep (the transform is only its own re-parametrisation, whose composition with
 // its TransformUVCoords step is not the extension's) or keeps per material slot (set, wrap), so it is read here from
@@ -87,6 +84,10 @@ struct GltfTextureUse {
   }
 };
 
+// KHR_materials_emissive_strength, which Assimp 5.2 does not read. Assimp numbers glTF materials in the order its
+// reader first meets them, not the file's, so each file material is kept with what identifies it (its name and
+// factors), and an Assimp material takes the strength and the texture uses of the file materials that look exactly
+// like it.
 struct GltfMaterialKey {
   std::string name;
   Vec3 baseColor{1.0f};  // baseColorFactor rgb
@@ -416,6 +417,10 @@ class Converter {
   AssetMaterial ConvertMaterial(const aiMaterial& mat, const std::vector<GltfMaterialKey>& gltfMaterials,
                                 bool gltf) {
     AssetMaterial out;
+    // The textures (Assimp's references, "" for none) and how they read the UVs, set by either format below.
+    std::string baseRef;
+    const std::string emissionRef = TextureRef(mat, aiTextureType_EMISSIVE);
+    MaterialUvs uvs;
     aiString name;
     if (mat.Get(AI_MATKEY_NAME, name) == AI_SUCCESS) out.name = name.C_Str();
     aiColor4D c4;
@@ -433,17 +438,12 @@ class Converter {
       out.specular = 0.04f;
       if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
       const std::vector<const GltfMaterialKey*> candidates = Candidates(out, gltfMaterials);
-      const aiTextureType baseType =
-          TextureRef(mat, aiTextureType_BASE_COLOR).empty() ? aiTextureType_DIFFUSE : aiTextureType_BASE_COLOR;
-      MaterialUvs uvs;
-      if (const std::string ref = TextureRef(mat, baseType); !ref.empty())
-        uvs.baseColor = UseOf(candidates, &GltfMaterialKey::baseColorTexture, ref, out.name);
-      if (const std::string ref = TextureRef(mat, aiTextureType_EMISSIVE); !ref.empty())
-        uvs.emission = UseOf(candidates, &GltfMaterialKey::emissiveTexture, ref, out.name);
-      out.baseColorTexture = TextureOf(mat, baseType, uvs.baseColor);
-      out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE, uvs.emission);
-      materialUvs_.push_back(uvs);
-      out.emission *= EmissiveStrength(out, gltfMaterials);
+      baseRef = TextureRef(mat, aiTextureType_BASE_COLOR);
+      if (baseRef.empty()) baseRef = TextureRef(mat, aiTextureType_DIFFUSE);
+      if (!baseRef.empty()) uvs.baseColor = UseOf(candidates, &GltfMaterialKey::baseColorTexture, baseRef, out.name);
+      if (!emissionRef.empty())
+        uvs.emission = UseOf(candidates, &GltfMaterialKey::emissiveTexture, emissionRef, out.name);
+      out.emission *= EmissiveStrength(out, candidates);
     } else {
       // OBJ/MTL and PLY: Kd, Ks, Ns, Ke as the table in docs/sequence-format.md maps them.
       Vec3 kd(0.6f), ks(0.0f);
@@ -461,46 +461,31 @@ class Converter {
       out.roughness = std::sqrt(alpha);
       if (mat.Get(AI_MATKEY_COLOR_EMISSIVE, c3) == AI_SUCCESS) out.emission = Vec3(c3.r, c3.g, c3.b);
       // The first UV set as it is; the wrap modes Assimp read (MTL's -clamp).
-      MaterialUvs uvs;
-      if (!TextureRef(mat, aiTextureType_DIFFUSE).empty()) uvs.baseColor = AssimpUse(mat, aiTextureType_DIFFUSE);
-      if (!TextureRef(mat, aiTextureType_EMISSIVE).empty()) uvs.emission = AssimpUse(mat, aiTextureType_EMISSIVE);
-      out.baseColorTexture = TextureOf(mat, aiTextureType_DIFFUSE, uvs.baseColor);
-      out.emissionTexture = TextureOf(mat, aiTextureType_EMISSIVE, uvs.emission);
-      materialUvs_.push_back(uvs);
+      baseRef = TextureRef(mat, aiTextureType_DIFFUSE);
+      if (!baseRef.empty()) uvs.baseColor = AssimpUse(mat, aiTextureType_DIFFUSE);
+      if (!emissionRef.empty()) uvs.emission = AssimpUse(mat, aiTextureType_EMISSIVE);
     }
+    out.baseColorTexture = TextureOf(baseRef, uvs.baseColor);
+    out.emissionTexture = TextureOf(emissionRef, uvs.emission);
+    materialUvs_.push_back(uvs);
     return out;
   }
 
-  // The strength of the file materials that match `m` exactly (name and factors as Assimp read them); refused when
-  // materials that look the same carry different strengths, since which one Assimp gave this mesh is unknowable.
-  float EmissiveStrength(const AssetMaterial& m, const std::vector<GltfMaterialKey>& keys) const {
-    if (!(std::max({m.emission.x, m.emission.y, m.emission.z}) > 0.0f)) return 1.0f;
-    // By name and factors first; Assimp names an unnamed material itself, so then by factors alone.
-    for (const bool byName : {true, false}) {
-      float strength = 1.0f;
-      bool found = false;
-      for (const GltfMaterialKey& k : keys) {
-        if ((byName && k.name != m.name) || k.baseColor != m.baseColor || k.emissive != m.emission ||
-            k.metallic != m.metallic || k.roughness != m.roughness)
-          continue;
-        if (found && k.strength != strength)
-          Fail(path_, "materials like '" + m.name + "' look the same but carry different emissive strengths; "
-                      "Assimp does not say which is which (give them distinct names or factors)");
-        strength = k.strength;
-        found = true;
-      }
-      if (found) return strength;
-    }
-    return 1.0f;
+  // The strength of the candidate file materials (Candidates); refused when they carry different strengths, since
+  // which one Assimp gave this mesh is unknowable.
+  float EmissiveStrength(const AssetMaterial& m, const std::vector<const GltfMaterialKey*>& candidates) const {
+    if (!(std::max({m.emission.x, m.emission.y, m.emission.z}) > 0.0f) || candidates.empty()) return 1.0f;
+    for (const GltfMaterialKey* k : candidates)
+      if (k->strength != candidates.front()->strength)
+        Fail(path_, "materials like '" + m.name + "' look the same but carry different emissive strengths; "
+                    "Assimp does not say which is which (give them distinct names or factors)");
+    return candidates.front()->strength;
   }
 
-  // The material's first texture of `type`, read once per distinct reference and wrap modes (`use`'s); -1 when it
-  // has none.
-  int32_t TextureOf(const aiMaterial& mat, aiTextureType type, const GltfTextureUse& use) {
-    if (mat.GetTextureCount(type) == 0) return -1;
-    aiString ref;
-    if (mat.GetTexture(type, 0, &ref) != AI_SUCCESS) return -1;
-    const std::string key = ref.C_Str();
+  // The texture Assimp calls `key` (TextureRef), read once per distinct reference and wrap modes (`use`'s); -1 for
+  // none ("").
+  int32_t TextureOf(const std::string& key, const GltfTextureUse& use) {
+    if (key.empty()) return -1;
     const std::string indexKey =
         key + "|" + std::to_string(int(use.wrapS)) + std::to_string(int(use.wrapT));
     if (auto it = textureIndex_.find(indexKey); it != textureIndex_.end()) return it->second;
