@@ -5,8 +5,8 @@
 //
 // Assimp runs in a child process (ImportAsset): a file that crashes or hangs it, or asks for more memory than a
 // scene can have, becomes one InputError naming the file, never a crash of the simulator. The child only parses;
-// textures come back as the file holds them and are decoded here by OpenImageIO (libpng, libjpeg, OpenEXR), whose
-// thread pools a forked child could not use.
+// textures come back as the file holds them and are decoded by OpenImageIO, each in a child of its own
+// (sim/texture.h DecodeTexture), so that a texture that crashes its decoder is one InputError too.
 #pragma once
 
 #include <cstdint>

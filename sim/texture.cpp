@@ -2,13 +2,16 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <ImfThreading.h>
 
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
+#include "sim/isolation.h"
 #include "sim/sequence.h"  // InputError
 #include "sim/texture_decode.h"
 #include "sim/text.h"
@@ -145,9 +148,8 @@ class StderrCapture {
   int saved_ = -1;
 };
 
-}  // namespace
-
-bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
+// TryDecodeLinearImage's work, in the calling process; it runs in a forked child (sim/isolation.h).
+bool DecodeLinearImageHere(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
   StderrCapture capture;
   auto fail = [&](const std::string& what) {
     const std::string said = capture.Restore();
@@ -161,6 +163,7 @@ bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Tex
     const std::string why = OIIO::geterror();
     return fail("not an image OpenImageIO can read" + (why.empty() ? std::string() : " (" + why + ")"));
   }
+  in->threads(1);  // OpenImageIO's pool, if the parent started it, has no threads in this child
   const OIIO::ImageSpec spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0)
     return fail("the image has no pixels");
@@ -193,6 +196,78 @@ bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Tex
   if (srgb)
     for (float& v : t.rgb) v = SrgbToLinear(v);
   capture.Restore();  // a decoder's warnings on an image it did decode are not ours to print
+  return true;
+}
+
+// OpenEXR's global pool (frame_writer.h SetExrThreads; OpenImageIO sizes it too) has its worker threads in this
+// process only: a forked child decoding an EXR through it would queue its chunks for threads it does not have and
+// wait forever. Emptied while a child runs, so that the child's decoder finds no pool and works on its own thread;
+// then restored (the threads are started again). A frame written meanwhile compresses on its calling thread.
+class ExrPoolPaused {
+ public:
+  ExrPoolPaused() : threads_(Imf::globalThreadCount()) {
+    if (threads_ > 0) Imf::setGlobalThreadCount(0);
+  }
+  ~ExrPoolPaused() {
+    if (threads_ > 0) Imf::setGlobalThreadCount(threads_);
+  }
+  ExrPoolPaused(const ExrPoolPaused&) = delete;
+  ExrPoolPaused& operator=(const ExrPoolPaused&) = delete;
+
+ private:
+  int threads_;
+};
+
+// The decoded image as the child sends it: width and height (int32), then the texels' floats.
+std::string SerializeDecoded(const Texture& t) {
+  const int32_t size[2] = {t.width, t.height};
+  std::string out(reinterpret_cast<const char*>(size), sizeof(size));
+  out.append(reinterpret_cast<const char*>(t.rgb.data()), t.rgb.size() * sizeof(float));
+  return out;
+}
+
+// The parent's reading of SerializeDecoded: false where the bytes do not hold a whole image within the limits.
+bool DeserializeDecoded(const std::string& bytes, Texture& t) {
+  int32_t size[2];
+  if (bytes.size() < sizeof(size)) return false;
+  std::memcpy(size, bytes.data(), sizeof(size));
+  if (size[0] <= 0 || size[1] <= 0 || size[0] > kMaxTextureSide || size[1] > kMaxTextureSide ||
+      int64_t(size[0]) * size[1] > kMaxTextureTexels)
+    return false;
+  const size_t floats = size_t(size[0]) * size_t(size[1]) * 3;
+  if (bytes.size() != sizeof(size) + floats * sizeof(float)) return false;
+  t.width = size[0];
+  t.height = size[1];
+  t.rgb.resize(floats);
+  std::memcpy(t.rgb.data(), bytes.data() + sizeof(size), floats * sizeof(float));
+  return true;
+}
+
+}  // namespace
+
+bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
+  t = Texture{};
+  const auto work = [&](std::string& out) {
+    Texture decoded;
+    if (!DecodeLinearImageHere(bytes, name, decoded, out)) return false;
+    out = SerializeDecoded(decoded);
+    return true;
+  };
+  IsolatedResult r;
+  {
+    const ExrPoolPaused paused;
+    r = RunIsolated(work, IsolatedTool{"the image decoder", "OpenImageIO"}, IsolationLimits{});
+  }
+  if (r.status != IsolatedResult::Status::kDone) {
+    problem = r.bytes;
+    return false;
+  }
+  t.name = name;
+  if (!DeserializeDecoded(r.bytes, t)) {
+    t = Texture{};
+    problem = "the image decoder sent a damaged result";
+    return false;
+  }
   return true;
 }
 

@@ -49,7 +49,8 @@ float SrgbToLinear(float encoded);
 // Decodes an image (PNG, JPEG, EXR, HDR, ... whatever OpenImageIO reads) from memory into linear RGB: 8- and
 // 16-bit integer images are taken as sRGB, float images as linear; grey is replicated, alpha dropped. Throws
 // InputError "<name>: error: ..." (with the decoder's own diagnostic, which never reaches stderr) when the bytes
-// are not an image or the image is beyond 16384 texels on a side or 2^26 in all (bounded before allocating).
+// are not an image or the image is beyond 16384 texels on a side or 2^26 in all (bounded before allocating). The
+// decoder runs in a forked child (sim/isolation.h): bytes that crash or hang it are such an InputError too.
 Texture DecodeTexture(const std::string& bytes, const std::string& name);
 
 }  // namespace restir

@@ -11,8 +11,9 @@
 namespace restir {
 
 // DecodeTexture's decoding (sRGB for integer images, linear for float ones; grey replicated, alpha dropped; the
-// same size limits) with the texels left as the file has them, possibly negative or non-finite. False with
-// `problem` (one line, without the name) when the bytes are not an image or the image is too large.
+// same size limits, the same child process) with the texels left as the file has them, possibly negative or
+// non-finite. False with `problem` (one line, without the name) when the bytes are not an image, the image is too
+// large, or the decoder crashed or hung on it.
 bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& image, std::string& problem);
 
 }  // namespace restir
