@@ -10,7 +10,9 @@
 
 #include "core/gris.h"
 #include "core/gris_kernel.h"
+#include "core/bsdf_draw_kernel.h"
 #include "core/light_draw_kernel.h"
+#include "core/light_selection_kernel.h"
 #include "core/light_sampler.h"
 #include "core/reservoir.h"
 #include "core/ris_kernel.h"
@@ -257,8 +259,9 @@ void BM_ShadowRayKernel(benchmark::State& state, SimdTarget target) {
 
 // The reference's light-draw kernel (core/light_draw_kernel.h): BM_LightDrawKernel/<target>. Items are draws.
 // 768 draws per call (the budget issue 16 measured the reference at) at floor receivers of the BM_RisKernel row
-// under the 72 grid lights, each receiver with its own cdf (weights by the lights' unshadowed contribution there
-// plus a defensive share, as the reference's distribution), cycled over 64 receivers; diffuse and GGX receivers.
+// under the 72 grid lights, each receiver with its own cdf over the lights' groups (weights by the lights'
+// unshadowed contribution there plus a defensive share, as the reference's distribution), cycled over 64
+// receivers; diffuse and GGX receivers.
 void BM_LightDrawKernel(benchmark::State& state, SimdTarget target) {
   const std::vector<LightTriangle> lights = GridLights(72);
   const BsdfSoa materials = BenchMaterials();
@@ -267,11 +270,14 @@ void BM_LightDrawKernel(benchmark::State& state, SimdTarget target) {
   };
   std::vector<Record> records(lights.size());
   std::vector<float> errorScale;
+  // The reference's groups (core/light.h): the grid's quads, each weighed once.
+  const LightGroups groups = MakeLightGroups(lights);
   for (size_t l = 0; l < lights.size(); ++l) {
-    WriteLightDrawRecord(lights[l], records[l].v);
+    WriteLightDrawRecord(lights[l], groups.invArea[l], records[l].v);
     errorScale.push_back(lights[l].errorScale);
   }
-  const LightDrawLights view{records.data()->v, errorScale.data(), lights.size()};
+  const LightDrawLights view{records.data()->v, errorScale.data(), lights.size(), groups.first.data(),
+                             groups.split.data(), groups.first.size()};
   constexpr size_t kReceivers = 64, kDraws = 768;
   std::vector<LightDrawReceiver> receivers(kReceivers);
   std::vector<std::vector<float>> cdfs(kReceivers);
@@ -289,14 +295,15 @@ void BM_LightDrawKernel(benchmark::State& state, SimdTarget target) {
     sp.wo = rc.wo;
     sp.bsdf.albedo = Vec3(1.0f);
     double running = 0.0, total = 0.0;
-    std::vector<double> w(lights.size());
+    std::vector<double> w(groups.first.size(), 0.0);
     for (size_t l = 0; l < lights.size(); ++l) {
       LightSample y;
       y.position = SampleTrianglePoint(lights[l], 1.0f / 3.0f, 1.0f / 3.0f);
       y.normal = lights[l].normal;
       y.radiance = lights[l].radiance;
-      w[l] = TargetFunction(UnshadowedContribution(sp, y)) * lights[l].area + 1e-3;
-      total += w[l];
+      const double v = TargetFunction(UnshadowedContribution(sp, y)) * lights[l].area + 1e-3;
+      w[groups.groupOf[l]] += v;
+      total += v;
     }
     for (double v : w) cdfs[r].push_back(static_cast<float>((running += v) / total));
   }
@@ -323,6 +330,85 @@ void BM_LightDrawKernel(benchmark::State& state, SimdTarget target) {
   });
 }
 [[maybe_unused]] const bool kLightDrawKernelRegistered = RegisterPerTarget("BM_LightDrawKernel", BM_LightDrawKernel);
+
+// The reference's light distributions (core/light_selection_kernel.h): BM_LightSelectionKernel/<target>. Items are
+// receivers: a block of 16 floor receivers per call (kSelectionBlock) under 72 quad lights cut in two (the
+// flagship's lights: 72 groups of 144 triangles) up to 4 m away, diffuse, the cdfs then copied to rows
+// (SelectionRows) as the reference draws from them; cycled over 8 blocks along the row.
+void BM_LightSelectionKernel(benchmark::State& state, SimdTarget target) {
+  std::vector<LightTriangle> triangles;
+  for (int i = 0; i < 72; ++i) {
+    const float x = float(i % 12) * 0.8f - 4.8f, z = float(i / 12) * 0.8f - 2.4f;
+    const Vec3 q[4] = {Vec3(x, 3, z), Vec3(x, 3, z + 0.4f), Vec3(x + 0.4f, 3, z + 0.4f), Vec3(x + 0.4f, 3, z)};
+    LightTriangle t0{}, t1{};
+    MakeLightTriangle(q[0], q[1], q[2], Vec3(1.0f + float(i % 3), 2.0f, 1.0f + float(i % 5)), t0);
+    MakeLightTriangle(q[0], q[2], q[3], t0.radiance, t1);
+    triangles.push_back(t0);
+    triangles.push_back(t1);
+  }
+  const LightGroups groups = MakeLightGroups(triangles);
+  std::vector<float> powerPmf(triangles.size(), 1.0f / float(triangles.size()));
+  const std::vector<SelectionLight> selection = MakeSelectionLights(triangles, groups, powerPmf);
+  const SelectionLights lights{selection.data(), selection.size()};
+  const BsdfSoa materials = BenchMaterials();
+  constexpr size_t kBlocks = 8;
+  std::vector<SelectionReceivers> blocks(kBlocks);
+  for (size_t b = 0; b < kBlocks; ++b) {
+    SelectionReceivers& r = blocks[b];
+    r = SelectionReceivers{};
+    r.count = kSelectionBlock;
+    for (size_t k = 0; k < kSelectionBlock; ++k) {
+      const float x = float(b * kSelectionBlock + k) * 0.07f - 4.5f;
+      r.x[0][k] = x, r.x[1][k] = 0.0f, r.x[2][k] = 0.3f * float(b) - 1.0f;
+      r.ng[1][k] = r.n[1][k] = 1.0f;
+      r.wo[1][k] = 0.8f, r.wo[2][k] = 0.6f;
+      r.materialId[k] = static_cast<int32_t>(k % 2);
+    }
+  }
+  std::vector<float> work(selection.size() * kSelectionBlock), columns(work.size()), rows(work.size());
+  float estimate[kSelectionBlock];
+  size_t next = 0;
+  TimeOnTarget(state, target, static_cast<int64_t>(kSelectionBlock), [&] {
+    BuildLightSelection(blocks[next], materials, lights, work.data(), columns.data(), estimate);
+    SelectionRows(columns.data(), selection.size(), kSelectionBlock, rows.data());
+    next = (next + 1) % kBlocks;
+    benchmark::DoNotOptimize(rows.data());
+  });
+}
+[[maybe_unused]] const bool kLightSelectionKernelRegistered =
+    RegisterPerTarget("BM_LightSelectionKernel", BM_LightSelectionKernel);
+
+// The reference's BSDF samples (core/bsdf_draw_kernel.h): BM_BsdfDrawKernel/<target>. Items are draws: 768 per call
+// at a GGX receiver (alpha 0.09) of the BM_RisKernel row, the draws that count packed with their rays.
+void BM_BsdfDrawKernel(benchmark::State& state, SimdTarget target) {
+  const BsdfSoa materials = BenchMaterials();
+  LightDrawReceiver r;
+  r.position = Vec3(1.0f, 0.0f, -0.5f);
+  r.geometricNormal = r.shadingNormal = Vec3(0, 1, 0);
+  r.wo = glm::normalize(Vec3(0.2f, 1, 0.3f));
+  r.errorScale = 4.0f;
+  r.materialId = 2;
+  constexpr size_t kDraws = 768;
+  std::vector<float> u[2];
+  for (int j = 0; j < 2; ++j)
+    for (size_t k = 0; k < kDraws; ++k) u[j].push_back(UniformFloat(RngKey{5, 0, static_cast<uint32_t>(k), 0}, j));
+  std::vector<float> outF[10];
+  for (auto& v : outF) v.resize(kDraws);
+  std::vector<uint32_t> drawOf(kDraws);
+  BsdfDrawOutputs out;
+  for (int c = 0; c < 3; ++c) {
+    out.org[c] = outF[c].data();
+    out.dir[c] = outF[3 + c].data();
+    out.weight[c] = outF[6 + c].data();
+  }
+  out.pdf = outF[9].data();
+  out.draw = drawOf.data();
+  TimeOnTarget(state, target, static_cast<int64_t>(kDraws), [&] {
+    benchmark::DoNotOptimize(DrawBsdfSamples(r, materials, BsdfDraws{u[0].data(), u[1].data(), kDraws}, out));
+    benchmark::DoNotOptimize(outF[9].data());
+  });
+}
+[[maybe_unused]] const bool kBsdfDrawKernelRegistered = RegisterPerTarget("BM_BsdfDrawKernel", BM_BsdfDrawKernel);
 
 // A 6-input GRIS combination (canonical + temporal-like + 4 neighbours) with analytic targets, per family.
 void BM_GrisCombine(benchmark::State& state) {

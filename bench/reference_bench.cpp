@@ -8,16 +8,21 @@
 //               EmbreeScene::OccludedBatch in blocks of kFloorBlock, and its BSDF rays with rtcIntersect1 one at
 //               a time; parallel over the blocks. The fastest of `reps`.
 //   ratio       ray floor / reference: the share of the reference's wall time Embree alone would need (1 = the
-//               reference traces at the ray floor; the issue's target is >= 0.8).
+//               reference traces at the ray floor; the issue's target is >= 0.8). The renders and the floor's
+//               traces alternate, one of each per rep, and floor_ratio is the median of the reps' own ratios: on a
+//               shared machine whose speed drifts by tens of percent within a minute, a ratio of two runs seconds
+//               apart is steadier than a ratio of two minima taken a minute apart (floor_ratio_of_minima, also
+//               reported).
 //
 // Two budgets: BM_Reference/0 at the flagship's render.referenceSpp (README command 1's reference; overridden by
 // RESTIR_BENCH_REFERENCE_SPP), BM_Reference/768 at the 768 spp issue 16 measured the reference at, where the
 // per-pixel work (light distributions, pilot) weighs less against the rays.
 //
 // Counters: ms_reference, ms_ray_floor, floor_ratio, rays, mrays_per_s (the reference's), floor_mrays_per_s,
-// samples_per_pixel. Environment: RESTIR_BENCH_WIDTH / _HEIGHT (default 640x360, README command 1's size),
+// samples_per_pixel, mean_relative_standard_error (sim/reference.h MeanRelativeStandardError). Environment: RESTIR_BENCH_WIDTH / _HEIGHT (default 640x360, README command 1's size),
 // RESTIR_BENCH_REFERENCE_SPP, RESTIR_BENCH_REPS (default 2), RESTIR_BENCH_FRAME (default 8),
-// RESTIR_BENCH_PROFILE=1 (only the timed renders: for perf record).
+// RESTIR_BENCH_SIMD (a core/simd.h target name: the kernels' target, default the best), RESTIR_BENCH_PROFILE=1 (only
+// the timed renders: for perf record).
 #include <benchmark/benchmark.h>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -25,10 +30,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "core/simd.h"
 #include "sim/embree_probe.h"
 #include "sim/frame_loop.h"
 #include "sim/reference.h"
@@ -86,6 +93,13 @@ class Capture final : public RayHook {
 };
 
 void BM_Reference(benchmark::State& state) {
+  if (const char* simd = std::getenv("RESTIR_BENCH_SIMD")) {
+    const std::optional<SimdTarget> target = ParseSimdTarget(simd);
+    if (!target || !SetSimdTarget(*target)) {
+      state.SkipWithError("RESTIR_BENCH_SIMD names no target this machine runs");
+      return;
+    }
+  }
   const Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
   const int w = EnvInt("RESTIR_BENCH_WIDTH", 640), h = EnvInt("RESTIR_BENCH_HEIGHT", 360);
   const int reps = std::max(1, EnvInt("RESTIR_BENCH_REPS", 2));
@@ -94,20 +108,13 @@ void BM_Reference(benchmark::State& state) {
   ReferenceParams params;
   params.samplesPerPixel = state.range(0) > 0 ? static_cast<int>(state.range(0))
                                              : EnvInt("RESTIR_BENCH_REFERENCE_SPP", seq.defaults.referenceSpp);
-  ReferenceImage best;
-  double bestMs = 1e300;
-  for (auto _ : state) {
-    for (int r = 0; r < reps; ++r) {
-      const auto t0 = Clock::now();
-      ReferenceImage ref = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
-      const double ms = MsSince(t0);
-      if (ms < bestMs) {
-        bestMs = ms;
-        best = std::move(ref);
-      }
-    }
+  if (EnvInt("RESTIR_BENCH_PROFILE", 0)) {  // only the renders, for perf record
+    for (auto _ : state)
+      for (int r = 0; r < reps; ++r)
+        benchmark::DoNotOptimize(RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params).rays);
+    return;
   }
-  if (EnvInt("RESTIR_BENCH_PROFILE", 0)) return;  // only the timed renders, for perf record
+  // The rays, recorded by one render; then the timed renders and floors, alternating.
   Capture capture;
   SetRayHook(loop.Scene(), &capture);
   const ReferenceImage captured = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
@@ -137,9 +144,7 @@ void BM_Reference(benchmark::State& state) {
     bsdfCount += t.bsdf.size();
   }
   const EmbreeScene& scene = loop.Scene();
-  double floorMs = 1e300;
-  for (int r = 0; r < reps; ++r) {
-    const auto t0 = Clock::now();
+  const auto traceFloor = [&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks.size()), [&](const tbb::blocked_range<size_t>& range) {
       uint8_t occluded[kFloorBlock];
       for (size_t k = range.begin(); k != range.end(); ++k) {
@@ -153,18 +158,42 @@ void BM_Reference(benchmark::State& state) {
         }
       }
     });
-    floorMs = std::min(floorMs, MsSince(t0));
+  };
+  ReferenceImage best;
+  double bestMs = 1e300, floorMs = 1e300;
+  std::vector<double> ratios;
+  for (auto _ : state) {
+    for (int r = 0; r < reps; ++r) {
+      auto t0 = Clock::now();
+      ReferenceImage ref = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
+      const double ms = MsSince(t0);
+      t0 = Clock::now();
+      traceFloor();
+      const double floor = MsSince(t0);
+      ratios.push_back(floor / ms);
+      floorMs = std::min(floorMs, floor);
+      if (ms < bestMs) {
+        bestMs = ms;
+        best = std::move(ref);
+      }
+    }
   }
+  std::sort(ratios.begin(), ratios.end());
+  const size_t half = ratios.size() / 2;
+  const double medianRatio = ratios.size() % 2 ? ratios[half] : 0.5 * (ratios[half - 1] + ratios[half]);
   const double rayCount = double(best.rays);
   state.counters["ms_reference"] = bestMs;
   state.counters["ms_ray_floor"] = floorMs;
-  state.counters["floor_ratio"] = floorMs / bestMs;
+  state.counters["floor_ratio"] = medianRatio;
+  state.counters["floor_ratio_of_minima"] = floorMs / bestMs;
   state.counters["rays"] = rayCount;
   state.counters["captured_rays"] = double(shadowCount + bsdfCount);
   state.counters["capture_complete"] = shadowCount + bsdfCount == captured.rays ? 1 : 0;
   state.counters["mrays_per_s"] = rayCount / bestMs * 1e-3;
   state.counters["floor_mrays_per_s"] = double(shadowCount + bsdfCount) / floorMs * 1e-3;
   state.counters["samples_per_pixel"] = double(best.samples) / (double(w) * h);
+  // The reference's own noise at this budget: with ms_reference, its efficiency 1 / (error² × time).
+  state.counters["mean_relative_standard_error"] = MeanRelativeStandardError(best);
   state.counters["spp_budget"] = params.samplesPerPixel;
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "core/sampling.h"
+
 namespace restir {
 
 namespace {
@@ -44,8 +46,9 @@ bool GgxLobe(const Vec3& f0, float alpha, const Vec3& n, const Vec3& wo, const V
 BsdfSample SampleCosineLobe(const Vec3& n, float u0, float u1) {
   BsdfSample s;
   const float r = std::sqrt(u0);
-  const float phi = 2.0f * kPi * u1;
-  const Vec3 local(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u0)));
+  float sinPhi, cosPhi;
+  SinCos2Pi(u1, sinPhi, cosPhi);
+  const Vec3 local(r * cosPhi, r * sinPhi, std::sqrt(std::max(0.0f, 1.0f - u0)));
   s.wi = ToWorld(n, local);
   s.pdf = local.z * kInvPi;
   return s;
@@ -60,8 +63,9 @@ BsdfSample SampleGgxLobe(float alpha, const Vec3& n, const Vec3& wo, float u0, f
   const float cos2 = (1.0f - u0) / (1.0f + (a2 - 1.0f) * u0);
   const float cosH = std::sqrt(std::max(0.0f, cos2));
   const float sinH = std::sqrt(std::max(0.0f, 1.0f - cos2));
-  const float phi = 2.0f * kPi * u1;
-  const Vec3 h = ToWorld(n, Vec3(sinH * std::cos(phi), sinH * std::sin(phi), cosH));
+  float sinPhi, cosPhi;
+  SinCos2Pi(u1, sinPhi, cosPhi);
+  const Vec3 h = ToWorld(n, Vec3(sinH * cosPhi, sinH * sinPhi, cosH));
   const float oh = glm::dot(wo, h);
   if (oh <= 0.0f) return s;
   s.wi = 2.0f * oh * h - wo;

@@ -60,4 +60,46 @@ inline bool MakeLightTriangle(const Vec3& p0, const Vec3& p1, const Vec3& p2, co
   return true;
 }
 
+// Light groups: what the reference's light distributions select (core/light_selection_kernel.h). A group is a
+// light triangle, or a quad: two triangles of one radiance that share a diagonal (A B C and A C D, as quad and grid
+// lights are cut) and form a convex quadrilateral, weighed once and then split by area, so that a point on a quad
+// is drawn uniformly over the whole quad. Groups follow the triangles' order.
+struct LightGroups {
+  std::vector<uint32_t> first;    // per group: its first triangle; a quad's second is first + 1
+  std::vector<float> split;       // per group: the share of its area that is the first triangle's, 2 for a lone one
+  std::vector<uint32_t> groupOf;  // per triangle: its group
+  std::vector<float> invArea;     // per triangle: 1 / its group's area (a point's area density is P(group) × this)
+};
+
+// Whether t1 continues t0 into a convex quad t0.p0, t0.p1, t0.p2, t1.p2.
+inline bool FormsQuad(const LightTriangle& t0, const LightTriangle& t1) {
+  if (!(t0.area > 0.0f) || !(t1.area > 0.0f) || t0.radiance != t1.radiance) return false;
+  if (t0.p0 != t1.p0 || t0.p0 + t0.e2 != t1.p0 + t1.e1) return false;
+  if (!(glm::dot(t0.normal, t1.normal) > 1.0f - 1e-5f)) return false;
+  // Convex: every corner turns the same way about the normal.
+  const Vec3 q[4] = {t0.p0, t0.p0 + t0.e1, t0.p0 + t0.e2, t1.p0 + t1.e2};
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 turn = glm::cross(q[(i + 1) % 4] - q[i], q[(i + 2) % 4] - q[(i + 1) % 4]);
+    if (!(glm::dot(turn, t0.normal) > 0.0f)) return false;
+  }
+  return true;
+}
+
+inline LightGroups MakeLightGroups(const std::vector<LightTriangle>& triangles) {
+  LightGroups g;
+  for (size_t t = 0; t < triangles.size();) {
+    const bool quad = t + 1 < triangles.size() && FormsQuad(triangles[t], triangles[t + 1]);
+    const uint32_t group = static_cast<uint32_t>(g.first.size());
+    g.first.push_back(static_cast<uint32_t>(t));
+    const float area = quad ? triangles[t].area + triangles[t + 1].area : triangles[t].area;
+    g.split.push_back(quad ? triangles[t].area / area : 2.0f);
+    for (size_t k = 0; k < (quad ? 2u : 1u); ++k) {
+      g.groupOf.push_back(group);
+      g.invArea.push_back(1.0f / area);
+    }
+    t += quad ? 2 : 1;
+  }
+  return g;
+}
+
 }  // namespace restir

@@ -37,10 +37,11 @@ struct DrawContext {
   Bsdf bsdf;         // the receiver's, for PdfBsdfUniformV
   bool bsdfMis;      // LightDrawReceiver::bsdfMis
   VF errorScale;     // the receiver's error scale (ShadowRaySetup)
-  VF total;  // cdf[n - 1]
+  VF invTotal;  // 1 / cdf[n - 1], as CdfPmf multiplies by it
+  VF total;     // cdf[n - 1]
 };
 
-// The receiver in every lane, its BSDF gathered from the frame's table.
+// The receiver in every lane, its BSDF the frame table's entry.
 HWY_INLINE ShadingPointV BroadcastReceiverV(const LightDrawReceiver& r, const BsdfSoa& materials) {
   const DF df;
   VF x[3], ng[3], ns[3], wo[3];
@@ -50,7 +51,7 @@ HWY_INLINE ShadingPointV BroadcastReceiverV(const LightDrawReceiver& r, const Bs
     ns[c] = hn::Set(df, r.shadingNormal[c]);
     wo[c] = hn::Set(df, r.wo[c]);
   }
-  return MakeShadingPointV(x, ng, ns, wo, GatherBsdfV(materials, hn::Set(DI(), r.materialId)));
+  return MakeShadingPointV(x, ng, ns, wo, BroadcastBsdfV(materials.At(static_cast<size_t>(r.materialId))));
 }
 
 // The records (WriteLightDrawRecord's fields) of lights `id`, one field per register.
@@ -73,6 +74,24 @@ HWY_INLINE void LoadLightRecordsV(const float* records, VI id, VF (&r)[16]) {
 HWY_INLINE VI SampleCdfV(const float* cdf, size_t n, VF target) {
   const DF df;
   const DI di;
+  if (n <= 96) {
+    // A full count of the entries at or below the target: no gathers, four independent running counts (each a
+    // chain of dependent adds).
+    const VI one = hn::Set(di, 1);
+    VI below[4] = {hn::Zero(di), hn::Zero(di), hn::Zero(di), hn::Zero(di)};
+    size_t j = 0;
+    for (; j + 4 <= n; j += 4)
+      for (size_t a = 0; a < 4; ++a) {
+        const auto atOrBelow = hn::RebindMask(di, hn::Le(hn::Set(df, cdf[j + a]), target));
+        below[a] = hn::IfThenElse(atOrBelow, hn::Add(below[a], one), below[a]);
+      }
+    for (; j < n; ++j) {
+      const auto atOrBelow = hn::RebindMask(di, hn::Le(hn::Set(df, cdf[j]), target));
+      below[0] = hn::IfThenElse(atOrBelow, hn::Add(below[0], one), below[0]);
+    }
+    const VI count = hn::Add(hn::Add(below[0], below[1]), hn::Add(below[2], below[3]));
+    return hn::Min(count, hn::Set(di, static_cast<int32_t>(n - 1)));
+  }
   size_t stride = 8;
   while (n / stride > 16) stride *= 2;
   VI coarse = hn::Zero(di);
@@ -99,22 +118,28 @@ HWY_INLINE VI SampleCdfV(const float* cdf, size_t n, VF target) {
 // `written`, which grows by their number. Writes Lanes entries from `written` on (CompressStore may fill the
 // lanes after the last kept one), so the caller keeps written + Lanes within the arrays.
 HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, const float* cdf, const float* uSelect,
-                           const float* uPoint0, const float* uPoint1, MF valid, float* const (&out)[10],
-                           uint32_t* draw, size_t k, size_t& written) {
+                           const float* uPoint0, const float* uPoint1, MF valid, float* const (&term)[3],
+                           float* const (&out)[7], uint32_t* draw, uint32_t firstDraw, size_t k, size_t& written) {
   const DF df;
   const DI di;
   const VF zero = hn::Zero(df);
-  const VI id = SampleCdfV(cdf, L.count, hn::Mul(hn::LoadU(df, uSelect + k), ctx.total));
+  const VF target = hn::Mul(hn::LoadU(df, uSelect + k), ctx.total);
+  const VI group = SampleCdfV(cdf, L.groups, target);
 
-  // CdfPmf, then the area density.
-  const VF at = hn::GatherIndex(df, cdf, id);
-  const MF notFirst = hn::RebindMask(df, hn::Gt(id, hn::Zero(di)));
+  // SampleSplitCdf's triangle in the group, CdfPmf, then the area density.
+  const VF at = hn::GatherIndex(df, cdf, group);
+  const MF notFirst = hn::RebindMask(df, hn::Gt(group, hn::Zero(di)));
   const VF before = hn::IfThenElseZero(
-      notFirst, hn::GatherIndex(df, cdf, hn::Max(hn::Sub(id, hn::Set(di, 1)), hn::Zero(di))));
-  const VF pmf = hn::Div(hn::Sub(at, before), ctx.total);
+      notFirst, hn::GatherIndex(df, cdf, hn::Max(hn::Sub(group, hn::Set(di, 1)), hn::Zero(di))));
+  const VF step = hn::Sub(at, before);
+  const VF split = hn::GatherIndex(df, L.groupSplit, group);
+  const MF second = hn::Ge(hn::Sub(target, before), hn::Mul(split, step));
+  const VI first = hn::GatherIndex(di, reinterpret_cast<const int32_t*>(L.groupFirst), group);
+  const VI id = hn::Add(first, hn::IfThenElseZero(hn::RebindMask(di, second), hn::Set(di, 1)));
+  const VF pmf = hn::Mul(step, ctx.invTotal);
   VF r[16];
   LoadLightRecordsV(L.records, id, r);
-  const VF pdf = hn::Div(pmf, r[15]);
+  const VF pdf = hn::Mul(pmf, r[15]);  // r[15] = 1 / area
   VF p0[3], e1[3], e2[3], ny[3], radiance[3];
   for (int c = 0; c < 3; ++c) {
     p0[c] = r[c];
@@ -147,16 +172,17 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   // (Compress of the lane indices), applied with TableLookupLanes (one vpermps / vpermd). Per output,
   // CompressStore's masked store to memory is microcoded and many times slower on AMD Zen 4 (the kernel 2.7x
   // slower on AVX-512, measured), and Highway's AVX2 Compress recomputes the permutation each time (2.3x).
+  // The terms in draw order, 0 where the draw cannot count.
+  for (int c = 0; c < 3; ++c) hn::StoreU(hn::IfThenElseZero(counts, CanonicalNaNV(hn::Mul(f[c], invPdf))), df, term[c] + k);
   const VI source = hn::Compress(hn::Iota(di, 0), hn::RebindMask(di, counts));
   const auto pack = hn::IndicesFromVec(df, source);
   for (int c = 0; c < 3; ++c) {
-    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(hn::Mul(f[c], invPdf)), pack), df, out[c] + written);
-    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayOrg[c]), pack), df, out[3 + c] + written);
-    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayDir[c]), pack), df, out[6 + c] + written);
+    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayOrg[c]), pack), df, out[c] + written);
+    hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(rayDir[c]), pack), df, out[3 + c] + written);
   }
-  hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(length), pack), df, out[9] + written);
+  hn::StoreU(hn::TableLookupLanes(CanonicalNaNV(length), pack), df, out[6] + written);
   const hn::RebindToUnsigned<DI> du;
-  hn::StoreU(hn::BitCast(du, hn::Add(source, hn::Set(di, static_cast<int32_t>(k)))), du, draw + written);
+  hn::StoreU(hn::Add(hn::BitCast(du, source), hn::Set(du, static_cast<uint32_t>(k) + firstDraw)), du, draw + written);
   written += hn::CountTrue(df, counts);
 }
 
@@ -166,20 +192,19 @@ size_t LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, con
                        const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
   const DF df;
   const size_t N = hn::Lanes(df);
-  DrawContext ctx;
-  ctx.sp = BroadcastReceiverV(r, materials);
-  ctx.bsdf = materials.At(static_cast<size_t>(r.materialId));
-  ctx.bsdfMis = r.bsdfMis;
-  ctx.errorScale = hn::Set(df, r.errorScale);
-  ctx.total = hn::Set(df, cdf[lights.count - 1]);
+  // Initialised in place: the broadcast receiver is some thirty registers' worth, not copied once per call.
+  const DrawContext ctx{BroadcastReceiverV(r, materials),        materials.At(static_cast<size_t>(r.materialId)),
+                        r.bsdfMis,
+                        hn::Set(df, r.errorScale),
+                        hn::Set(df, 1.0f / cdf[lights.groups - 1]), hn::Set(df, cdf[lights.groups - 1])};
 
-  float* const o[10] = {out.term[0], out.term[1], out.term[2], out.org[0], out.org[1],
-                        out.org[2],  out.dir[0],  out.dir[1],  out.dir[2], out.tmax};
+  float* const term[3] = {out.term[0], out.term[1], out.term[2]};
+  float* const o[7] = {out.org[0], out.org[1], out.org[2], out.dir[0], out.dir[1], out.dir[2], out.tmax};
   // A full packet at k writes [written, written + N) with written <= k, inside the caller's draws.count entries.
   size_t k = 0, written = 0;
   for (; k + N <= draws.count; k += N)
-    DrawPacket(ctx, lights, cdf, draws.uSelect, draws.uPoint0, draws.uPoint1, hn::FirstN(df, N), o, out.draw, k,
-               written);
+    DrawPacket(ctx, lights, cdf, draws.uSelect, draws.uPoint0, draws.uPoint1, hn::FirstN(df, N), term, o, out.draw,
+               out.firstDraw, k, written);
   if (k == draws.count) return written;
 
   // Tail: a full packet would read past the caller's uniforms and could write past its outputs, so run one on
@@ -192,50 +217,20 @@ size_t LightDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, con
     u[1][l] = draws.uPoint0[k + l];
     u[2][l] = draws.uPoint1[k + l];
   }
-  HWY_ALIGN float padded[10][kMax];
+  HWY_ALIGN float paddedTerm[3][kMax];
+  HWY_ALIGN float padded[7][kMax];
   HWY_ALIGN uint32_t index[kMax];
-  float* const p[10] = {padded[0], padded[1], padded[2], padded[3], padded[4],
-                        padded[5], padded[6], padded[7], padded[8], padded[9]};
+  float* const t[3] = {paddedTerm[0], paddedTerm[1], paddedTerm[2]};
+  float* const p[7] = {padded[0], padded[1], padded[2], padded[3], padded[4], padded[5], padded[6]};
   size_t kept = 0;
-  DrawPacket(ctx, lights, cdf, u[0], u[1], u[2], hn::FirstN(df, rest), p, index, 0, kept);
+  DrawPacket(ctx, lights, cdf, u[0], u[1], u[2], hn::FirstN(df, rest), t, p, index, 0, 0, kept);
+  for (size_t l = 0; l < rest; ++l)
+    for (int c = 0; c < 3; ++c) term[c][k + l] = paddedTerm[c][l];
   for (size_t l = 0; l < kept; ++l) {
-    for (int f = 0; f < 10; ++f) o[f][written + l] = padded[f][l];
-    out.draw[written + l] = index[l] + static_cast<uint32_t>(k);
+    for (int f = 0; f < 7; ++f) o[f][written + l] = padded[f][l];
+    out.draw[written + l] = index[l] + static_cast<uint32_t>(k) + out.firstDraw;
   }
   return written + kept;
-}
-
-void CentroidTargetsKernel(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& lights,
-                           float* out) {
-  const DF df;
-  const DI di;
-  const size_t N = hn::Lanes(df);
-  const ShadingPointV sp = BroadcastReceiverV(r, materials);
-  const VI last = hn::Set(di, static_cast<int32_t>(lights.count - 1));
-  const VF third = hn::Set(df, 1.0f / 3.0f);
-  for (size_t l = 0; l < lights.count; l += N) {
-    const VI id = hn::Min(hn::Iota(di, static_cast<int32_t>(l)), last);  // the tail repeats the last light
-    VF rec[16];
-    LoadLightRecordsV(lights.records, id, rec);
-    // The centroid as LightTriangle's p0 + (e1 + e2) * (1 / 3), component by component.
-    VF y[3], ny[3], radiance[3];
-    for (int c = 0; c < 3; ++c) {
-      y[c] = hn::Add(rec[c], hn::Mul(hn::Add(rec[3 + c], rec[6 + c]), third));
-      ny[c] = rec[9 + c];
-      radiance[c] = rec[12 + c];
-    }
-    const LightPathV path = ConnectToLightV(sp, y, ny);
-    VF f[3];
-    UnshadowedContributionV(sp, path, radiance, f);
-    const VF target = CanonicalNaNV(LuminanceV(f));
-    if (l + N <= lights.count) {
-      hn::StoreU(target, df, out + l);
-    } else {
-      HWY_ALIGN float rest[hn::MaxLanes(DF())];
-      hn::Store(target, df, rest);
-      for (size_t k = 0; l + k < lights.count; ++k) out[l + k] = rest[k];
-    }
-  }
 }
 
 const char* LightDrawKernelTargetName() {
@@ -253,7 +248,6 @@ namespace restir {
 
 HWY_EXPORT(LightDrawKernel);
 HWY_EXPORT(LightDrawKernelTargetName);
-HWY_EXPORT(CentroidTargetsKernel);
 
 namespace {
 
@@ -271,39 +265,22 @@ ShadingPoint ReceiverPoint(const LightDrawReceiver& r, const BsdfSoa& materials)
 
 }  // namespace
 
-void LightCentroidTargetsScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
-                                float* out) {
-  const ShadingPoint sp = ReceiverPoint(r, materials);
-  for (size_t l = 0; l < L.count; ++l) {
-    const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * l);
-    LightSample c;
-    c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
-    c.normal = t.normal;
-    c.radiance = t.radiance;
-    out[l] = CanonicalNaN(TargetFunction(UnshadowedContribution(sp, c)));
-  }
-}
-
-void LightCentroidTargets(const LightDrawReceiver& receiver, const BsdfSoa& materials, const LightDrawLights& lights,
-                          float* out) {
-  if (UseScalarTwins()) return LightCentroidTargetsScalar(receiver, materials, lights, out);
-  HWY_DYNAMIC_DISPATCH(CentroidTargetsKernel)(receiver, materials, lights, out);
-}
-
 size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materials, const LightDrawLights& L,
                               const float* cdf, const LightDraws& draws, const LightDrawOutputs& out) {
   const ShadingPoint sp = ReceiverPoint(r, materials);
   size_t written = 0;
   for (size_t k = 0; k < draws.count; ++k) {
-    const uint32_t id = SampleCdf(cdf, L.count, draws.uSelect[k]);
-    const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * id);
+    const uint32_t id = SampleSplitCdf(cdf, L.groups, L.groupFirst, L.groupSplit, draws.uSelect[k]);
+    float invArea;
+    const LightTriangle t = ReadLightDrawRecord(L.records + kLightDrawRecordFloats * id, invArea);
     LightSample y;
     y.lightId = id;
     y.position = SampleTrianglePoint(t, draws.uPoint0[k], draws.uPoint1[k]);
     y.normal = t.normal;
     y.radiance = t.radiance;
-    y.pdfArea = CdfPmf(cdf, L.count, id) / t.area;
+    y.pdfArea = CdfPmf(cdf, L.groups, SampleCdf(cdf, L.groups, draws.uSelect[k])) * invArea;
     const Vec3 f = UnshadowedContribution(sp, y);
+    for (int c = 0; c < 3; ++c) out.term[c][k] = 0.0f;
     if (!((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f)) continue;
     float weight = 1.0f;
     if (r.bsdfMis) {
@@ -316,12 +293,12 @@ size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materia
     const ShadowRaySegment s =
         ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, L.errorScale[id]);
     for (int c = 0; c < 3; ++c) {
-      out.term[c][written] = CanonicalNaN(term[c]);
+      out.term[c][k] = CanonicalNaN(term[c]);
       out.org[c][written] = CanonicalNaN(s.org[c]);
       out.dir[c][written] = CanonicalNaN(s.dir[c]);
     }
     out.tmax[written] = CanonicalNaN(s.tmax);
-    out.draw[written] = static_cast<uint32_t>(k);
+    out.draw[written] = static_cast<uint32_t>(k) + out.firstDraw;
     ++written;
   }
   return written;

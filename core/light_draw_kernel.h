@@ -1,8 +1,8 @@
 // Light-draw kernel (issue 16): the converged reference's light-sampling step (sim/reference.cpp) for one
 // receiver and a batch of draws, a packet of draws per register. Draw k picks a light by inverting the
-// receiver's light distribution (core/sampling.h SampleCdf at uSelect[k]), takes the point
+// receiver's light distribution over light groups (core/sampling.h SampleSplitCdf at uSelect[k]), takes the point
 // SampleTrianglePoint(uPoint0[k], uPoint1[k]) on it, and gives the light-sampling estimate's term f / p (f =
-// core/shading.h UnshadowedContribution, p = CdfPmf / area, the area density) with the shadow ray that
+// core/shading.h UnshadowedContribution, p = CdfPmf × (1 / the group's area), the area density) with the shadow ray that
 // decides whether it counts (core/shadow_ray.h ShadowRaySetup). Only the draws whose term can count (f nonzero,
 // p positive) are written, packed in draw order with their index, as the shadow-ray batch the caller traces
 // (EmbreeScene::OccludedBatch of ShadowRaysSoa). For a receiver that also samples its BSDF
@@ -33,20 +33,23 @@ struct LightDrawReceiver {
   bool bsdfMis = false;    // weight each term by PowerHeuristic(p in solid angle, PdfBsdf), else by 1
 };
 
-// Floats per light record: p0, e1, e2, normal (x y z each), radiance (r g b), area (core/light.h
-// LightTriangle).
+// Floats per light record: p0, e1, e2, normal (x y z each), radiance (r g b) (core/light.h LightTriangle), and
+// 1 / the area of the triangle's group (core/light.h LightGroups), which the area density multiplies by.
 inline constexpr size_t kLightDrawRecordFloats = 16;
 
 // The frame's light triangles: per light one 64-byte record (SIMD targets load it whole and transpose), and
-// the error scale beside it.
+// the error scale beside it; and the groups the cdf selects (core/light.h LightGroups).
 struct LightDrawLights {
-  const float* records = nullptr;  // kLightDrawRecordFloats per light, 64-byte aligned (WriteLightDrawRecord)
-  const float* errorScale = nullptr;  // LightTriangle::errorScale
-  size_t count = 0;                   // lights; the cdf has this many entries
+  const float* records = nullptr;     // kLightDrawRecordFloats per triangle, 64-byte aligned (WriteLightDrawRecord)
+  const float* errorScale = nullptr;  // per triangle, LightTriangle::errorScale
+  size_t count = 0;                   // triangles
+  const uint32_t* groupFirst = nullptr;  // per group: its first triangle
+  const float* groupSplit = nullptr;     // per group: its first triangle's share of its area, 2 for a lone one
+  size_t groups = 0;                     // groups; the cdf has this many entries
 };
 
-// Light t's record into record[0, kLightDrawRecordFloats), and back (the fields the record keeps).
-inline void WriteLightDrawRecord(const LightTriangle& t, float* record) {
+// Light t's record into record[0, kLightDrawRecordFloats) (invArea: 1 / its group's area), and back.
+inline void WriteLightDrawRecord(const LightTriangle& t, float invArea, float* record) {
   for (int c = 0; c < 3; ++c) {
     record[c] = t.p0[c];
     record[3 + c] = t.e1[c];
@@ -54,9 +57,9 @@ inline void WriteLightDrawRecord(const LightTriangle& t, float* record) {
     record[9 + c] = t.normal[c];
     record[12 + c] = t.radiance[c];
   }
-  record[15] = t.area;
+  record[15] = invArea;
 }
-inline LightTriangle ReadLightDrawRecord(const float* record) {
+inline LightTriangle ReadLightDrawRecord(const float* record, float& invArea) {
   LightTriangle t;
   for (int c = 0; c < 3; ++c) {
     t.p0[c] = record[c];
@@ -65,7 +68,7 @@ inline LightTriangle ReadLightDrawRecord(const float* record) {
     t.normal[c] = record[9 + c];
     t.radiance[c] = record[12 + c];
   }
-  t.area = record[15];
+  invArea = record[15];
   return t;
 }
 
@@ -77,19 +80,21 @@ struct LightDraws {
   size_t count = 0;                // draws
 };
 
-// One entry per draw that counts (f is nonzero and p positive: its term counts if its ray is unoccluded), in
-// draw order from index 0; the kernel returns how many. Each array holds at least draws.count entries. Any NaN is
-// written as std::numeric_limits<float>::quiet_NaN() (core/math.h CanonicalNaN).
+// Every draw's term, at its index k; and one ray per draw that counts (f is nonzero and p positive: its term counts
+// if its ray is unoccluded), packed in draw order from index 0: the kernel returns how many. Each array holds at
+// least draws.count entries. Any NaN is written as std::numeric_limits<float>::quiet_NaN() (core/math.h
+// CanonicalNaN).
 struct LightDrawOutputs {
-  float* term[3] = {};       // f / p, r g b
+  float* term[3] = {};       // per draw k: f / p, r g b, where the draw counts; else 0
   float* org[3] = {};        // the shadow ray's origin
   float* dir[3] = {};        // its unit direction
   float* tmax = nullptr;     // its length
-  uint32_t* draw = nullptr;  // the draw's index k
+  uint32_t* draw = nullptr;  // the draw's index k, plus firstDraw
+  uint32_t firstDraw = 0;    // added to every index written (a caller numbering several receivers' draws as one list)
 };
 
 // Runs the kernel on the target core/simd.h selects (the scalar twin for SimdTarget::kScalar) and returns the
-// number of draws that count. `cdf` holds lights.count cumulative values, non-decreasing, the last positive.
+// number of draws that count. `cdf` holds lights.groups cumulative values, non-decreasing, the last positive.
 size_t DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materials,
                       const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
                       const LightDrawOutputs& out);
@@ -98,17 +103,6 @@ size_t DrawLightSamples(const LightDrawReceiver& receiver, const BsdfSoa& materi
 size_t DrawLightSamplesScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
                             const LightDrawLights& lights, const float* cdf, const LightDraws& draws,
                             const LightDrawOutputs& out);
-
-// The reference's light distribution at a receiver that is not diffuse (sim/reference.cpp): for every light l,
-// out[l] = TargetFunction(UnshadowedContribution) of the receiver lit from the light's centroid p0 + (e1 + e2) / 3
-// with the light's normal and radiance (core/shading.h), the point estimate the distribution shapes itself by.
-// out holds lights.count values.
-void LightCentroidTargets(const LightDrawReceiver& receiver, const BsdfSoa& materials, const LightDrawLights& lights,
-                          float* out);
-
-// The scalar twin, callable directly (tests and benchmarks).
-void LightCentroidTargetsScalar(const LightDrawReceiver& receiver, const BsdfSoa& materials,
-                                const LightDrawLights& lights, float* out);
 
 // Name of the Highway target DrawLightSamples runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
 const char* LightDrawKernelDispatchedTargetName();

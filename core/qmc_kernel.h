@@ -1,7 +1,7 @@
 // Randomised-QMC point kernel (issue 16): the coordinates of independently shifted copies of a Roberts
 // sequence (core/sampling.h RobertsCoordinate), which the converged reference draws for every pixel
-// (sim/reference.cpp), a packet of points per register; and the independent uniforms it draws beside them (its
-// pilot's samples, the copies' shifts), core/rng.h UniformFloat a packet of dimensions at a time.
+// (sim/reference.cpp), a packet of points per register; and the random words that shift them, core/rng.h
+// RandomWords4 for a packet of pixels at a time.
 //
 // Two implementations beside each other, as core/target_kernel.h: a Highway kernel (dynamic dispatch) and its
 // scalar twin. Same bits on every target.
@@ -14,21 +14,22 @@
 
 namespace restir {
 
-// out[r * count + k] = RobertsCoordinate(shifts[r], k, alpha) for r < copies, k < count. Shifts in [0, 1),
-// alpha > 0.
-void RobertsCoordinates(const float* shifts, size_t copies, size_t count, double alpha, float* out);
+// out[k * copies + r] = RobertsCoordinate(shifts[r], k, alpha) for r < copies, k < count: the copies' points
+// interleaved, point k of every copy together (a pixel's replicates then fill whole packets however few points
+// each takes).
+void RobertsCoordinates(const uint32_t* shifts, size_t copies, size_t count, uint32_t alpha, float* out);
 
 // The scalar twin, callable directly (tests and benchmarks).
-void RobertsCoordinatesScalar(const float* shifts, size_t copies, size_t count, double alpha, float* out);
+void RobertsCoordinatesScalar(const uint32_t* shifts, size_t copies, size_t count, uint32_t alpha, float* out);
 
-// out[r * count + k] = UniformFloat(key, first + r * rowStride + k * stride) for r < rows, k < count (dimensions
-// modulo 2^32, as RandomBits folds them): rows of uniforms in one call, whose packets' hashes then overlap.
-void UniformFloats(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out, size_t rows = 1,
-                   uint32_t rowStride = 0);
+// out[(4 g + i) * count + p] = word i of RandomWords4(key with pixels[p] as its pixel, first + g) for p < count,
+// g < groups, i < 4: a block of pixels' words, a packet of pixels at a time.
+void PixelRandomWords4(const RngKey& key, const uint32_t* pixels, size_t count, uint32_t first, size_t groups,
+                       uint32_t* out);
 
 // The scalar twin, callable directly (tests and benchmarks).
-void UniformFloatsScalar(const RngKey& key, uint32_t first, uint32_t stride, size_t count, float* out,
-                         size_t rows = 1, uint32_t rowStride = 0);
+void PixelRandomWords4Scalar(const RngKey& key, const uint32_t* pixels, size_t count, uint32_t first, size_t groups,
+                             uint32_t* out);
 
 // Name of the Highway target RobertsCoordinates runs on now, e.g. "AVX3", or "scalar" for the twin (tests).
 const char* QmcKernelDispatchedTargetName();

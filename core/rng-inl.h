@@ -1,4 +1,4 @@
-// Per-target Highway form of core/rng.h's hash: RandomBits (PCG4D) for a packet of dimensions of one key
+// Per-target Highway form of core/rng.h's hash: RandomBits (PCG4D) for a packet of dimensions, or of pixels,
 // (core/qmc_kernel.cpp draws the reference's uniforms with it), and PCG4D's second half, which the RIS kernel's
 // hash (core/ris_kernel.cpp, its first half specialised to lanes that share y z w) finishes with.
 //
@@ -24,11 +24,9 @@ namespace restir {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-// Pcg4d's second half (core/rng.h) and RandomBits' output word: the shift round and the last mixing round of
-// x y z w, then x ^ (w >> 7). Callers whose first half is partly uniform across lanes (core/ris_kernel.cpp) start
-// here.
+// Pcg4d's second half (core/rng.h): the shift round and the last mixing round of x y z w, in place.
 template <class V>
-HWY_INLINE V Pcg4dFinishV(V x, V y, V z, V w) {
+HWY_INLINE void Pcg4dSecondHalfV(V& x, V& y, V& z, V& w) {
   x = hn::Xor(x, hn::ShiftRight<16>(x));
   y = hn::Xor(y, hn::ShiftRight<16>(y));
   z = hn::Xor(z, hn::ShiftRight<16>(z));
@@ -37,16 +35,23 @@ HWY_INLINE V Pcg4dFinishV(V x, V y, V z, V w) {
   y = hn::Add(y, hn::Mul(z, x));
   z = hn::Add(z, hn::Mul(x, y));
   w = hn::Add(w, hn::Mul(y, z));
+}
+
+// Pcg4d's second half and RandomBits' output word x ^ (w >> 7). Callers whose first half is partly uniform across
+// lanes (core/ris_kernel.cpp) start here.
+template <class V>
+HWY_INLINE V Pcg4dFinishV(V x, V y, V z, V w) {
+  Pcg4dSecondHalfV(x, y, z, w);
   return hn::Xor(x, hn::ShiftRight<7>(w));
 }
 
-// RandomBits(key, dimension) (core/rng.h) per lane of `dimension`.
+// RandomBits(key, dimension) (core/rng.h) per lane of `pixel` (in place of key.pixel) and `dimension`.
 template <class DU>
-HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimension) {
+HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> pixel, hn::Vec<DU> dimension) {
   const auto lcg = [&](hn::Vec<DU> v) {
     return hn::Add(hn::Mul(v, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
   };
-  auto x = lcg(hn::Set(du, key.pixel));
+  auto x = lcg(pixel);
   auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
   auto z = lcg(hn::Set(du, key.seed));
   auto w = lcg(hn::Xor(hn::Set(du, key.pass << 20), hn::And(dimension, hn::Set(du, 0xFFFFFu))));
@@ -56,6 +61,33 @@ HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimensi
   z = hn::Add(z, hn::Mul(x, y));
   w = hn::Add(w, hn::Mul(y, z));
   return Pcg4dFinishV(x, y, z, w);
+}
+
+// RandomWords4(key, q) (core/rng.h) per lane of `pixel` (in place of key.pixel): words[i] is word i.
+template <class DU>
+HWY_INLINE void RandomWords4V(DU du, const RngKey& key, hn::Vec<DU> pixel, uint32_t q, hn::Vec<DU> (&words)[4]) {
+  const auto lcg = [&](hn::Vec<DU> v) {
+    return hn::Add(hn::Mul(v, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
+  };
+  auto x = lcg(pixel);
+  auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
+  auto z = lcg(hn::Set(du, key.seed));
+  auto w = lcg(hn::Set(du, (key.pass << 20) ^ (q & 0xFFFFFu)));
+  x = hn::Add(x, hn::Mul(y, w));
+  y = hn::Add(y, hn::Mul(z, x));
+  z = hn::Add(z, hn::Mul(x, y));
+  w = hn::Add(w, hn::Mul(y, z));
+  Pcg4dSecondHalfV(x, y, z, w);
+  words[0] = x;
+  words[1] = y;
+  words[2] = z;
+  words[3] = w;
+}
+
+// RandomBits(key, dimension) (core/rng.h) per lane of `dimension`.
+template <class DU>
+HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimension) {
+  return RandomBitsV(du, key, hn::Set(du, key.pixel), dimension);
 }
 
 // NOLINTNEXTLINE(google-readability-namespace-comments)

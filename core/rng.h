@@ -58,6 +58,21 @@ inline uint32_t RandomBits(const RngKey& key, uint32_t dimension) {
   return x ^ (w >> 7);
 }
 
+// Four 32-bit words from one hash: PCG4D's whole output (x, y, z, w) for dimension group q of a key, words 4q to
+// 4q + 3 of its stream. A pass draws either RandomBits or RandomWords4, never both: the two hash the same input for
+// dimension q.
+inline void RandomWords4(const RngKey& key, uint32_t q, uint32_t (&out)[4]) {
+  uint32_t x = key.pixel;
+  uint32_t y = key.frame ^ (key.seed * 0x9E3779B9u);
+  uint32_t z = key.seed;
+  uint32_t w = (key.pass << 20) ^ (q & 0xFFFFFu);
+  Pcg4d(x, y, z, w);
+  out[0] = x;
+  out[1] = y;
+  out[2] = z;
+  out[3] = w;
+}
+
 // Uniform float in [0, 1): the top 24 bits scaled exactly, so 1.0 is never returned.
 inline float BitsToUnitFloat(uint32_t bits) { return static_cast<float>(bits >> 8) * 0x1.0p-24f; }
 

@@ -8,8 +8,25 @@
 #include <cstdint>
 
 #include "core/math.h"
+#include "core/rng.h"
 
 namespace restir {
+
+// sin(2πu) and cos(2πu) for u in [0, 1), with only +, -, * and selects, so that a SIMD lane reproduces them bit
+// for bit (glibc's sincosf has no SIMD twin; core/bsdf_draw_kernel.cpp repeats this lane by lane): u = q/4 + r
+// with q the nearest quarter turn and |r| <= 1/8 (exact in float), sin and cos of 2πr by polynomials in r² fitted
+// here for absolute error about 1e-7 (this project's own minimax fit), then the quarter turns by swaps and signs.
+inline void SinCos2Pi(float u, float& sine, float& cosine) {
+  const float q = static_cast<float>(static_cast<int32_t>(4.0f * u + 0.5f));  // 4u >= 0: truncation rounds
+  const float r = u - 0.25f * q;
+  const float z = r * r;
+  const float s = r * (((-75.40213012695312f * z + 81.5925521850586f) * z - 41.3416633605957f) * z +
+                       6.2831854820251465f);
+  const float c = ((-83.59269714355469f * z + 64.92125701904297f) * z - 19.739152908325195f) * z + 1.0f;
+  const int32_t quarter = static_cast<int32_t>(q) & 3;
+  sine = quarter == 0 ? s : quarter == 1 ? c : quarter == 2 ? -s : -c;
+  cosine = quarter == 0 ? c : quarter == 1 ? -s : quarter == 2 ? -c : s;
+}
 
 // Offset of a uniform point in a disk of the given radius, by the polar map: r = radius sqrt(u0), φ = 2π u1. The
 // spatial passes round it to a neighbouring pixel (DESIGN §4 "Spatial reuse", seed 004 §5.1's search positions).
@@ -43,34 +60,45 @@ inline uint32_t SampleCdf(const float* cdf, size_t n, float u) {
   return static_cast<uint32_t>(std::min(lo + (cdf[lo] <= target ? 1 : 0), n - 1));
 }
 
-// The probability SampleCdf returns index l: the step of the cdf it inverts, so selection and pmf agree bit
-// for bit.
+// The probability SampleCdf returns index l: the step of the cdf it inverts, times 1 / the total (a product:
+// the light-draw kernel broadcasts the reciprocal once per receiver instead of dividing every draw).
 inline float CdfPmf(const float* cdf, size_t n, uint32_t l) {
-  return (cdf[l] - (l ? cdf[l - 1] : 0.0f)) / cdf[n - 1];
+  return (cdf[l] - (l ? cdf[l - 1] : 0.0f)) * (1.0f / cdf[n - 1]);
 }
 
-// frac(shift + k alpha) as a float in [0, 1), for shift in [0, 1) and alpha > 0: one coordinate of a shifted
-// Roberts sequence (below). core/qmc_kernel.cpp repeats it lane by lane.
-inline float RobertsCoordinate(double shift, int k, double alpha) {
-  const double v = shift + double(k) * alpha;
-  // v >= 0, so truncation is floor: the same bits without a libm call on targets without SSE4.1's roundsd.
-  return std::min(static_cast<float>(v - static_cast<double>(static_cast<int64_t>(v))), 0x1.fffffep-1f);
+// The entry a cdf over groups of one or two entries gives u (the reference's light groups, core/light.h): the group
+// g SampleCdf inverts u to, then its first entry, or its second where u's target falls in the top 1 - split[g] of
+// the group's step (split[g] = 2: a lone entry). core/light_draw_kernel.cpp repeats it lane by lane.
+inline uint32_t SampleSplitCdf(const float* cdf, size_t groups, const uint32_t* first, const float* split, float u) {
+  const uint32_t g = SampleCdf(cdf, groups, u);
+  const float target = u * cdf[groups - 1];
+  const float before = g ? cdf[g - 1] : 0.0f;
+  return first[g] + (target - before >= split[g] * (cdf[g] - before) ? 1u : 0u);
 }
+
+// frac(shift + k α) in 32-bit fixed point: the word shift + k alpha (mod 2^32, exact integer arithmetic) as a
+// float in [0, 1), its top 24 bits scaled exactly (core/rng.h BitsToUnitFloat). With a uniformly random shift,
+// every point is uniform over the 2^24 values a float uniform takes. One coordinate of a shifted Roberts sequence
+// (below); core/qmc_kernel.cpp repeats it lane by lane.
+inline float RobertsCoordinate(uint32_t shift, uint32_t k, uint32_t alpha) { return BitsToUnitFloat(shift + k * alpha); }
 
 // Roberts' R_d low-discrepancy sequence in D dimensions (Roberts 2018, "The unreasonable effectiveness of
 // quasirandom sequences"): point k is frac(shift + k α) with α_j = φ_d^-(j+1), φ_d the positive root of
-// x^(D+1) = x + 1. Randomly shifted copies are independent replicates of a randomised QMC estimator (Owen 2013,
-// "Monte Carlo theory, methods and examples", ch. 17), each of whose points is uniformly distributed.
+// x^(D+1) = x + 1, here α_j rounded to 32 bits (a rank-1 lattice rule with that generator: for the point counts a
+// pixel takes, far below 2^32, the same low discrepancy). Randomly shifted copies are independent replicates of a
+// randomised QMC estimator (Owen 2013, "Monte Carlo theory, methods and examples", ch. 17), each of whose points
+// is uniformly distributed.
 template <int D>
 struct RobertsSequence {
-  double alpha[D];
+  uint32_t alpha[D];  // α_j × 2^32, rounded
   RobertsSequence() {
     double phi = 2.0;  // Newton from 2
     for (int i = 0; i < 64; ++i) phi -= (std::pow(phi, D + 1) - phi - 1.0) / ((D + 1) * std::pow(phi, D) - 1.0);
-    for (int j = 0; j < D; ++j) alpha[j] = std::fmod(std::pow(1.0 / phi, j + 1), 1.0);
+    for (int j = 0; j < D; ++j)
+      alpha[j] = static_cast<uint32_t>(std::llround(std::ldexp(std::fmod(std::pow(1.0 / phi, j + 1), 1.0), 32)));
   }
   // Coordinate j of point k of the copy shifted by `shift`, as a float in [0, 1).
-  float Coordinate(double shift, int k, int j) const { return RobertsCoordinate(shift, k, alpha[j]); }
+  float Coordinate(uint32_t shift, uint32_t k, int j) const { return RobertsCoordinate(shift, k, alpha[j]); }
 };
 
 }  // namespace restir

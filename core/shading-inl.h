@@ -90,6 +90,23 @@ HWY_INLINE BsdfV GatherBsdfV(const BsdfSoa& mt, VI materialId) {
   return b;
 }
 
+// One Bsdf in every lane: what GatherBsdfV gives where every lane reads the same entry, without the gathers.
+HWY_INLINE BsdfV BroadcastBsdfV(const Bsdf& bsdf) {
+  const DF df;
+  BsdfV b;
+  b.isGgx = hn::RebindMask(df, hn::Eq(hn::Set(DI(), static_cast<int32_t>(bsdf.type)),
+                                      hn::Set(DI(), static_cast<int32_t>(BsdfType::kGgx))));
+  b.isLayered = hn::RebindMask(df, hn::Eq(hn::Set(DI(), static_cast<int32_t>(bsdf.type)),
+                                          hn::Set(DI(), static_cast<int32_t>(BsdfType::kLayered))));
+  for (int c = 0; c < 3; ++c) b.albedo[c] = hn::Set(df, bsdf.albedo[c]);
+  const VF alpha = hn::Set(df, bsdf.alpha);
+  b.alpha2 = hn::Mul(alpha, alpha);
+  const bool layered = bsdf.type == BsdfType::kLayered;
+  for (int c = 0; c < 3; ++c) b.specular[c] = layered ? hn::Set(df, bsdf.specular[c]) : hn::Zero(df);
+  b.specularWeight = layered ? hn::Set(df, bsdf.specularWeight) : hn::Zero(df);
+  return b;
+}
+
 // A packet of ShadingPoint (core/shading.h) with the parts of EvalBsdf that depend on the receiver alone, so a
 // kernel that evaluates many light points per receiver computes them once.
 struct ShadingPointV {

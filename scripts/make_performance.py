@@ -184,8 +184,9 @@ def main(argv):
         w(f"Issue 16's target, ray floor / reference ≥ 0.8×: "
           + "; ".join(f"{'met' if b['floor_ratio'] >= 0.8 else 'not met'} at {int(b['spp_budget'])} spp"
                       for b in reference)
-          + ". The rest of the reference's time is its per-pixel light distributions, the pilot, sample "
-          "generation and the glossy receivers' MIS: see bench/performance_notes.md.")
+          + ". The rest of the reference's time is its per-pixel light distributions (built for 16 pixels at a "
+          "time over light groups), the pilot, sample generation and the glossy receivers' BSDF half: see "
+          "bench/performance_notes.md.")
         w("")
     if flips:
         w("HDR-FLIP (`bench/flip_bench.cpp`), per call at the benchmark's size:")
@@ -415,8 +416,10 @@ def main(argv):
         w("")
         w("One thread; items are pixels (BM_RisKernel, BM_InitialRis), (receiver, light point) pairs "
           "(BM_TargetKernel), GRIS combinations (BM_GrisKernel), shadow rays (BM_ShadowRayKernel) or the "
-          "reference's light draws (BM_LightDrawKernel: 768 per call at 72 lights, the draws that count packed "
-          "with their rays).")
+          "reference's light draws (BM_LightDrawKernel: 768 per call over the flagship's 72 quad lights, the "
+          "draws that count packed with their rays), the reference's per-pixel light distributions "
+          "(BM_LightSelectionKernel: receivers, 16 per call, under 72 quad lights) or its BSDF draws "
+          "(BM_BsdfDrawKernel: 768 per call, GGX and Lambert, with their rays).")
         w("")
         w("| benchmark | ns / item | Mitems/s | vs scalar twin |")
         w("|---|---:|---:|---:|")

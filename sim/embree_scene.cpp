@@ -485,6 +485,29 @@ SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, 
   return Query(org, dir, tmax, frame, true);
 }
 
+EmitterHit EmbreeScene::FirstEmitter(const Vec3& org, const Vec3& dir, SceneFrame frame) const {
+  EmitterHit out;
+  const Impl& im = *impl_;
+  if (!im.SlotFor(frame)) return out;
+  const float tmax = std::numeric_limits<float>::infinity();
+  RawHit rh;
+#ifdef RESTIR_RAY_HOOKS
+  if (im.hook == nullptr || !im.hook->AnswerIntersect(org, dir, tmax, frame, rh)) {
+    rh = im.IntersectRaw(org, dir, tmax, frame);
+    if (im.hook) im.hook->TracedIntersect(org, dir, tmax, frame, rh);
+  }
+#else
+  rh = im.IntersectRaw(org, dir, tmax, frame);
+#endif
+  if (rh.geomId == RTC_INVALID_GEOMETRY_ID) return out;
+  const uint32_t objectOrLights = rh.instId == im.staticInstanceId ? rh.geomId : rh.instId;
+  if (objectOrLights < static_cast<uint32_t>(im.objects.size()) || rh.primId >= im.lightNormals.size()) return out;
+  out.lightId = static_cast<int32_t>(rh.primId);
+  out.t = rh.t;
+  out.frontFace = glm::dot(dir, im.lightNormals[rh.primId]) < 0.0f;
+  return out;
+}
+
 SurfaceHit EmbreeScene::IntersectEmitter(const Vec3& org, const Vec3& dir, float tmax,
                                          SceneFrame frame) const {
   return Query(org, dir, tmax, frame, false);

@@ -47,6 +47,13 @@ struct SurfaceHit {
   Vec2 texcoord{0.0f};     // interpolated texture coordinates where the object's material is textured, else 0
 };
 
+// The first thing a ray meets, where only an emitter matters (the reference's BSDF samples).
+struct EmitterHit {
+  int32_t lightId = -1;    // index into the light-triangle list when the ray first meets an emitter, else -1
+  float t = 0.0f;          // Embree's distance to it along the unit direction
+  bool frontFace = false;  // the ray met its emitting side
+};
+
 // One shadow ray of a batch: from org along dir (unit) up to tmax.
 struct ShadowRay {
   Vec3 org;
@@ -79,6 +86,9 @@ class EmbreeScene {
   // Intersect for a query that only asks which emitter the ray reaches (the reference's BSDF rays): an
   // emitter hit or a miss as Intersect gives it; any other hit only hit = true with its objectId and
   // materialId, without the surface (position, normals, t), which costs most of Intersect's time.
+  // The emitter an unbounded ray from org along dir meets first, if it meets one before anything else: Embree's
+  // hit as it stands (no refinement of the hit point, which IntersectEmitter's callers need and this one's not).
+  EmitterHit FirstEmitter(const Vec3& org, const Vec3& dir, SceneFrame frame = SceneFrame::kCurrent) const;
   SurfaceHit IntersectEmitter(const Vec3& org, const Vec3& dir, float tmax,
                               SceneFrame frame = SceneFrame::kCurrent) const;
   bool Occluded(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame = SceneFrame::kCurrent) const;

@@ -57,6 +57,19 @@ constexpr double kBytesPerSceneTriangle = 256;
 
 }  // namespace
 
+int64_t CountLightGroups(const std::vector<Light>& lights) {
+  int64_t groups = 0;
+  for (const Light& l : lights) {
+    std::vector<LightTriangle> triangles;
+    for (size_t v = 0; v + 2 < l.vertices.size(); v += 3) {
+      LightTriangle t;
+      if (MakeLightTriangle(l.vertices[v], l.vertices[v + 1], l.vertices[v + 2], Vec3(1.0f), t)) triangles.push_back(t);
+    }
+    groups += static_cast<int64_t>(MakeLightGroups(triangles).first.size());
+  }
+  return groups;
+}
+
 MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double px = double(s.width) * double(s.height);
   const double presets = double(std::max<int64_t>(1, s.presets));
@@ -77,13 +90,17 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   // with an ensemble, the other members' images and the bias and variance images.
   add("images", px * presets * (4.0 * kRgb + sizeof(float) + 1.0 + (members > 1 ? (members - 1.0 + 2.0) * kRgb : 0.0)));
   if (s.reference) add("references (mean, standard error, previous)", px * 3.0 * kRgb);
+  // The reference's kept light distributions stay with the process from the first frame on (sim/reference.h).
+  if (s.reference) add("reference light distributions", ReferenceKeptBytes(double(s.width), double(s.height),
+                                                                             double(std::max(s.lightGroups, int64_t{1}))));
 
   // Transient: the largest of what a frame allocates and frees again.
   const double checkpoint =
       px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) + presets * (2.0 * kRgb + members * kReservoir));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
-  const double referenceRender = s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), s.sky) : 0.0;
+  const double referenceRender =
+      s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), double(s.lightGroups), s.sky) : 0.0;
   // The background writer, when images are written, beside the frame loop's transients: the image jobs (the
   // waiting ones, the one it writes and the one being submitted), each a preset's estimate, FLIP map and ensemble
   // images; the frames' inputs they share (the reference, its standard error, five G-buffer arrays and the

@@ -12,6 +12,8 @@
 
 namespace restir {
 
+struct Light;  // sim/sequence.h
+
 // What decides a run's memory.
 struct RunShape {
   int64_t width = 0;             // image width, pixels
@@ -23,6 +25,7 @@ struct RunShape {
   bool writeImages = true;       // EXR and PNG per frame
   int64_t sceneTriangles = 0;    // object triangles, for Embree's BVH
   int64_t lightTriangles = 0;    // emitter triangles
+  int64_t lightGroups = 0;       // what the reference's light distributions select (core/light.h: a quad is one)
   bool textures = false;         // the scene has base-colour textures: texels in the G-buffers, a per-pixel BSDF table
   bool sky = false;              // an environment or a sun: the reference keeps a light mixture per pixel
   double processBytes = 0.0;     // what the process holds already (libraries, the parsed sequence)
@@ -36,6 +39,10 @@ struct MemoryEstimate {
   double bytes = 0.0;                                     // the peak, all parts together
   std::vector<std::pair<std::string, double>> parts;      // named parts, largest first, for the message
 };
+
+// The light groups of a sequence's emitters (core/light.h LightGroups: a quad light's two triangles are one),
+// counted light by light: at least as many as any frame has.
+int64_t CountLightGroups(const std::vector<Light>& lights);
 
 // An upper estimate of the run's peak resident memory: the long-lived per-pixel arrays (G-buffers, reservoirs,
 // images, references) plus the largest transient of the frame loop (checkpoint serialisation, FLIP, the reference's

@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <sys/mman.h>
 
@@ -14,22 +15,21 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <filesystem>
 
-#include "core/light_draw_kernel.h"
 #include "core/light_sampler.h"
-#include "core/polygon_irradiance.h"
+#include "core/light_selection_kernel.h"
 #include "core/qmc_kernel.h"
 #include "core/rng.h"
 #include "core/sampling.h"
-#include "core/shading.h"
-#include "core/shadow_ray.h"
 #include "sim/atomic_file.h"
 #include "sim/clock.h"
 #include "sim/hash.h"
 #include "sim/input_file.h"
 #include "sim/reference_cache.h"
+#include "sim/reference_samples.h"
 #include "sim/reference_sky.h"
 #include "sim/shading_point.h"
 #include "sim/sky_frame.h"
@@ -38,194 +38,27 @@ namespace restir {
 
 namespace {
 
-// Bump when the renderer changes what it computes: old cache entries then stop matching. (The sky did not bump
-// it: a skyless frame's reference is the same bits as before, and a frame with a sky hashes its sky into the key,
-// HashFrameState, so no entry written before the sky existed can match it.)
-constexpr uint32_t kReferenceVersion = 7;
+// Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
+// light groups, the selection and BSDF-draw kernels, fixed-point points).
+constexpr uint32_t kReferenceVersion = 8;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
-// Randomised quasi-Monte Carlo: each pixel's samples are kReplicates independent randomly shifted copies of
-// the additive-recurrence (Roberts "R_d") low-discrepancy sequence in kSampleDims dimensions. Each sample is
-// still uniformly distributed (so every replicate mean is unbiased), the points are stratified across light
-// selection and area (so the error falls much faster than with independent samples), and the spread of the
-// independent replicate means gives an honest standard error (Owen 2013, "Monte Carlo theory, methods and
-// examples", ch. 17: randomized QMC).
-constexpr int kSampleDims = 5;  // light selection, two area coordinates, two BSDF coordinates
-// Under a sky: the same five (light selection doubling as the environment's texel selection, the two area
-// coordinates as the direction's in the sun's cone or the texel), then the strategy choice and the environment's
-// alias-table coin. A skyless frame keeps kSampleDims, so its points, and its image, do not change.
-constexpr int kStrategyDim = 5;
-constexpr int kCoinDim = 6;
-constexpr int kSkySampleDims = 7;
-constexpr int kReplicates = 16;
 
 double LuminanceD(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
-// Light selection for one receiver. Power alone spends most samples on lights that barely reach the pixel
-// (the flagship's facade is lit through a window by a few of 72 lights), so the reference mixes, per pixel,
-// selection proportional to each light's unshadowed contribution there with a defensive share by power:
-// P(l) = (1 - δ) u_l / Σ u + δ Φ_l / Σ Φ. Every light with power keeps P > 0, so the estimator stays unbiased;
-// only visibility and the variation across a light remain as noise. u_l is exact for diffuse receivers (Lambert's
-// polygon formula on the emitter clipped to the receiver's hemisphere) and a centroid estimate plus a diffuse
-// term for glossy ones. Above kMaxPerPixelLights, selection by power alone (per-pixel tables would cost more
+// Light selection for one receiver (core/light_selection_kernel.h): power alone spends most samples on lights
+// that barely reach the pixel (the flagship's facade is lit through a window by a few of 72 lights), so the
+// reference mixes, per pixel, selection proportional to each light's unshadowed contribution there with a
+// defensive share by power. Every light with power keeps P > 0, so the estimator stays unbiased; only visibility
+// and the variation across a light remain as noise. The distributions of a block of receivers are built at once,
+// one receiver per SIMD lane. Above kMaxPerPixelLights, selection by power alone (per-pixel tables would cost more
 // than the rays they save).
-constexpr float kDefensivePowerShare = 0.1f;
 constexpr size_t kMaxPerPixelLights = 4096;
-// Memory the pilot's per-pixel light distributions may take to be reused by the main pass.
+// Memory the pilot's per-pixel light distributions may take to be kept for the main pass (beyond it, the main pass
+// builds them again: the same bits).
 constexpr size_t kKeptDistributionBytes = size_t{512} << 20;
-// Squared distance, in squared triangle sizes (longest edge), beyond which a light's u_l is taken as a point's.
-constexpr float kPointLightDistance2 = 36.0f;
 
-// What PixelLightDistribution needs of each light, structure-of-arrays so that the per-pixel point estimate runs
-// as one vectorisable loop over the lights.
-struct LightProxies {
-  std::vector<float> cx, cy, cz;        // centroid
-  std::vector<float> nx, ny, nz;        // emitting normal
-  std::vector<float> offset;            // n · p0: the light faces x when n · x > offset
-  std::vector<float> size2;             // squared longest edge
-  std::vector<float> lumArea;           // luminance of the radiance × area
-  std::vector<float> powerPmf;          // the defensive share's selection probability, by power
-  LightProxies(const std::vector<LightTriangle>& lights, const LightSampler& power) {
-    for (const LightTriangle& t : lights) {
-      const Vec3 c = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
-      cx.push_back(c.x), cy.push_back(c.y), cz.push_back(c.z);
-      nx.push_back(t.normal.x), ny.push_back(t.normal.y), nz.push_back(t.normal.z);
-      offset.push_back(glm::dot(t.normal, t.p0));
-      size2.push_back(std::max({glm::dot(t.e1, t.e1), glm::dot(t.e2, t.e2), glm::dot(t.e1 - t.e2, t.e1 - t.e2)}));
-      const float lum = Luminance(t.radiance);
-      lumArea.push_back(lum > 0.0f ? lum * t.area : 0.0f);
-    }
-    // An empty sampler (every light off) has no table to read; no pixel then builds a distribution.
-    if (!power.Empty())
-      for (uint32_t l = 0; l < lights.size(); ++l) powerPmf.push_back(power.SelectionPmf(l));
-  }
-};
-
-class PixelLightDistribution {
- public:
-  // Builds the distribution's cdf into cdf[0, n) (n lights), storage the caller owns, and views it. `receiver`
-  // is sp for the light-draw kernels (its material in `materials`), `drawLights` the frame's lights for them.
-  void Build(const ShadingPoint& sp, const LightDrawReceiver& receiver, const BsdfSoa& materials,
-             const LightDrawLights& drawLights, const LightSampler& power, const LightProxies& proxies, float* cdf) {
-    const std::vector<LightTriangle>& lights = power.Lights();
-    const size_t n = lights.size();
-    work_.resize(n);
-    point_.resize(n);
-    // The loops below are split so that the compiler vectorises the per-light arithmetic; the sums stay sequential
-    // (their order fixes the bits).
-    double* const work = work_.data();
-    double total = 0.0;
-    if (n <= kMaxPerPixelLights) {
-      const float* const point = point_.data();
-      PointEstimates(sp, proxies, point_.data());
-      const float albedo = Luminance(sp.bsdf.albedo) * kInvPi;
-      for (size_t l = 0; l < n; ++l) work[l] = double(point[l]) * albedo;
-      for (size_t l = 0; l < n; ++l)
-        if (!(point[l] >= 0.0f)) work[l] = Exact(sp, lights[l], albedo);
-      if (sp.bsdf.type != BsdfType::kDiffuse) {
-        // The BSDF at each light's centroid (the light-draw kernels: every light at once).
-        target_.resize(n);
-        LightCentroidTargets(receiver, materials, drawLights, target_.data());
-        for (size_t l = 0; l < n; ++l) {
-          if (work_[l] <= 0.0 && point_[l] == 0.0f) continue;  // facing away, dark or below the horizon
-          work_[l] = 0.1 * work_[l] + double(target_[l]) * lights[l].area;
-        }
-      }
-      // Not finite (|w| <= max is false for NaN and infinities): no share.
-      for (size_t l = 0; l < n; ++l)
-        work[l] = std::fabs(work[l]) <= std::numeric_limits<double>::max() ? work[l] : 0.0;
-      for (size_t l = 0; l < n; ++l) total += work[l];
-    }
-    const double estimate = n <= kMaxPerPixelLights ? total : -1.0;
-    const double mix = total > 0.0 ? kDefensivePowerShare : 1.0;
-    const float* const pmf = proxies.powerPmf.data();
-    if (total > 0.0)
-      for (size_t l = 0; l < n; ++l) work[l] = (1.0 - mix) * work[l] / total + mix * double(pmf[l]);
-    else
-      for (size_t l = 0; l < n; ++l) work[l] = 0.0 + mix * double(pmf[l]);
-    // The prefix sums; their last is the total c, summed in the same order from the same zero.
-    double running = 0.0;
-    for (size_t l = 0; l < n; ++l) {
-      running += work[l];
-      work[l] = running;
-    }
-    const double c = running;
-    for (size_t l = 0; l < n; ++l) cdf[l] = static_cast<float>(work[l] / c);
-    View(cdf, n);
-    estimate_ = estimate;
-  }
-  // Views a distribution Build wrote earlier.
-  void View(const float* cdf, size_t n) {
-    cdf_ = cdf;
-    n_ = n;
-    estimate_ = -1.0;  // a viewed distribution carries no estimate (the shared one, or one kept by the pilot)
-  }
-  // Light index for u in [0, 1), by inverting the cumulative distribution (stratified u stays stratified). Only
-  // when rounding puts the target at the total is the last light returned whatever its Pmf; a zero Pmf then
-  // gives the sample no light term (its area density is not positive).
-  uint32_t Sample(float u) const { return SampleCdf(cdf_, n_, u); }
-  // The probability Sample returns l: the pmf as the cdf it inverts sees it, so selection and pdf agree.
-  float Pmf(uint32_t l) const { return CdfPmf(cdf_, n_, l); }
-  const float* Cdf() const { return cdf_; }
-  // What the last Build estimated the lights give the receiver together, Σ u_l × albedo / π (the luminance of
-  // the reflected radiance, unshadowed; for a diffuse receiver exact but for the point estimates' O((size/d)²)),
-  // or -1 where it did not estimate it (above kMaxPerPixelLights). Sets the local lights' share of the light
-  // mixture under a sky (sim/reference_sky.h).
-  double Estimate() const { return estimate_; }
-
- private:
-  // u_l, the light's unshadowed contribution at the receiver without the albedo, for every light at once. It
-  // only shapes the distribution (any positive pmf keeps the estimate unbiased), so a light far from the receiver
-  // compared with its size is taken as a point at its centroid: E = L A cos θx cos θy / d², off by
-  // O((size / d)²). out[l] = 0 for lights facing away or dark, -1 where the point is not accurate enough (near,
-  // large, or the centroid close to the horizon: Exact then clips and integrates).
-  static void PointEstimates(const ShadingPoint& sp, const LightProxies& p, float* __restrict out) {
-    const float x = sp.position.x, y = sp.position.y, z = sp.position.z;
-    const float sx = sp.shadingNormal.x, sy = sp.shadingNormal.y, sz = sp.shadingNormal.z;
-    const size_t n = p.cx.size();
-    const float *cx = p.cx.data(), *cy = p.cy.data(), *cz = p.cz.data(), *nx = p.nx.data(), *ny = p.ny.data(),
-                *nz = p.nz.data(), *offset = p.offset.data(), *size2 = p.size2.data(), *lumArea = p.lumArea.data();
-    // Written without branches (bitwise & and |, selects on values: std::max(v, 0) is v < 0 ? 0 : v) so that the
-    // loop vectorises (with -fno-trapping-math, CMakeLists.txt); every lane computes what the scalar expression
-    // does.
-    for (size_t l = 0; l < n; ++l) {
-      const float dx = cx[l] - x, dy = cy[l] - y, dz = cz[l] - z;
-      const float d2 = dx * dx + dy * dy + dz * dz;
-      const float facing = nx[l] * x + ny[l] * y + nz[l] * z - offset[l];
-      const float cosXd = sx * dx + sy * dy + sz * dz;          // cos θx · d
-      const float cosYd = -(nx[l] * dx + ny[l] * dy + nz[l] * dz);  // cos θy · d
-      // Far: beyond kPointLightDistance2 sizes, and the centroid at least one size above the horizon, so the
-      // whole triangle is above it (no clipping needed).
-      const bool far = (d2 > kPointLightDistance2 * size2[l]) & (cosXd * cosXd > size2[l]) & (cosXd > 0.0f);
-      const float clampedX = cosXd < 0.0f ? 0.0f : cosXd;
-      const float clampedY = cosYd < 0.0f ? 0.0f : cosYd;
-      const float point = lumArea[l] * clampedX * clampedY / (d2 * d2);
-      const bool none = !(facing > 0.0f) | !(lumArea[l] > 0.0f);
-      const float value = far ? point : -1.0f;
-      out[l] = none ? 0.0f : value;
-    }
-  }
-
-  // Lambert's formula, in double, on the triangle clipped to the receiver's hemisphere.
-  static double Exact(const ShadingPoint& sp, const LightTriangle& t, float albedo) {
-    const Vec3 tri[3] = {t.p0, t.p0 + t.e1, t.p0 + t.e2};
-    const Vec3& n = sp.shadingNormal;
-    if (glm::dot(n, tri[0] - sp.position) <= 0.0f && glm::dot(n, tri[1] - sp.position) <= 0.0f &&
-        glm::dot(n, tri[2] - sp.position) <= 0.0f)
-      return 0.0;
-    Vec3 clipped[4];
-    const size_t k = ClipPolygonToHemisphere(sp.position, n, tri, 3, clipped);
-    return k >= 3 ? PolygonIrradianceOf<double>(sp.position, n, clipped, k, Luminance(t.radiance)) * albedo : 0.0;
-  }
-
-  std::vector<double> work_;
-  std::vector<float> point_;
-  std::vector<float> target_;
-  double estimate_ = -1.0;
-  const float* cdf_ = nullptr;
-  size_t n_ = 0;
-};
 
 // An uninitialised float array in transparent huge pages where the system offers them (Linux, THP in "madvise"
 // mode as Debian ships it): a large array first touched page by page otherwise takes a page fault per 4 KiB.
@@ -238,7 +71,7 @@ class HugePageFloats {
     data_ = static_cast<float*>(std::aligned_alloc(kHuge, bytes));
     if (!data_) throw std::bad_alloc();
 #ifdef MADV_HUGEPAGE
-    madvise(data_, bytes, MADV_HUGEPAGE);  // advice only: where it is refused, 4 KiB pages as before
+    madvise(data_, bytes, MADV_HUGEPAGE);  // advice only: where it is refused, 4 KiB pages
 #endif
   }
   ~HugePageFloats() { std::free(data_); }
@@ -250,203 +83,65 @@ class HugePageFloats {
   float* data_ = nullptr;
 };
 
-// Per-thread scratch of one pixel's samples: the light-sampling terms wait for their shadow rays, which go to
-// Embree as one batch (packets, EmbreeScene::OccludedBatch) instead of one rtcOccluded1 per sample.
-struct SampleBatch {
-  std::vector<Vec3> lightTerm;   // per sample: the light-sampling term if its shadow ray is unoccluded
-  std::vector<Vec3> bsdfTerm;    // per sample: the BSDF-sampling term, visibility already resolved
-  std::vector<ShadowRay> rays;   // the shadow rays of the samples whose light term is nonzero
-  std::vector<uint32_t> rayOf;   // the sample each ray belongs to
-  std::vector<uint8_t> occluded;
-  std::vector<float> drawn[10];  // the light-draw kernel's outputs: term r g b, origin, direction, length
-  std::vector<uint32_t> drawOf;  // the light-draw kernel's: the sample of each of its rays
-};
 
-// The frame's light triangles as the light-draw kernel reads them (core/light_draw_kernel.h).
-struct LightDrawSoa {
-  struct alignas(64) Record {
-    float v[kLightDrawRecordFloats];  // WriteLightDrawRecord's layout
+
+
+
+
+
+
+// The pilot's kept distributions: one buffer per process, lent to one render at a time and kept between frames (a
+// frame of fresh pages paid about 3% of its render in the kernel's zeroing of them at the first touches, measured
+// at 640x360); a render that finds it lent or too small allocates its own, and the larger of the two stays.
+class KeptDistributions {
+ public:
+  explicit KeptDistributions(size_t floats) {
+    if (floats == 0) return;
+    {
+      std::lock_guard<std::mutex> lock(Mutex());
+      if (Spare().buffer && Spare().floats >= floats) {
+        held_ = std::move(Spare());
+        Spare() = Held{};
+        return;
+      }
+    }
+    held_.buffer = std::make_unique<HugePageFloats>(floats);
+    held_.floats = floats;
+  }
+  ~KeptDistributions() {
+    if (!held_.buffer) return;
+    std::lock_guard<std::mutex> lock(Mutex());
+    if (held_.floats >= Spare().floats) Spare() = std::move(held_);
+  }
+  KeptDistributions(const KeptDistributions&) = delete;
+  KeptDistributions& operator=(const KeptDistributions&) = delete;
+  float* get() const { return held_.buffer ? held_.buffer->get() : nullptr; }
+
+ private:
+  struct Held {
+    std::unique_ptr<HugePageFloats> buffer;
+    size_t floats = 0;
   };
-  std::vector<Record> records;    // one per light triangle, in the frame's order
-  std::vector<float> errorScale;  // LightTriangle::errorScale, likewise
-  LightDrawLights view;           // what the kernel reads: the two above
-  explicit LightDrawSoa(const std::vector<LightTriangle>& lights) : records(lights.size()) {
-    for (size_t l = 0; l < lights.size(); ++l) {
-      WriteLightDrawRecord(lights[l], records[l].v);
-      errorScale.push_back(lights[l].errorScale);
-    }
-    view.records = records.empty() ? nullptr : records.data()->v;
-    view.errorScale = errorScale.data();
-    view.count = lights.size();
+  static std::mutex& Mutex() {
+    static std::mutex m;
+    return m;
   }
+  static Held& Spare() {
+    static Held spare;
+    return spare;
+  }
+  Held held_;
 };
 
-// The receiver as the light-draw kernels take it: sp, whose material is materialId in the frame's BsdfSoa.
-LightDrawReceiver ReceiverOf(const ShadingPoint& sp, int32_t materialId, bool bsdfMis) {
-  LightDrawReceiver r;
-  r.position = sp.position;
-  r.geometricNormal = sp.geometricNormal;
-  r.shadingNormal = sp.shadingNormal;
-  r.wo = sp.wo;
-  r.errorScale = sp.errorScale;
-  r.materialId = materialId;
-  r.bsdfMis = bsdfMis;
-  return r;
-}
 
-// The sky of a frame (null in a skyless one) and one receiver's light mixture, as SkySamples needs them.
-struct SkySampling {
-  const Sky* sky = nullptr;  // null: a skyless frame, sampled exactly as before the sky existed
-  LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
-};
 
-// The BSDF-sampling term of one sample (a direction from the BSDF at (u0, u1), weighted by the power heuristic
-// against the light strategies' density where its ray lands), 0 where the ray finds no light; counts the ray.
-Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-              const PixelLightDistribution& dist, const SkySampling& sky, float u0, float u1, uint64_t& rays) {
-  const LightMixture& mix = sky.mixture;
-  const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, u0, u1);
-  if (!(bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f)) return Vec3(0.0f);
-  ++rays;
-  const Vec3 org = OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi);
-  const SurfaceHit hit = scene.IntersectEmitter(org, bs.wi, std::numeric_limits<float>::infinity());
-  const float cosX = glm::dot(sp.shadingNormal, bs.wi);
-  if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
-    // An emitter: the light technique's density of this point, converted to solid angle.
-    const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
-    const float cosY = -glm::dot(t.normal, bs.wi);
-    const float pLight = dist.Pmf(static_cast<uint32_t>(hit.lightId)) * mix.local / t.area * hit.t * hit.t / cosY;
-    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-    if (cosY > 0.0f) return t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
-  } else if (!hit.hit && sky.sky != nullptr) {
-    // Escaped: the sky, at the density with which the light mixture draws this direction.
-    const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
-    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-    return sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
-  }
-  return Vec3(0.0f);
-}
-
-// `count` direct-lighting samples at a receiver in a frame with a sky, from the points whose coordinate j is
-// u[j * count + k] (kSkySampleDims coordinates): light sampling (a strategy from the receiver's mixture, then a
-// light point or a sky direction from it) plus BSDF sampling, combined by the power heuristic (pbrt-v4
-// PathIntegrator::SampleLd style, restricted to direct light); BSDF sampling on every surface, as a BSDF ray that
-// escapes is the only way to reach the sky's directions the light mixture samples rarely. out[k] is sample k's
-// value. Frames without a sky take SkylessSamples.
-void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-                const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
-                SampleBatch& b, Vec3* out, uint64_t& rays) {
-  const LightMixture& mix = sky.mixture;
-  b.lightTerm.assign(count, Vec3(0.0f));
-  b.bsdfTerm.assign(count, Vec3(0.0f));
-  b.rays.clear();
-  b.rayOf.clear();
-  for (size_t k = 0; k < count; ++k) {
-    const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
-    const LightStrategy strategy = ChooseLightStrategy(mix, uk(kStrategyDim));
-    if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
-      LightSample y;
-      y.lightId = dist.Sample(uk(0));
-      const LightTriangle& lt = lights[y.lightId];
-      y.position = SampleTrianglePoint(lt, uk(1), uk(2));
-      y.normal = lt.normal;
-      y.radiance = lt.radiance;
-      y.pdfArea = dist.Pmf(y.lightId) * mix.local / lt.area;
-      const Vec3 f = UnshadowedContribution(sp, y);
-      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
-        const LightPath path = ConnectToLight(sp, y.position, y.normal);
-        const float cosY = -glm::dot(y.normal, path.wi);
-        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
-        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
-        b.lightTerm[k] = f * (weight / y.pdfArea);
-        const ShadowRaySegment s =
-            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
-        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
-        b.rayOf.push_back(static_cast<uint32_t>(k));
-      }
-    } else if (strategy != LightStrategy::kLocal) {
-      // A sky direction: the integrand is Sky::Radiance(ω) f_r cos θ, evaluated through the far point that stands
-      // for ω (core/sky.h SkyPointFor), its density the mixture's over every sky strategy (sim/reference_sky.h).
-      const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk(0), uk(kCoinDim), uk(1), uk(2));
-      const float pLight = SkyLightPdf(mix, *sky.sky, w);
-      const LightSample y = SkyPointFor(sp.position, w, sky.sky->Radiance(w));
-      const Vec3 f = UnshadowedContribution(sp, y);
-      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && pLight > 0.0f) {
-        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, w));
-        b.lightTerm[k] = f * (weight / pLight);
-        // The far point's own error scale is its distance, which ShadowRaySetup adds already.
-        const ShadowRaySegment s =
-            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, 0.0f);
-        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
-        b.rayOf.push_back(static_cast<uint32_t>(k));
-      }
-    }
-    b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
-  }
-  b.occluded.resize(b.rays.size());
-  scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
-  rays += b.rays.size();
-  for (size_t k = 0; k < count; ++k) out[k] = b.bsdfTerm[k];
-  for (size_t r = 0; r < b.rays.size(); ++r)
-    if (!b.occluded[r]) out[b.rayOf[r]] = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
-}
-
-// `count` direct-lighting samples at a receiver in a frame without a sky, laid out as SkySamples' (kSampleDims
-// coordinates): light sampling from the receiver's light distribution, plus, at a receiver that is not diffuse,
-// BSDF sampling with the power heuristic. The light half is the light-draw kernel (a packet of draws per register,
-// its MIS weight included), the BSDF half BsdfTerm. Reads coordinates 0-2 of u at a diffuse receiver, 0-4 at
-// others.
-void SkylessSamples(const ShadingPoint& sp, int32_t materialId, const EmbreeScene& scene, const BsdfSoa& materials,
-                    const std::vector<LightTriangle>& lightList, const PixelLightDistribution& dist,
-                    const SkySampling& sky, const LightDrawLights& lights, const float* u, size_t count,
-                    SampleBatch& b, Vec3* out, uint64_t& rays) {
-  const bool bsdfSampling = sp.bsdf.type != BsdfType::kDiffuse;
-  for (std::vector<float>& v : b.drawn) v.resize(count);
-  b.drawOf.resize(count);
-  const LightDrawReceiver receiver = ReceiverOf(sp, materialId, bsdfSampling);
-  LightDraws draws;
-  draws.uSelect = u;
-  draws.uPoint0 = u + count;
-  draws.uPoint1 = u + 2 * count;
-  draws.count = count;
-  LightDrawOutputs o;
-  ShadowRaysSoa shadowRays;
-  for (int c = 0; c < 3; ++c) {
-    o.term[c] = b.drawn[c].data();
-    o.org[c] = b.drawn[3 + c].data();
-    o.dir[c] = b.drawn[6 + c].data();
-    shadowRays.org[c] = o.org[c];
-    shadowRays.dir[c] = o.dir[c];
-  }
-  o.tmax = b.drawn[9].data();
-  o.draw = b.drawOf.data();
-  shadowRays.tmax = o.tmax;
-  // The kernel packs the draws whose term can count, with their rays: the batch goes to Embree as it is.
-  shadowRays.count = DrawLightSamples(receiver, materials, lights, dist.Cdf(), draws, o);
-  b.occluded.resize(shadowRays.count);
-  scene.OccludedBatch(shadowRays, b.occluded.data());
-  rays += shadowRays.count;
-  // The BSDF term, plus the light term where its ray is unoccluded (a diffuse receiver's BSDF term is 0).
-  if (bsdfSampling) {
-    for (size_t k = 0; k < count; ++k)
-      out[k] = BsdfTerm(sp, scene, lightList, dist, sky, u[3 * count + k], u[4 * count + k], rays);
-    for (size_t r = 0; r < shadowRays.count; ++r) {
-      const size_t k = b.drawOf[r];
-      if (!b.occluded[r]) out[k] = Vec3(o.term[0][r], o.term[1][r], o.term[2][r]) + out[k];
-    }
-  } else {
-    std::fill(out, out + count, Vec3(0.0f));
-    for (size_t r = 0; r < shadowRays.count; ++r)
-      if (!b.occluded[r]) out[b.drawOf[r]] = Vec3(o.term[0][r], o.term[1][r], o.term[2][r]) + Vec3(0.0f);
-  }
-}
-
-// Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples independent uniform
-// samples per pixel estimate the per-sample relative variance v = Var[f] / E[f]²; the main pass then spends
-// samples in proportion to v (every pixel reaching about the same relative standard error), with samples
-// independent of the pilot's. The pilot's samples are not part of the estimate: the allocation is then a
-// function of independent randomness only, so each pixel's estimate and its replicate standard error stay
-// unbiased given its sample count (no stopping on the sample's own values).
+// Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples points per pixel,
+// one randomly shifted copy of the Roberts sequence, estimate the per-sample relative variance v = Var[f] / E[f]²
+// (each point is uniform; stratification only lowers the spread of their mean, so their sample variance errs high
+// by at most n / (n - 1)); the main pass then spends samples in proportion to v (every pixel reaching about the
+// same relative standard error), with samples independent of the pilot's. The pilot's samples are not part of the
+// estimate: the allocation is then a function of independent randomness only, so each pixel's estimate and its
+// replicate standard error stay unbiased given its sample count (no stopping on the sample's own values).
 constexpr int kPilotSamples = 16;
 // In budget mode, this share of the main budget goes to every pixel uniformly: the pilot's 16 samples can miss
 // a rare light (v estimated 0), and a floor keeps such pixels from being starved.
@@ -599,95 +294,183 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   }
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> samples([] { return uint64_t{0}; });
-  // The pilot's per-pixel light distributions are kept for the main pass when they fit in
-  // kKeptDistributionBytes; otherwise the main pass builds them again (the same bits).
   const size_t nLights = lightList.size();
-  const LightProxies proxies(lightList, lights);
-  const LightDrawSoa drawLights(lightList);
-  // Above kMaxPerPixelLights every pixel's distribution is the same (power alone): built once, viewed by all.
+  const LightGroups groups = MakeLightGroups(lightList);
+  const size_t nGroups = groups.first.size();
+  const LightDrawSoa drawLights(lightList, groups);
+  // Per-pixel distributions (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, every pixel's is
+  // the same (power alone): built once, viewed by all. Without local lights (none, or all switched off) under a
+  // sky, no pixel has a light distribution.
+  const bool perPixelLights = hasLocal && nLights <= kMaxPerPixelLights;
+  std::vector<float> powerPmf;
+  for (uint32_t l = 0; hasLocal && l < nLights; ++l) powerPmf.push_back(lights.SelectionPmf(l));
+  std::vector<SelectionLight> selectionLights;
+  if (perPixelLights) selectionLights = MakeSelectionLights(lightList, groups, powerPmf);
+  const SelectionLights selection{selectionLights.data(), selectionLights.size()};
   std::vector<float> shared;
-  if (hasLocal && nLights > kMaxPerPixelLights) {
-    shared.resize(nLights);
-    PixelLightDistribution once;
-    once.Build(ShadingPoint{}, LightDrawReceiver{}, bsdfs, drawLights.view, lights, proxies, shared.data());
+  if (hasLocal && !perPixelLights) {
+    float running = 0.0f;
+    for (size_t g = 0; g < nGroups; ++g) {
+      const uint32_t t = groups.first[g];
+      shared.push_back(running += groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
+    }
   }
-  // Without local lights (none, or all switched off) under a sky, no pixel has a light distribution.
-  const bool keep = hasLocal && shared.empty() && pixels * nLights * sizeof(float) <= kKeptDistributionBytes;
-  // Not value-initialised: every pixel's row is written by the pilot before the main pass reads it (66 MB at
-  // 640x360 with 72 lights, whose zeroing cost as much as a fifth of the distributions' build). In huge pages:
-  // first touches of 4 KiB pages cost the 48-spp reference 4% of its time in the kernel's page faults.
-  const HugePageFloats kept(keep ? pixels * nLights : 0);
   // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
   std::vector<LightMixture> mixtures(hasSky ? pixels : 0);
-  auto forEachActiveRow = [&](bool builtBefore, auto&& perPixel) {
+  // The pilot's distributions, kept for the main pass where they fit in kKeptDistributionBytes: each row's blocks
+  // in order (both passes form the same blocks), row y's from keptRow[y] on, kSelectionBlock × nGroups floats a
+  // block, light-major as the selection kernel writes them (whole cache lines); each pass copies a block's to rows
+  // in its own scratch to draw from. Not value-initialised: the pilot writes every entry the main pass reads. In
+  // huge pages: first touches of 4 KiB pages would cost a page fault each.
+  std::vector<size_t> keptRow(static_cast<size_t>(h) + 1, 0);
+  if (perPixelLights)
+    for (int y = 0; y < h; ++y) {
+      size_t rowActive = 0;
+      for (int x = 0; x < w; ++x) rowActive += active[static_cast<size_t>(y) * w + x];
+      const size_t blocks = (rowActive + kSelectionBlock - 1) / kSelectionBlock;
+      keptRow[y + 1] = keptRow[y] + blocks * kSelectionBlock * nGroups;
+    }
+  const bool keep = perPixelLights && keptRow[h] * sizeof(float) <= kKeptDistributionBytes;
+  const KeptDistributions kept(keep ? keptRow[h] : 0);
+  // Runs sampleBlock on every active pixel, rows in parallel, each row's active pixels in blocks of
+  // kSelectionBlock whose light distributions are built together by the pilot (and again by the main pass where
+  // they are not kept).
+  auto forEachBlock = [&](bool pilot, auto&& sampleBlock) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
-      PixelLightDistribution dist;
-      SampleBatch batch;
-      std::vector<float> u, local(!hasLocal || keep || !shared.empty() ? 0 : nLights);
-      std::vector<Vec3> values;
-      for (int y = range.begin(); y < range.end(); ++y)
-        for (int x = 0; x < w; ++x) {
-          const size_t i = static_cast<size_t>(y) * w + x;
-          if (!active[i]) continue;
-          const ShadingPoint sp = ShadingPointAt(g, i, state.camera.position, bsdfs);
-          if (hasLocal) {
-            float* cdf = keep ? kept.get() + i * nLights : local.data();
-            if (!shared.empty())
-              dist.View(shared.data(), nLights);
-            else if (keep && builtBefore)
-              dist.View(cdf, nLights);
-            else
-              dist.Build(sp, ReceiverOf(sp, g.bsdfId[i], false), bsdfs, drawLights.view, lights, proxies, cdf);
+      std::vector<float> columns(perPixelLights && !keep ? nGroups * kSelectionBlock : 0);
+      std::vector<float> cdfs(perPixelLights ? nGroups * kSelectionBlock : 0);
+      std::vector<float> work(perPixelLights && (pilot || !keep) ? nGroups * kSelectionBlock : 0);
+      float estimates[kSelectionBlock] = {};
+      SelectionReceivers receivers{};
+      ReceiverBlock block;
+      BlockScratch scratch;
+      std::vector<size_t> rowPixels;
+      uint64_t threadRays = 0, threadSamples = 0;
+      for (int y = range.begin(); y < range.end(); ++y) {
+        // The row's active pixels, diffuse receivers first: a block of one kind skips the other's work (the
+        // BSDF towards every light's centroid, BSDF sampling).
+        rowPixels.clear();
+        for (int pass = 0; pass < 2; ++pass)
+          for (int x = 0; x < w; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            const bool diffuse = bsdfs.type[static_cast<size_t>(g.bsdfId[i])] == static_cast<int32_t>(BsdfType::kDiffuse);
+            if (active[i] && diffuse == (pass == 0)) rowPixels.push_back(i);
           }
-          SkySampling skySampling;
-          if (hasSky) {
-            skySampling.sky = &sky;
-            if (!builtBefore) {
-              // The local lights' estimate where the distribution has one; where it has none (above
-              // kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the draws.
-              const float sunEstimate = SunEstimate(sp, sky, skySummary);
-              const float environmentEstimate = EnvironmentEstimate(sp, sky, skySummary);
-              const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
-              const float localEstimate = !hasLocal ? -1.0f
-                                          : dist.Estimate() >= 0.0 ? static_cast<float>(dist.Estimate())
-                                                                   : skyEstimate;
-              mixtures[i] = MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+        for (size_t firstPixel = 0; firstPixel < rowPixels.size(); firstPixel += kSelectionBlock) {
+          const size_t count = std::min(kSelectionBlock, rowPixels.size() - firstPixel);
+          block.count = count;
+          for (size_t r = 0; r < count; ++r) {
+            const size_t i = rowPixels[firstPixel + r];
+            block.index[r] = i;
+            block.materialId[r] = g.bsdfId[i];
+            const ShadingPoint& sp = block.points[r] = ShadingPointAt(g, i, state.camera.position, bsdfs);
+            for (int c = 0; c < 3; ++c) {
+              receivers.x[c][r] = sp.position[c];
+              receivers.ng[c][r] = sp.geometricNormal[c];
+              receivers.n[c][r] = sp.shadingNormal[c];
+              receivers.wo[c][r] = sp.wo[c];
             }
-            skySampling.mixture = mixtures[i];
+            receivers.materialId[r] = g.bsdfId[i];
           }
-          perPixel(i, sp, dist, skySampling, batch, u, values);
+          receivers.count = count;
+          float* const blockColumns = keep ? kept.get() + keptRow[y] + firstPixel * nGroups : columns.data();
+          float* const blockCdfs = cdfs.data();
+          // (The main pass reads no estimate: the pilot set the sky's light mixtures from them.)
+          if (perPixelLights && (pilot || !keep))
+            BuildLightSelection(receivers, bsdfs, selection, work.data(), blockColumns, estimates);
+          if (perPixelLights) SelectionRows(blockColumns, nGroups, count, blockCdfs);
+          for (size_t r = 0; r < count; ++r) {
+            const size_t i = block.index[r];
+            const ShadingPoint& sp = block.points[r];
+            PixelLightDistribution& dist = block.dists[r];
+            if (perPixelLights)
+              dist = PixelLightDistribution(blockCdfs + r * nGroups, &groups, estimates[r]);
+            else if (hasLocal)
+              dist = PixelLightDistribution(shared.data(), &groups, -1.0f);
+            SkySampling& skySampling = block.sky[r];
+            if (hasSky) {
+              skySampling.sky = &sky;
+              if (pilot) {
+                // The local lights' estimate where the distribution has one; where it has none (above
+                // kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the draws.
+                const float sunEstimate = SunEstimate(sp, sky, skySummary);
+                const float environmentEstimate = EnvironmentEstimate(sp, sky, skySummary);
+                const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
+                const float localEstimate = !hasLocal                ? -1.0f
+                                            : dist.Estimate() >= 0.0f ? dist.Estimate()
+                                                                      : skyEstimate;
+                mixtures[i] = MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+              }
+              skySampling.mixture = mixtures[i];
+            }
+          }
+          sampleBlock(block, scratch, threadRays, threadSamples);
         }
+      }
+      rays.local() += threadRays;
+      samples.local() += threadSamples;
     });
   };
-
-  // Pilot: independent uniform samples (their own RNG pass), only their relative variance is kept.
-  std::vector<float> relVar(pixels, -1.0f);
-  forEachActiveRow(false, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
-                              const SkySampling& skySampling, SampleBatch& batch, std::vector<float>& u,
-                              std::vector<Vec3>& values) {
-    const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i),
-                     static_cast<uint32_t>(RngPass::kReferencePilot)};
-    // Sample k's coordinate j is dimension k * dims + j of the key; a diffuse receiver without a sky reads three.
-    const bool skyless = !hasSky;
-    const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
-    u.resize(static_cast<size_t>(kPilotSamples) * dims);
-    UniformFloats(key, 0, static_cast<uint32_t>(dims), kPilotSamples, u.data(), static_cast<size_t>(used), 1);
-    values.resize(kPilotSamples);
-    if (skyless)
-      SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(),
-                     kPilotSamples, batch, values.data(), rays.local());
-    else
-      SkySamples(sp, scene, lightList, dist, skySampling, u.data(), kPilotSamples, batch, values.data(), rays.local());
-    samples.local() += kPilotSamples;
-    double sum = 0.0, sumSq = 0.0;
-    for (const Vec3& v : values) {
-      const double yv = Luminance(v);
-      sum += yv;
-      sumSq += yv * yv;
+  // The coordinates a receiver's samples read: three at a diffuse receiver without a sky, else every one.
+  const auto usedDims = [&](const ShadingPoint& sp) {
+    return !hasSky && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
+  };
+  const auto alphaOf = [&](int j) { return hasSky ? rdSky.alpha[j] : rd.alpha[j]; };
+  // A block's samples, once its points are in scratch.u: every receiver's at once without a sky (one batch of
+  // shadow rays), one receiver at a time with one.
+  const auto sampleAll = [&](const ReceiverBlock& block, const size_t* counts, const size_t* uFirst,
+                             const size_t* first, BlockScratch& scratch, uint64_t& rayCount) {
+    const size_t total = first[block.count - 1] + counts[block.count - 1];
+    for (std::vector<float>& v : scratch.values) v.resize(total);
+    float* const values[3] = {scratch.values[0].data(), scratch.values[1].data(), scratch.values[2].data()};
+    if (!hasSky) {
+      SkylessBlockSamples(block, counts, uFirst, first, scene, bsdfs, lightList, drawLights.view, scratch, values,
+                          rayCount);
+      return;
     }
-    const double mean = sum / kPilotSamples;
-    const double var = std::max(0.0, (sumSq - sum * mean) / (kPilotSamples - 1));
-    if (mean > 0.0) relVar[i] = static_cast<float>(std::min(var / (mean * mean), 1e30));
+    for (size_t p = 0; p < block.count; ++p) {
+      float* const out[3] = {values[0] + first[p], values[1] + first[p], values[2] + first[p]};
+      SkySamples(block.points[p], scene, lightList, block.dists[p], block.sky[p], scratch.u.data() + uFirst[p],
+                 counts[p], scratch.batch, out, rayCount);
+    }
+  };
+
+  // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass), only
+  // their relative variance is kept.
+  std::vector<float> relVar(pixels, -1.0f);
+  forEachBlock(true, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
+                         uint64_t& sampleCount) {
+    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
+    uint32_t ids[kSelectionBlock];
+    size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
+    for (size_t p = 0; p < block.count; ++p) {
+      ids[p] = static_cast<uint32_t>(block.index[p]);
+      counts[p] = kPilotSamples;
+      uFirst[p] = p * kPilotSamples * dims;
+      first[p] = p * kPilotSamples;
+    }
+    // Word j of a pixel (core/rng.h RandomWords4's stream) shifts its coordinate j: at words[j × count + p].
+    scratch.words.resize(static_cast<size_t>(kSkySampleDims + 1) * block.count);
+    PixelRandomWords4(key, ids, block.count, 0, (static_cast<size_t>(dims) + 3) / 4, scratch.words.data());
+    scratch.u.resize(block.count * kPilotSamples * dims);
+    for (size_t p = 0; p < block.count; ++p)
+      for (int j = 0; j < usedDims(block.points[p]); ++j)
+        RobertsCoordinates(&scratch.words[static_cast<size_t>(j) * block.count + p], 1, kPilotSamples, alphaOf(j),
+                           scratch.u.data() + uFirst[p] + static_cast<size_t>(j) * kPilotSamples);
+    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    sampleCount += block.count * kPilotSamples;
+    for (size_t p = 0; p < block.count; ++p) {
+      double sum = 0.0, sumSq = 0.0;
+      for (size_t k = 0; k < kPilotSamples; ++k) {
+        const size_t e = first[p] + k;
+        const double yv = Luminance(Vec3(scratch.values[0][e], scratch.values[1][e], scratch.values[2][e]));
+        sum += yv;
+        sumSq += yv * yv;
+      }
+      const double mean = sum / kPilotSamples;
+      const double var = std::max(0.0, (sumSq - sum * mean) / (kPilotSamples - 1));
+      if (mean > 0.0) relVar[block.index[p]] = static_cast<float>(std::min(var / (mean * mean), 1e30));
+    }
   });
   const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, active, params);
   ref.pixelSamples.assign(pixels, 0);
@@ -696,47 +479,69 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
 
   // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
   // points each.
-  forEachActiveRow(true, [&](size_t i, const ShadingPoint& sp, const PixelLightDistribution& dist,
-                             const SkySampling& skySampling, SampleBatch& batch, std::vector<float>& u,
-                             std::vector<Vec3>& values) {
-    const RngKey key{kReferenceSeed, stateKey, static_cast<uint32_t>(i), static_cast<uint32_t>(RngPass::kReference)};
-    const int m = static_cast<int>(perReplicate[i]);
-    const size_t n = static_cast<size_t>(m) * kReplicates;
-    const bool skyless = !hasSky;
-    const int used = skyless && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
-    // Coordinate j of point k of replicate rep is u[j * n + rep * m + k]; the replicate's shift of coordinate j
-    // is dimension rep * dims + j of the key.
-    u.resize(n * dims);
-    float shifts[kSkySampleDims * kReplicates];  // coordinate j's of replicate rep at j * kReplicates + rep
-    UniformFloats(key, 0, static_cast<uint32_t>(dims), kReplicates, shifts, static_cast<size_t>(used), 1);
-    for (int j = 0; j < used; ++j)
-      RobertsCoordinates(shifts + j * kReplicates, kReplicates, static_cast<size_t>(m),
-                         hasSky ? rdSky.alpha[j] : rd.alpha[j], u.data() + static_cast<size_t>(j) * n);
-    values.resize(n);
-    if (skyless)
-      SkylessSamples(sp, g.bsdfId[i], scene, bsdfs, lightList, dist, skySampling, drawLights.view, u.data(), n, batch,
-                     values.data(), rays.local());
-    else
-      SkySamples(sp, scene, lightList, dist, skySampling, u.data(), n, batch, values.data(), rays.local());
-    samples.local() += n;
-    glm::dvec3 replicateMean[kReplicates];
-    for (int rep = 0; rep < kReplicates; ++rep) {
-      glm::dvec3 sum(0.0);
-      for (int k = 0; k < m; ++k) sum += glm::dvec3(values[static_cast<size_t>(rep) * m + k]);
-      replicateMean[rep] = sum / double(m);
+  forEachBlock(false, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
+                          uint64_t& sampleCount) {
+    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
+    uint32_t ids[kSelectionBlock];
+    size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
+    size_t uTotal = 0, total = 0;
+    for (size_t p = 0; p < block.count; ++p) {
+      ids[p] = static_cast<uint32_t>(block.index[p]);
+      counts[p] = static_cast<size_t>(perReplicate[block.index[p]]) * kReplicates;
+      uFirst[p] = uTotal;
+      first[p] = total;
+      uTotal += counts[p] * dims;
+      total += counts[p];
     }
-    glm::dvec3 mean(0.0), var(0.0);
-    for (const glm::dvec3& r : replicateMean) mean += r;
-    mean /= double(kReplicates);
-    for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
-    var /= double(kReplicates - 1);
-    const double meanY = LuminanceD(mean);
-    double varY = 0.0;
-    for (const glm::dvec3& r : replicateMean) varY += (LuminanceD(r) - meanY) * (LuminanceD(r) - meanY);
-    varY /= double(kReplicates - 1);
-    ref.mean.pixels[i] += Vec3(mean);
-    ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
-    ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
+    // Replicate rep's shift of coordinate j is the pixel's word j × kReplicates + rep (core/rng.h RandomWords4's
+    // stream): at words[(j × kReplicates + rep) × count + p], for the coordinates the block reads.
+    int used = 0;
+    for (size_t p = 0; p < block.count; ++p) used = std::max(used, usedDims(block.points[p]));
+    const size_t wordRow = kReplicates * block.count;
+    scratch.words.resize(static_cast<size_t>(used) * wordRow);
+    PixelRandomWords4(key, ids, block.count, 0, static_cast<size_t>(used) * kReplicates / 4, scratch.words.data());
+    // Coordinate j of point k of replicate rep is u[uFirst + j × n + k × kReplicates + rep] (sample
+    // k × kReplicates + rep).
+    scratch.u.resize(uTotal);
+    for (size_t p = 0; p < block.count; ++p) {
+      const size_t m = counts[p] / kReplicates;
+      for (int j = 0; j < usedDims(block.points[p]); ++j) {
+        uint32_t shifts[kReplicates];
+        for (int rep = 0; rep < kReplicates; ++rep)
+          shifts[rep] = scratch.words[j * wordRow + static_cast<size_t>(rep) * block.count + p];
+        RobertsCoordinates(shifts, kReplicates, m, alphaOf(j), scratch.u.data() + uFirst[p] + j * counts[p]);
+      }
+    }
+    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    sampleCount += total;
+    for (size_t p = 0; p < block.count; ++p) {
+      const size_t i = block.index[p];
+      const size_t m = counts[p] / kReplicates;
+      // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
+      // sum of glm::dvec3).
+      double sums[3][kReplicates] = {};
+      for (int c = 0; c < 3; ++c) {
+        const float* v = scratch.values[c].data() + first[p];
+        for (size_t k = 0; k < m; ++k)
+          for (int rep = 0; rep < kReplicates; ++rep) sums[c][rep] += double(v[k * kReplicates + rep]);
+      }
+      glm::dvec3 replicateMean[kReplicates];
+      const double perPoint = 1.0 / double(m);  // one division, not one per replicate and channel
+      for (int rep = 0; rep < kReplicates; ++rep)
+        replicateMean[rep] = glm::dvec3(sums[0][rep], sums[1][rep], sums[2][rep]) * perPoint;
+      glm::dvec3 mean(0.0), var(0.0);
+      for (const glm::dvec3& r : replicateMean) mean += r;
+      mean /= double(kReplicates);
+      for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
+      var /= double(kReplicates - 1);
+      const double meanY = LuminanceD(mean);
+      double varY = 0.0;
+      for (const glm::dvec3& r : replicateMean) varY += (LuminanceD(r) - meanY) * (LuminanceD(r) - meanY);
+      varY /= double(kReplicates - 1);
+      ref.mean.pixels[i] += Vec3(mean);
+      ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
+      ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
+    }
   });
   ref.rays = rays.combine(std::plus<uint64_t>());
   ref.samples = samples.combine(std::plus<uint64_t>());
@@ -746,13 +551,23 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   return ref;
 }
 
-double ReferenceScratchBytes(double pixels, double lights, bool sky) {
-  const double kept = lights > double(kMaxPerPixelLights) ? lights * sizeof(float) : pixels * lights * sizeof(float);
+double ReferenceScratchBytes(double pixels, double lights, double groups, bool sky) {
+  // Per worker thread (as many as TBB runs here), a block's light distributions (rows and columns), its selection
+  // weights and its samples.
+  const double threads = double(tbb::this_task_arena::max_concurrency());
+  const double perFrame = groups * sizeof(SelectionLight) + lights * (kLightDrawRecordFloats + 4.0) * sizeof(float);
+  const double perThread = 3.0 * groups * kSelectionBlock * sizeof(float) + 64.0 * 1024.0;
   // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture
   const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) : 0.0);
-  // The kept distributions are allocated in whole 2 MiB pages (HugePageFloats).
+  return perFrame + threads * perThread + pixels * perPixel;
+}
+
+double ReferenceKeptBytes(double width, double height, double groups) {
+  // Each row's active pixels in whole blocks; in whole 2 MiB pages.
+  const double floats = std::ceil(width / kSelectionBlock) * kSelectionBlock * height * groups;
+  if (floats * sizeof(float) > double(kKeptDistributionBytes)) return 0.0;
   const double huge = double(size_t{2} << 20);
-  return (kept <= double(kKeptDistributionBytes) ? std::ceil(kept / huge) * huge : 0.0) + pixels * perPixel;
+  return std::ceil(floats * sizeof(float) / huge) * huge;
 }
 
 double MeanRelativeStandardError(const ReferenceImage& ref) {

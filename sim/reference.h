@@ -1,10 +1,15 @@
 // The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with per-pixel light
-// selection, uniform area sampling and one shadow ray per sample (traced in packets), combined by MIS with BSDF
-// sampling on glossy surfaces. Under a sky (an environment, a sun: issue 18) light sampling is a per-pixel
-// mixture of the local lights, the sun and the environment (sim/reference_sky.h), BSDF sampling runs on every
-// surface, and pixels whose primary ray escaped show the sky. A pilot pass estimates each pixel's relative
-// variance; the main pass spends the samples in proportion to it. Samples are randomised quasi-Monte Carlo in 16
-// independent replicates, so the reference also reports an honest per-pixel standard error. Cached on disk.
+// selection (core/light_selection_kernel.h: each light group's unshadowed contribution there, Lambert's formula on
+// its polygon or a point estimate, beside a defensive share by power; a quad light's two triangles are one group),
+// uniform area sampling and one shadow ray per sample, combined by MIS with BSDF sampling on glossy surfaces. The
+// pixels of a row are taken in blocks of 16 (core/light_selection_kernel.h kSelectionBlock): their distributions
+// are built together, one pixel per SIMD lane, and their samples drawn by the light-draw and BSDF-draw kernels,
+// their shadow rays traced as one batch of packets (sim/reference_samples.h). Under a sky (an environment, a sun:
+// issue 18) light sampling is a per-pixel mixture of the local lights, the sun and the environment
+// (sim/reference_sky.h), BSDF sampling runs on every surface, and pixels whose primary ray escaped show the sky. A
+// pilot pass estimates each pixel's relative variance; the main pass spends the samples in proportion to it.
+// Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also reports an honest
+// per-pixel standard error. Cached on disk.
 #pragma once
 
 #include <cstdint>
@@ -54,10 +59,17 @@ uint64_t HashFrameState(const FrameState& state);
 // renderer version). Not the frame index: identical states share one reference.
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
-// The most RenderReference allocates while it runs beyond its result, for a frame of `pixels` pixels and `lights`
-// light triangles (the kept per-pixel light distributions, capped, and the pilot's per-pixel state, with each
-// pixel's light mixture when the frame has a sky); for the run's memory estimate (sim/memory_estimate.h).
-double ReferenceScratchBytes(double pixels, double lights, bool sky = false);
+// The most RenderReference allocates while it runs beyond its result and its kept distributions, for a frame of
+// `pixels` pixels and `lights` light triangles in `groups` light groups (the workers' scratch and the pilot's
+// per-pixel state, with each pixel's light mixture when the frame has a sky); for the run's memory estimate
+// (sim/memory_estimate.h).
+double ReferenceScratchBytes(double pixels, double lights, double groups, bool sky = false);
+
+// The pilot's per-pixel light distributions kept for the main pass, for a frame of width × height pixels and
+// `groups` light groups: 0 where they would pass kKeptDistributionBytes (then the main pass builds them again).
+// They stay with the process between frames (a later frame of the same size reuses them instead of faulting in
+// fresh pages), so the run's memory estimate counts them as long-lived.
+double ReferenceKeptBytes(double width, double height, double groups);
 
 // Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
 // reference's own relative noise.

@@ -273,6 +273,7 @@ void CheckRunMemory(const RunOptions& opt, const Sequence& seq, int width, int h
   shape.writeImages = opt.writeImages;
   for (const Object& o : seq.objects) shape.sceneTriangles += static_cast<int64_t>(o.mesh.triangles.size());
   for (const Light& l : seq.lights) shape.lightTriangles += static_cast<int64_t>(l.vertices.size() / 3);
+  shape.lightGroups = CountLightGroups(seq.lights);
   shape.textures = !seq.textures.empty();
   shape.sky = seq.environment.present || seq.sun.present;
   shape.processBytes = CurrentResidentBytes();

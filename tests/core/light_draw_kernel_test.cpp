@@ -48,58 +48,73 @@ std::vector<Bsdf> Materials() {
           Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f}};
 }
 
-// Lights and their records, the cdf over them, as the reference hands them to the kernel.
+// Lights, their groups (core/light.h: quads cut in two are one) and records, the cdf over the groups, as the
+// reference hands them to the kernel.
 struct LightSet {
   std::vector<LightTriangle> triangles;
+  LightGroups groups;
   struct alignas(64) Record {
     float v[kLightDrawRecordFloats];
   };
   std::vector<Record> records;
   std::vector<float> errorScale;
-  std::vector<float> cdf;
+  std::vector<float> cdf;  // per group
   LightDrawLights View() const {
     LightDrawLights l;
     l.records = records.data()->v;
     l.errorScale = errorScale.data();
     l.count = triangles.size();
+    l.groupFirst = groups.first.data();
+    l.groupSplit = groups.split.data();
+    l.groups = groups.first.size();
     return l;
+  }
+  // Records and the cdf from the triangles and the groups' weights (zero steps allowed, the last positive).
+  void Finish(std::vector<double> w) {
+    groups = MakeLightGroups(triangles);
+    records.resize(triangles.size());
+    for (size_t l = 0; l < triangles.size(); ++l) {
+      WriteLightDrawRecord(triangles[l], groups.invArea[l], records[l].v);
+      errorScale.push_back(triangles[l].errorScale);
+    }
+    w.resize(groups.first.size(), 0.0);
+    double total = 0.0;
+    for (double v : w) total += v;
+    if (total == 0.0) w[0] = total = 1.0;
+    double running = 0.0;
+    for (double v : w) cdf.push_back(static_cast<float>((running += v) / total));
   }
 };
 
+// `count` emitters (a quad, two triangles of one group, in one of four), mostly facing the receiver.
 LightSet RandomLights(std::mt19937& rng, const Vec3& x, const Vec3& n, size_t count) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   LightSet s;
-  while (s.triangles.size() < count) {
+  std::vector<double> w;
+  while (w.size() < count) {
     // Mostly above the receiver, some behind it; sizes from a millimetre to tens of metres.
     const float size = std::pow(10.0f, -3.0f + 4.5f * u(rng));
     const float distance = std::pow(10.0f, -2.0f + 3.0f * u(rng));
     const Vec3 c = x + distance * glm::normalize((u(rng) < 0.8f ? n : -n) + 1.2f * RandomUnit(rng));
-    const Vec3 a = RandomUnit(rng), b = RandomUnit(rng);
+    Vec3 a = size * RandomUnit(rng), b = size * RandomUnit(rng);
+    if (glm::dot(glm::cross(a, b), x - c) < 0 && u(rng) < 0.8f) std::swap(a, b);
     Vec3 radiance(u(rng) * 30, u(rng) * 30, u(rng) * 30);
     if (u(rng) < 0.1f) radiance = Vec3(0.0f);  // switched off
-    LightTriangle t;
-    if (!MakeLightTriangle(c, c + size * a, c + size * b, radiance, t)) continue;
-    if (glm::dot(t.normal, x - c) < 0 && u(rng) < 0.8f)
-      MakeLightTriangle(c, c + size * b, c + size * a, radiance, t);
-    s.triangles.push_back(t);
-  }
-  s.records.resize(count);
-  double running = 0.0;
-  std::vector<double> w(count);
-  for (size_t l = 0; l < count; ++l) {
-    WriteLightDrawRecord(s.triangles[l], s.records[l].v);
-    s.errorScale.push_back(s.triangles[l].errorScale);
+    LightTriangle t0, t1;
+    if (u(rng) < 0.25f) {
+      const Vec3 q[4] = {c - a - b, c + a - b, c + a + b, c - a + b};
+      if (!MakeLightTriangle(q[0], q[1], q[2], radiance, t0) || !MakeLightTriangle(q[0], q[2], q[3], radiance, t1))
+        continue;
+      s.triangles.push_back(t0);
+      s.triangles.push_back(t1);
+    } else {
+      if (!MakeLightTriangle(c, c + a, c + b, radiance, t0)) continue;
+      s.triangles.push_back(t0);
+    }
     // Zero steps, plateaus and weights over twelve decades.
-    w[l] = u(rng) < 0.2f ? 0.0 : std::pow(10.0, -6.0 + 12.0 * u(rng));
+    w.push_back(u(rng) < 0.2f ? 0.0 : std::pow(10.0, -6.0 + 12.0 * u(rng)));
   }
-  if (w[count - 1] == 0.0 && count == 1) w[0] = 1.0;
-  double total = 0.0;
-  for (double v : w) total += v;
-  if (total == 0.0) w[0] = total = 1.0;
-  for (size_t l = 0; l < count; ++l) {
-    running += w[l];
-    s.cdf.push_back(static_cast<float>(running / total));
-  }
+  s.Finish(w);
   return s;
 }
 
@@ -114,8 +129,11 @@ std::vector<float> Uniforms(std::mt19937& rng, const std::vector<float>& cdf, si
       x = 0.0f;
     } else if (kind == 1) {
       x = 0x1.fffffep-1f;
-    } else if (kind == 2) {
-      const float b = cdf[rng() % cdf.size()] / cdf.back();
+    } else if (kind == 2 || kind == 3) {
+      // A group's boundary, or (kind 3) the boundary between a quad's triangles: its step times a split.
+      const size_t g = rng() % cdf.size();
+      const float before = g ? cdf[g - 1] : 0.0f;
+      const float b = kind == 2 ? cdf[g] / cdf.back() : (before + 0.5f * (cdf[g] - before)) / cdf.back();
       const int side = static_cast<int>(rng() % 3);
       x = side == 0 ? b : side == 1 ? std::nextafter(b, 0.0f) : std::nextafter(b, 1.0f);
       x = std::min(x, 0x1.fffffep-1f);
@@ -191,9 +209,13 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
       Outputs got(n);
       ASSERT_EQ(DrawLightSamples(r, materials, lights.View(), lights.cdf.data(), draws, got.View()), counted)
           << SimdTargetName(t) << " trial " << trial;
-      for (size_t e = 0; e < counted; ++e) {
+      for (size_t k = 0; k < n; ++k)  // every draw's term
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(Bits(got.fields[c]->data()[k]), Bits(twin.fields[c]->data()[k]))
+              << SimdTargetName(t) << " trial " << trial << " draw " << k << " channel " << c;
+      for (size_t e = 0; e < counted; ++e) {  // the rays of those that count
         ASSERT_EQ(got.draw.data()[e], twin.draw.data()[e]) << SimdTargetName(t) << " trial " << trial << " entry " << e;
-        for (int f = 0; f < 10; ++f)
+        for (int f = 3; f < 10; ++f)
           ASSERT_EQ(Bits(got.fields[f]->data()[e]), Bits(twin.fields[f]->data()[e]))
               << SimdTargetName(t) << " trial " << trial << " entry " << e << " field " << f;
         ++compared;
@@ -205,70 +227,16 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   EXPECT_GT(compared, 10000u);
 }
 
-// LightCentroidTargets: every target reproduces its twin bit for bit over the same receivers, materials and light
-// sets as the draws (tails around every vector width), and the twin is TargetFunction(UnshadowedContribution) at
-// each light's centroid, computed here from the triangles.
-TEST_F(LightDrawKernel, CentroidTargetsMatchTheirTwinAndTheCoreFunctions) {
-  std::mt19937 rng(20261126);
-  const std::vector<Bsdf> bsdfs = Materials();
-  const BsdfSoa materials = MakeBsdfSoa(bsdfs);
-  size_t compared = 0, positive = 0;
-  for (int trial = 0; trial < 200; ++trial) {
-    LightDrawReceiver r;
-    const float far = trial % 4 == 0 ? 1000.0f : 1.0f;
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    r.position = far * Vec3(u(rng) * 10 - 5, u(rng) * 4 - 2, u(rng) * 10 - 5);
-    r.geometricNormal = RandomUnit(rng);
-    r.shadingNormal = trial % 3 == 0 ? r.geometricNormal : glm::normalize(r.geometricNormal + 0.3f * RandomUnit(rng));
-    r.wo = glm::normalize(r.geometricNormal * (trial % 7 == 0 ? -0.2f : 1.0f) + 0.8f * RandomUnit(rng));
-    r.errorScale = far * 6.0f;
-    r.materialId = static_cast<int32_t>(rng() % bsdfs.size());
-    const LightSet lights = RandomLights(rng, r.position, r.shadingNormal, 1 + rng() % 140);
-    const size_t n = lights.triangles.size();
-    GuardedArray<float> twin(n);
-    LightCentroidTargetsScalar(r, materials, lights.View(), twin.data());
-    ShadingPoint sp;
-    sp.position = r.position;
-    sp.geometricNormal = r.geometricNormal;
-    sp.shadingNormal = r.shadingNormal;
-    sp.wo = r.wo;
-    sp.bsdf = bsdfs[static_cast<size_t>(r.materialId)];
-    for (size_t l = 0; l < n; ++l) {
-      const LightTriangle& t = lights.triangles[l];
-      LightSample c;
-      c.position = t.p0 + (t.e1 + t.e2) * (1.0f / 3.0f);
-      c.normal = t.normal;
-      c.radiance = t.radiance;
-      const float expected = TargetFunction(UnshadowedContribution(sp, c));
-      if (std::isnan(expected)) {
-        EXPECT_TRUE(std::isnan(twin.data()[l]));
-      } else {
-        ASSERT_EQ(Bits(twin.data()[l]), Bits(expected)) << "trial " << trial << " light " << l;
-      }
-      positive += expected > 0.0f ? 1 : 0;
-    }
-    for (SimdTarget t : SupportedSimdTargets()) {
-      ASSERT_TRUE(SetSimdTarget(t));
-      GuardedArray<float> got(n);
-      LightCentroidTargets(r, materials, lights.View(), got.data());
-      for (size_t l = 0; l < n; ++l)
-        ASSERT_EQ(Bits(got.data()[l]), Bits(twin.data()[l])) << SimdTargetName(t) << " trial " << trial << " light " << l;
-      compared += n;
-    }
-  }
-  EXPECT_GT(positive, 1000u);
-  EXPECT_GT(compared, 10000u);
-}
-
-// A receiver under a quad light (two triangles) whose cdf does not follow the triangles' areas: E[term] =
-// albedo / π · E, E by Lambert's polygon formula (core/polygon_irradiance.h) on the quad clipped to the
-// receiver's hemisphere, where the contribution is zero: the pmf and area density must cancel whatever the
-// cdf.
+// A receiver under a quad light (two triangles, one group split by area) that the cdf selects with probability
+// `split`, beside a triangle facing away that takes the rest: E[term] = albedo / π · E, E by Lambert's polygon
+// formula (core/polygon_irradiance.h) on the quad clipped to the receiver's hemisphere, where the contribution is
+// zero: the pmf and area density must cancel whatever the cdf; and likewise with the quad's triangles given
+// different radiances, so that each is a group of its own and the cdf does not follow their areas.
 struct QuadCase {
   const char* name;
   Vec3 x, n;          // receiver
   Vec3 centre, u, v;  // the quad: centre ± u ± v
-  float split;        // probability of the first triangle
+  float split;        // probability of the quad (or of its first triangle)
 };
 
 TEST_F(LightDrawKernel, TermIsAnUnbiasedEstimateOfLambertsReflectedRadiance) {
@@ -292,23 +260,24 @@ TEST_F(LightDrawKernel, TermIsAnUnbiasedEstimateOfLambertsReflectedRadiance) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
   constexpr size_t kDraws = 1 << 18;
+  for (const bool grouped : {true, false})
   for (const QuadCase& c : cases) {
     const Vec3 q[4] = {c.centre - c.u - c.v, c.centre + c.u - c.v, c.centre + c.u + c.v,
                        c.centre - c.u + c.v};
     LightSet lights;
-    lights.triangles.resize(2);
-    // Wound to face the receiver.
+    lights.triangles.resize(grouped ? 3 : 2);
+    // Wound to face the receiver; ungrouped, the second triangle a hair brighter (not one quad's any more).
+    const Vec3 second = grouped ? radiance : radiance * 1.0001f;
+    // Cut as quad lights are, A B C and A C D, with the corners taken the other way round where that faces it.
     const bool flip = glm::dot(glm::cross(q[1] - q[0], q[2] - q[0]), c.x - c.centre) < 0;
-    ASSERT_TRUE(flip ? MakeLightTriangle(q[0], q[2], q[1], radiance, lights.triangles[0])
+    ASSERT_TRUE(flip ? MakeLightTriangle(q[0], q[3], q[2], radiance, lights.triangles[0])
                      : MakeLightTriangle(q[0], q[1], q[2], radiance, lights.triangles[0]));
-    ASSERT_TRUE(flip ? MakeLightTriangle(q[0], q[3], q[2], radiance, lights.triangles[1])
-                     : MakeLightTriangle(q[0], q[2], q[3], radiance, lights.triangles[1]));
-    lights.records.resize(2);
-    for (int l = 0; l < 2; ++l) {
-      WriteLightDrawRecord(lights.triangles[l], lights.records[l].v);
-      lights.errorScale.push_back(lights.triangles[l].errorScale);
-    }
-    lights.cdf = {c.split, 1.0f};
+    ASSERT_TRUE(flip ? MakeLightTriangle(q[0], q[2], q[1], second, lights.triangles[1])
+                     : MakeLightTriangle(q[0], q[2], q[3], second, lights.triangles[1]));
+    if (grouped)  // behind the receiver, facing away
+      ASSERT_TRUE(MakeLightTriangle(c.x - c.n, c.x - c.n + c.u, c.x - c.n + c.v, radiance, lights.triangles[2]));
+    lights.Finish({c.split, 1.0 - c.split});
+    ASSERT_EQ(lights.groups.first.size(), 2u) << c.name;
     LightDrawReceiver r;
     r.position = c.x;
     r.geometricNormal = r.shadingNormal = c.n;
@@ -317,27 +286,34 @@ TEST_F(LightDrawKernel, TermIsAnUnbiasedEstimateOfLambertsReflectedRadiance) {
     std::vector<float> u0(kDraws), u1(kDraws), u2(kDraws);
     for (size_t k = 0; k < kDraws; ++k) u0[k] = uniform(rng), u1[k] = uniform(rng), u2[k] = uniform(rng);
     Outputs o(kDraws);
-    const size_t counted = DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
-                                            LightDraws{u0.data(), u1.data(), u2.data(), kDraws}, o.View());
-    Vec3 clipped[5];
-    const size_t kept = ClipPolygonToHemisphere(c.x, c.n, q, 4, clipped);
-    ASSERT_GE(kept, 3u) << c.name;
-    const double e = PolygonIrradiance(c.x, c.n, std::vector<Vec3>(clipped, clipped + kept), 1.0);
+    DrawLightSamples(r, materials, lights.View(), lights.cdf.data(),
+                     LightDraws{u0.data(), u1.data(), u2.data(), kDraws}, o.View());
+    // Each triangle's irradiance by Lambert's formula on its clipped polygon (the two together are the quad's).
+    double e[2];
+    for (int l = 0; l < 2; ++l) {
+      const LightTriangle& t = lights.triangles[l];
+      const Vec3 tri[3] = {t.p0, t.p0 + t.e1, t.p0 + t.e2};
+      Vec3 clipped[4];
+      const size_t kept = ClipPolygonToHemisphere(c.x, c.n, tri, 3, clipped);
+      e[l] = kept >= 3 ? PolygonIrradiance(c.x, c.n, std::vector<Vec3>(clipped, clipped + kept), 1.0) : 0.0;
+    }
+    ASSERT_GT(e[0] + e[1], 0.0) << c.name;
     for (int ch = 0; ch < 3; ++ch) {
       double sum = 0.0, sumSq = 0.0;
-      for (size_t e = 0; e < counted; ++e) {  // the draws that do not count add 0
-        const double t = o.fields[ch]->data()[e];
+      for (size_t k = 0; k < kDraws; ++k) {  // the draws that do not count have a term of 0
+        const double t = o.fields[ch]->data()[k];
         sum += t;
         sumSq += t * t;
       }
       const double mean = sum / kDraws;
       const double sd = std::sqrt(std::max(0.0, (sumSq - sum * mean) / (kDraws - 1)));
-      const double exact = diffuse.albedo[ch] / M_PI * radiance[ch] * e;
-      // t-test per case and channel: |t| < 4.6, a false failure once in 2.4e5 per test, 5e-5 over the 24
-      // here.
+      const double exact = diffuse.albedo[ch] / M_PI * (radiance[ch] * e[0] + second[ch] * e[1]);
+      // t-test per case, grouping and channel: |t| < 4.8, a false failure once in 6.3e5 per test, 7.6e-5 over
+      // the 48 here.
       const double tStat = (mean - exact) / (sd / std::sqrt(double(kDraws)));
-      EXPECT_LT(std::fabs(tStat), 4.6)
-          << c.name << " channel " << ch << ": mean " << mean << " exact " << exact;
+      EXPECT_LT(std::fabs(tStat), 4.8)
+          << c.name << (grouped ? " grouped" : " ungrouped") << " channel " << ch << ": mean " << mean << " exact "
+          << exact;
       EXPECT_GT(exact, 0.0) << c.name;
     }
   }
@@ -368,8 +344,10 @@ TEST_F(LightDrawKernel, RaysRunFromTheReceiverToTheDrawnPoint) {
       const Vec3 org(o.fields[3]->data()[e], o.fields[4]->data()[e], o.fields[5]->data()[e]);
       const Vec3 dir(o.fields[6]->data()[e], o.fields[7]->data()[e], o.fields[8]->data()[e]);
       const float tmax = o.fields[9]->data()[e];
-      // The drawn point, recomputed from the uniforms: the light is the one SampleCdf picks.
-      const LightTriangle& t = lights.triangles[SampleCdf(lights.cdf.data(), lights.cdf.size(), u0[k])];
+      // The drawn point, recomputed from the uniforms: the light is the one SampleSplitCdf picks.
+      const LightTriangle& t = lights.triangles[SampleSplitCdf(lights.cdf.data(), lights.cdf.size(),
+                                                               lights.groups.first.data(), lights.groups.split.data(),
+                                                               u0[k])];
       const Vec3 y = SampleTrianglePoint(t, u1[k], u2[k]);
       const float tolerance = 1e-4f * (1.0f + scale);
       EXPECT_NEAR(glm::length(dir), 1.0f, 1e-5f);
@@ -386,13 +364,15 @@ TEST_F(LightDrawKernel, RaysRunFromTheReceiverToTheDrawnPoint) {
     sp.bsdf = materials.At(0);
     size_t e = 0;
     for (size_t k = 0; k < n; ++k) {
-      const uint32_t id = SampleCdf(lights.cdf.data(), lights.cdf.size(), u0[k]);
+      const uint32_t id = SampleSplitCdf(lights.cdf.data(), lights.cdf.size(), lights.groups.first.data(),
+                                         lights.groups.split.data(), u0[k]);
       LightSample y;
       y.position = SampleTrianglePoint(lights.triangles[id], u1[k], u2[k]);
       y.normal = lights.triangles[id].normal;
       y.radiance = lights.triangles[id].radiance;
       const Vec3 f = UnshadowedContribution(sp, y);
-      const bool counts = (f.x > 0 || f.y > 0 || f.z > 0) && CdfPmf(lights.cdf.data(), lights.cdf.size(), id) > 0;
+      const bool counts = (f.x > 0 || f.y > 0 || f.z > 0) &&
+                          CdfPmf(lights.cdf.data(), lights.cdf.size(), lights.groups.groupOf[id]) > 0;
       const bool listed = e < counted && o.draw.data()[e] == k;
       EXPECT_EQ(listed, counts) << "trial " << trial << " draw " << k;
       e += listed ? 1 : 0;

@@ -2,7 +2,8 @@
 // linear count of the entries at or below the target (std::upper_bound's definition, written out), on cdfs of
 // 1 to 600 entries with zero steps, plateaus and twelve decades of step sizes, at random uniforms and at the
 // cdf's own boundaries; CdfPmf against the measure of the uniforms SampleCdf maps to each index;
-// RobertsCoordinate against std::fmod, which is exact.
+// RobertsCoordinate against the same fixed-point sum in 64-bit integers, and the sequence's generators against
+// an independent root of its polynomial.
 #include "core/sampling.h"
 
 #include <gtest/gtest.h>
@@ -75,23 +76,73 @@ TEST(CdfPmf, IsTheMeasureOfTheUniformsMappedToEachIndex) {
   }
 }
 
-TEST(RobertsCoordinate, IsTheFractionalPartRoundedToFloatBelowOne) {
+// SampleSplitCdf over groups of one or two entries: each entry is chosen for the measure of uniforms its group's
+// step times its share of it (split, or 1 - split for a second entry; 1 for a lone one), and a lone entry's split
+// of 2 never reaches past it.
+TEST(SampleSplitCdf, ChoosesEachEntryWithItsShareOfItsGroupsStep) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> unit(0.05f, 0.95f);
+  constexpr int kGrid = 1 << 20;
+  for (size_t groups : {1, 2, 5, 36, 300}) {
+    const std::vector<float> cdf = RandomCdf(rng, groups);
+    std::vector<uint32_t> first;
+    std::vector<float> split;
+    uint32_t entries = 0;
+    for (size_t g = 0; g < groups; ++g) {
+      first.push_back(entries);
+      const bool pair = rng() % 2 == 0;
+      split.push_back(pair ? unit(rng) : 2.0f);
+      entries += pair ? 2 : 1;
+    }
+    std::vector<double> hits(entries, 0.0);
+    for (int i = 0; i < kGrid; ++i)
+      hits[SampleSplitCdf(cdf.data(), groups, first.data(), split.data(), (float(i) + 0.5f) / kGrid)] += 1.0;
+    for (size_t g = 0; g < groups; ++g) {
+      const double p = CdfPmf(cdf.data(), groups, static_cast<uint32_t>(g));
+      const bool pair = split[g] <= 1.0f;
+      // Two float boundaries per entry, each within a grid step of 2^-20.
+      EXPECT_NEAR(hits[first[g]] / kGrid, pair ? p * split[g] : p, 3.0 / kGrid + 1e-6) << "group " << g;
+      if (pair) EXPECT_NEAR(hits[first[g] + 1] / kGrid, p * (1.0 - split[g]), 3.0 / kGrid + 1e-6) << "group " << g;
+    }
+  }
+}
+
+// The coordinate is frac(shift / 2^32 + k alpha / 2^32) truncated to 24 bits, computed here in 64-bit integers.
+TEST(RobertsCoordinate, IsTheFractionalPartOfTheFixedPointSumTruncatedTo24Bits) {
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> a(1e-6, 1.0);
-  std::uniform_real_distribution<float> s(0.0f, 1.0f);
   const RobertsSequence<5> r5;
   for (int i = 0; i < 200000; ++i) {
-    const double alpha = i % 10 < 5 ? r5.alpha[i % 5] : a(rng);
-    const float shift = i % 97 == 0 ? 0.0f : i % 89 == 0 ? 0x1.fffffep-1f : s(rng);
-    const int k = static_cast<int>(rng() % 65536);
-    const double v = double(shift) + double(k) * alpha;
-    const float expected = std::min(static_cast<float>(std::fmod(v, 1.0)), 0x1.fffffep-1f);
+    const uint32_t alpha = i % 10 < 5 ? r5.alpha[i % 5] : static_cast<uint32_t>(rng());
+    const uint32_t shift = i % 97 == 0 ? 0u : i % 89 == 0 ? ~0u : static_cast<uint32_t>(rng());
+    const uint32_t k = static_cast<uint32_t>(rng() % 65536);
+    const uint64_t word = (uint64_t{shift} + uint64_t{k} * alpha) % (uint64_t{1} << 32);
+    const float expected = static_cast<float>(static_cast<double>(word >> 8) / 16777216.0);
     const float got = RobertsCoordinate(shift, k, alpha);
     ASSERT_EQ(got, expected) << "shift " << shift << " k " << k << " alpha " << alpha;
     ASSERT_GE(got, 0.0f);
     ASSERT_LT(got, 1.0f);
     if (i % 10 < 5) ASSERT_EQ(got, r5.Coordinate(shift, k, i % 5));
   }
+}
+
+// The generators are Roberts' α_j = φ_d^-(j+1) to 32 bits, φ_d found here by bisection in long double on
+// x^(d+1) = x + 1 (the golden ratio for d = 1).
+TEST(RobertsSequence, GeneratorsArePowersOfTheGeneralisedGoldenRatio) {
+  const auto check = [](const auto& seq, int d) {
+    long double lo = 1.0L, hi = 2.0L;
+    for (int i = 0; i < 200; ++i) {
+      const long double mid = 0.5L * (lo + hi);
+      (std::pow(mid, d + 1) - mid - 1.0L > 0.0L ? hi : lo) = mid;
+    }
+    for (int j = 0; j < d; ++j) {
+      const long double exact = std::pow(1.0L / lo, j + 1) * 4294967296.0L;
+      EXPECT_LE(std::fabs(static_cast<long double>(seq.alpha[j]) - exact), 0.5L + 1e-6L) << "d " << d << " j " << j;
+    }
+  };
+  check(RobertsSequence<1>(), 1);
+  check(RobertsSequence<5>(), 5);
+  check(RobertsSequence<7>(), 7);
+  EXPECT_EQ(RobertsSequence<1>().alpha[0], 2654435769u);  // 2^32 / φ, the golden ratio's well-known word
 }
 
 }  // namespace

@@ -270,9 +270,10 @@ TEST(EmbreeScene, OccludedBatchMatchesOccludedForRandomRays) {
     EXPECT_EQ(tail[i] != 0, scene.Occluded(rays[i].org, rays[i].dir, rays[i].tmax));
 }
 
-// IntersectEmitter (the reference's BSDF rays) answers what the reference reads of Intersect: every miss and
-// every emitter hit field for field (t, light, side, position, normals, error scale), and on any other hit
-// whether it hit and what; on static and animated instances, both frames, and rays that start on a surface.
+// IntersectEmitter (the reference's BSDF rays under a sky) answers what the reference reads of Intersect: every
+// miss and every emitter hit field for field (t, light, side, position, normals, error scale), and on any other hit
+// whether it hit and what; FirstEmitter (its skyless BSDF rays) the emitter, side and distance; on static and
+// animated instances, both frames, and rays that start on a surface.
 TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
   Sequence s = BaseSequence();
   s.objects.push_back(MakeObject("floor", QuadMesh(), false));
@@ -290,7 +291,7 @@ TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
   scene.Update(state(0.0f, 0));
   scene.Update(state(0.7f, 1));
   TestRng rng{0x51ed270b27e3a4c1ull};
-  size_t emitters = 0, objects = 0, misses = 0;
+  size_t emitters = 0, objects = 0, misses = 0, firstEmitters = 0;
   for (SceneFrame f : {SceneFrame::kCurrent, SceneFrame::kPrevious}) {
     for (int i = 0; i < 20000; ++i) {
       Vec3 org(rng.Range(-5, 5), rng.Range(-3, 5), rng.Range(-5, 5));
@@ -303,6 +304,17 @@ TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
       const float tmax = i % 3 == 0 ? rng.Range(0.0f, 12.0f) : kInf;
       const SurfaceHit full = scene.Intersect(org, dir, tmax, f);
       const SurfaceHit light = scene.IntersectEmitter(org, dir, tmax, f);
+      if (tmax == kInf) {
+        // FirstEmitter (the reference's skyless BSDF rays): the same emitter and side, at Embree's own distance,
+        // within rounding of Intersect's refined one.
+        const EmitterHit first = scene.FirstEmitter(org, dir, f);
+        ASSERT_EQ(first.lightId, full.hit ? full.lightId : -1) << i;
+        if (first.lightId >= 0) {
+          EXPECT_EQ(first.frontFace, full.frontFace) << i;
+          EXPECT_NEAR(first.t, full.t, 1e-5f * full.t) << i;
+          ++firstEmitters;
+        }
+      }
       ASSERT_EQ(light.hit, full.hit) << i;
       ASSERT_EQ(light.lightId, full.lightId) << i;
       ASSERT_EQ(light.objectId, full.objectId) << i;
@@ -322,6 +334,7 @@ TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
     }
   }
   EXPECT_GT(emitters, 300u);
+  EXPECT_GT(firstEmitters, 150u);
   EXPECT_GT(objects, 10000u);
   EXPECT_GT(misses, 1000u);
 }

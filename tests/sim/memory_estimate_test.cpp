@@ -110,6 +110,7 @@ TEST(EstimateRunMemory, BoundsTheMeasuredPeakOfRealRuns) {
     s.writeImages = c.images;
     s.sceneTriangles = sceneTriangles;
     s.lightTriangles = lightTriangles;
+    s.lightGroups = CountLightGroups(seq.lights);
     s.processBytes = idle.peakBytes;
     const double estimate = EstimateRunMemory(s).bytes;
     const std::string what = std::to_string(c.width) + "x" + std::to_string(c.height) + " " + presetList +
