@@ -379,6 +379,8 @@ struct EmbreeScene::Impl {
   }
 
   RawHit IntersectRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const;
+  // IntersectRaw, unless the benchmarks' ray hook answers the ray (it is told what Embree answered when it does not).
+  RawHit IntersectHooked(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const;
   bool OccludedRaw(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const;
   void OccludedBatch(OcclusionApi api, const ShadowRay* rays, uint8_t* occluded, size_t count,
                      SceneFrame frame) const;
@@ -481,6 +483,18 @@ RawHit EmbreeScene::Impl::IntersectRaw(const Vec3& org, const Vec3& dir, float t
   return out;
 }
 
+RawHit EmbreeScene::Impl::IntersectHooked(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
+#ifdef RESTIR_RAY_HOOKS
+  RawHit rh;
+  if (hook != nullptr && hook->AnswerIntersect(org, dir, tmax, frame, rh)) return rh;
+  rh = IntersectRaw(org, dir, tmax, frame);
+  if (hook) hook->TracedIntersect(org, dir, tmax, frame, rh);
+  return rh;
+#else
+  return IntersectRaw(org, dir, tmax, frame);
+#endif
+}
+
 SurfaceHit EmbreeScene::Intersect(const Vec3& org, const Vec3& dir, float tmax, SceneFrame frame) const {
   return Query(org, dir, tmax, frame, true);
 }
@@ -490,15 +504,7 @@ EmitterHit EmbreeScene::FirstEmitter(const Vec3& org, const Vec3& dir, SceneFram
   const Impl& im = *impl_;
   if (!im.SlotFor(frame)) return out;
   const float tmax = std::numeric_limits<float>::infinity();
-  RawHit rh;
-#ifdef RESTIR_RAY_HOOKS
-  if (im.hook == nullptr || !im.hook->AnswerIntersect(org, dir, tmax, frame, rh)) {
-    rh = im.IntersectRaw(org, dir, tmax, frame);
-    if (im.hook) im.hook->TracedIntersect(org, dir, tmax, frame, rh);
-  }
-#else
-  rh = im.IntersectRaw(org, dir, tmax, frame);
-#endif
+  const RawHit rh = im.IntersectHooked(org, dir, tmax, frame);
   if (rh.geomId == RTC_INVALID_GEOMETRY_ID) return out;
   const uint32_t objectOrLights = rh.instId == im.staticInstanceId ? rh.geomId : rh.instId;
   if (objectOrLights < static_cast<uint32_t>(im.objects.size()) || rh.primId >= im.lightNormals.size()) return out;
@@ -520,15 +526,7 @@ SurfaceHit EmbreeScene::Query(const Vec3& org, const Vec3& dir, float tmax, Scen
   const Impl::Slot* slot = im.SlotFor(frame);
   if (!slot || !(tmax > 0.0f)) return out;
 
-  RawHit rh;
-#ifdef RESTIR_RAY_HOOKS
-  if (im.hook == nullptr || !im.hook->AnswerIntersect(org, dir, tmax, frame, rh)) {
-    rh = im.IntersectRaw(org, dir, tmax, frame);
-    if (im.hook) im.hook->TracedIntersect(org, dir, tmax, frame, rh);
-  }
-#else
-  rh = im.IntersectRaw(org, dir, tmax, frame);
-#endif
+  const RawHit rh = im.IntersectHooked(org, dir, tmax, frame);
   if (rh.geomId == RTC_INVALID_GEOMETRY_ID) return out;
 
   const uint32_t inst = rh.instId;

@@ -26,19 +26,6 @@ using test::GuardedArray;
 using test::kInf;
 using test::RandomUnit;
 
-std::vector<Bsdf> Materials() {
-  return {Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f},
-          Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 1e-4f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.3f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.0f},
-          Bsdf{BsdfType::kGgx, Vec3(0.5f), 1.0f},
-          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.5f},
-          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.0f},
-          Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f},
-          Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f}};
-}
-
 struct Outputs {
   explicit Outputs(size_t n) : draw(n) {
     for (auto& f : fields) f = std::make_unique<GuardedArray<float>>(n);
@@ -61,7 +48,7 @@ struct Outputs {
 TEST_F(BsdfDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   std::mt19937 rng(20261128);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const std::vector<Bsdf> bsdfs = Materials();
+  const std::vector<Bsdf> bsdfs = test::KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const std::vector<size_t> drawCounts{0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 48, 64, 65, 100, 1000};
   size_t compared = 0;

@@ -1,5 +1,5 @@
 // What the SIMD-kernel tests share: a fixture restoring the process-wide SIMD target, bit-level float helpers,
-// random geometry and arrays that end at an inaccessible page.
+// random geometry, a grid of materials with poisoned entries and arrays that end at an inaccessible page.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <vector>
 
+#include "core/bsdf.h"
 #include "core/math.h"
 #include "core/simd.h"
 
@@ -53,6 +55,32 @@ inline Vec3 RandomUnit(std::mt19937& rng) {
     const float l = glm::length(v);
     if (l > 1e-3f) return v / l;
   }
+}
+
+// Diffuse and GGX over the range of alpha the kernel must survive (0 and near-delta to wider than physical),
+// F0 = 1, a black diffuse, and two poisoned entries (NaN alpha, infinite albedo); with `layered`, also kLayered
+// over the same alphas, its two limits (s = 0: Lambert; s = 1 with no diffuse: GGX) and poisoned layered
+// entries (NaN and infinite weight, infinite F0, NaN alpha). Without, no packet holds a layered lane, the case
+// where GatherBsdfV skips the layered gathers.
+inline std::vector<Bsdf> KernelMaterials(bool layered = true) {
+  std::vector<Bsdf> m;
+  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f});
+  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f});
+  for (float alpha : {0.0f, 1e-7f, 1e-4f, 1e-2f, 0.09f, 0.25f, 0.6f, 1.0f, 2.5f})
+    m.push_back(Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), alpha});
+  m.push_back(Bsdf{BsdfType::kGgx, Vec3(1.0f), 0.05f});
+  m.push_back(Bsdf{BsdfType::kGgx, Vec3(0.5f), kNaN});
+  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f});
+  if (!layered) return m;
+  for (float alpha : {0.0f, 1e-7f, 1e-4f, 1e-2f, 0.09f, 0.25f, 0.6f, 1.0f, 2.5f})
+    m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), alpha, Vec3(0.04f), 0.5f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.1f, 0.6f, 0.9f), 0.2f, Vec3(0.9f, 0.6f, 0.3f), 0.0f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kNaN});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kInf});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(kInf, 0.5f, 0.5f), 0.5f});
+  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), kNaN, Vec3(0.5f), 0.5f});
+  return m;
 }
 
 // `count` elements ending exactly where a PROT_NONE page begins: reading one past the end faults.

@@ -36,18 +36,6 @@ using test::kInf;
 using test::kNaN;
 using test::RandomUnit;
 
-std::vector<Bsdf> Materials() {
-  return {Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f},
-          Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 1e-4f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.3f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.0f},
-          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.5f},
-          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.0f},
-          Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f},
-          Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f}};
-}
-
 // Lights, their groups (core/light.h: quads cut in two are one) and records, the cdf over the groups, as the
 // reference hands them to the kernel.
 struct LightSet {
@@ -166,7 +154,7 @@ struct Outputs {
 TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   std::mt19937 rng(20261125);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const std::vector<Bsdf> bsdfs = Materials();
+  const std::vector<Bsdf> bsdfs = test::KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   // Around the cdf search's window (8 entries) and its coarse strides (16 entries of 8 up to 128 lights, then
   // doubling), and past the reference's per-pixel limit of 4096.

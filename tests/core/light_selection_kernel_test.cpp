@@ -35,16 +35,6 @@ class LightSelectionKernel : public test::SimdTargetTest {};
 using test::Bits;
 using test::RandomUnit;
 
-std::vector<Bsdf> Materials() {
-  return {Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f},
-          Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 1e-4f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 0.3f},
-          Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), 1.0f},
-          Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), 0.2f, Vec3(0.04f), 0.5f},
-          Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f}};
-}
-
 // A random emitter near x: a triangle, or a quad (a parallelogram cut into A B C and A C D, as quad lights are) in
 // two of every five. Sizes from a millimetre to a hundred metres, distances from a centimetre to a kilometre; mostly
 // above the receiver, some across or below its horizon.
@@ -131,7 +121,7 @@ ShadingPoint PointOf(const SelectionReceivers& r, size_t k, const std::vector<Bs
 TEST_F(LightSelectionKernel, EveryTargetMatchesTheScalarTwinAndTheTwinIsTheMixture) {
   std::mt19937 rng(20261128);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const std::vector<Bsdf> bsdfs = Materials();
+  const std::vector<Bsdf> bsdfs = test::KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const std::vector<size_t> lightCounts{1, 2, 3, 4, 5, 7, 8, 17, 72, 144, 300};  // emitters: triangles or quads
   size_t compared = 0, exactChecks = 0;

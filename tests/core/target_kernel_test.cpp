@@ -37,33 +37,8 @@ using test::GuardedArray;
 using test::kInf;
 using test::kNaN;
 
+using test::KernelMaterials;
 using test::RandomUnit;
-
-// Diffuse and GGX over the range of alpha the kernel must survive (0 and near-delta to wider than physical),
-// F0 = 1, a black diffuse, and two poisoned entries (NaN alpha, infinite albedo); with `layered`, also kLayered
-// over the same alphas, its two limits (s = 0: Lambert; s = 1 with no diffuse: GGX) and poisoned layered
-// entries (NaN and infinite weight, infinite F0, NaN alpha). Without, no packet holds a layered lane, the case
-// where GatherBsdfV skips the layered gathers.
-std::vector<Bsdf> TestMaterials(bool layered = true) {
-  std::vector<Bsdf> m;
-  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.8f, 0.5f, 0.2f), 0.25f});
-  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(0.0f), 0.25f});
-  for (float alpha : {0.0f, 1e-7f, 1e-4f, 1e-2f, 0.09f, 0.25f, 0.6f, 1.0f, 2.5f})
-    m.push_back(Bsdf{BsdfType::kGgx, Vec3(0.9f, 0.6f, 0.3f), alpha});
-  m.push_back(Bsdf{BsdfType::kGgx, Vec3(1.0f), 0.05f});
-  m.push_back(Bsdf{BsdfType::kGgx, Vec3(0.5f), kNaN});
-  m.push_back(Bsdf{BsdfType::kDiffuse, Vec3(kInf, 0.5f, 0.5f), 0.25f});
-  if (!layered) return m;
-  for (float alpha : {0.0f, 1e-7f, 1e-4f, 1e-2f, 0.09f, 0.25f, 0.6f, 1.0f, 2.5f})
-    m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.3f, 0.2f, 0.1f), alpha, Vec3(0.04f), 0.5f});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.1f, 0.6f, 0.9f), 0.2f, Vec3(0.9f, 0.6f, 0.3f), 0.0f});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.0f), 0.05f, Vec3(1.0f, 0.8f, 0.5f), 1.0f});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kNaN});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(0.5f), kInf});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), 0.3f, Vec3(kInf, 0.5f, 0.5f), 0.5f});
-  m.push_back(Bsdf{BsdfType::kLayered, Vec3(0.2f), kNaN, Vec3(0.5f), 0.5f});
-  return m;
-}
 
 // The kinds of pair PairSet mixes; each exercises a branch of ConnectToLight / EvalBsdf.
 enum Kind {
@@ -226,7 +201,7 @@ TEST_F(TargetKernel, GlmNormalizeIsProductWithReciprocalSqrt) {
 // compilation of the same expression can give a NaN of the other sign.
 TEST_F(TargetKernel, ScalarTwinEqualsTargetFunctionOfUnshadowedContribution) {
   std::mt19937 rng(4242);
-  const std::vector<Bsdf> bsdfs = TestMaterials();
+  const std::vector<Bsdf> bsdfs = KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const PairSet pairs = RandomPairs(rng, 3000, static_cast<int>(bsdfs.size()));
   Results twin(pairs.Size());
@@ -254,10 +229,10 @@ TEST_F(TargetKernel, ScalarTwinEqualsTargetFunctionOfUnshadowedContribution) {
   EXPECT_GT(nan, 10u);  // the canonical-NaN rule was exercised
 }
 
-// Every supported target against the twin on 4099 random pairs over TestMaterials(layered).
+// Every supported target against the twin on 4099 random pairs over KernelMaterials(layered).
 void ExpectEveryTargetMatchesTwin(bool layered) {
   std::mt19937 rng(20260611);
-  const std::vector<Bsdf> bsdfs = TestMaterials(layered);
+  const std::vector<Bsdf> bsdfs = KernelMaterials(layered);
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const size_t n = 4099;  // a multiple of no vector width: ends in a tail on every target
   const PairSet pairs = RandomPairs(rng, n, static_cast<int>(bsdfs.size()));
@@ -313,7 +288,7 @@ TEST_F(TargetKernel, EveryTargetMatchesScalarTwinBitForBit) {
 // (a sentinel past the end survives), with the twin's bits.
 TEST_F(TargetKernel, TailsTouchOnlyTheirPairsOnEveryTarget) {
   std::mt19937 rng(77);
-  const std::vector<Bsdf> bsdfs = TestMaterials();
+  const std::vector<Bsdf> bsdfs = KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   const float sentinel = std::bit_cast<float>(0x7FC0DEADu);
   for (size_t count : {0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 33, 37}) {
