@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "core/math.h"
@@ -88,10 +89,14 @@ inline bool FormsQuad(const LightTriangle& t0, const LightTriangle& t1) {
 inline LightGroups MakeLightGroups(const std::vector<LightTriangle>& triangles) {
   LightGroups g;
   for (size_t t = 0; t < triangles.size();) {
-    const bool quad = t + 1 < triangles.size() && FormsQuad(triangles[t], triangles[t + 1]);
+    bool quad = t + 1 < triangles.size() && FormsQuad(triangles[t], triangles[t + 1]);
+    const float pair = quad ? triangles[t].area + triangles[t + 1].area : 0.0f;
+    // A pair whose area overflows, or whose second half is too thin for the split to reach it (the share rounds
+    // to 1), stays two groups: each triangle must keep a positive probability where it emits.
+    if (quad && !(pair <= std::numeric_limits<float>::max() && triangles[t].area / pair < 1.0f)) quad = false;
     const uint32_t group = static_cast<uint32_t>(g.first.size());
     g.first.push_back(static_cast<uint32_t>(t));
-    const float area = quad ? triangles[t].area + triangles[t + 1].area : triangles[t].area;
+    const float area = quad ? pair : triangles[t].area;
     g.split.push_back(quad ? triangles[t].area / area : 2.0f);
     for (size_t k = 0; k < (quad ? 2u : 1u); ++k) {
       g.groupOf.push_back(group);

@@ -203,8 +203,10 @@ void SelectionKernel(const SelectionReceivers& R, const BsdfSoa& materials, cons
       hn::StoreU(w, df, weights + l * kSelectionBlock + r0);
       total = hn::Add(total, w);
     }
-    const MF ok = hn::And(hn::Gt(total, zero), hn::Le(total, maxFloat));
-    const VF a = hn::IfThenElseZero(ok, hn::Div(keep, total));
+    // A subnormal total overflows keep / total: such a pixel falls back to power alone, like a zero total.
+    const VF quotient = hn::Div(keep, total);
+    const MF ok = hn::And(hn::And(hn::Gt(total, zero), hn::Le(total, maxFloat)), hn::Le(quotient, maxFloat));
+    const VF a = hn::IfThenElseZero(ok, quotient);
     const VF b = hn::IfThenElse(ok, hn::Set(df, kDefensivePowerShare), hn::Set(df, 1.0f));
     VF running = zero;
     for (size_t l = 0; l < L.count; ++l) {
@@ -333,8 +335,10 @@ void BuildLightSelectionScalar(const SelectionReceivers& R, const BsdfSoa& mater
       work[l * kSelectionBlock + r] = w;
       total += w;
     }
-    const bool ok = total > 0.0f && total <= std::numeric_limits<float>::max();
-    const float a = ok ? keep / total : 0.0f;
+    const float quotient = keep / total;
+    const bool ok = total > 0.0f && total <= std::numeric_limits<float>::max() &&
+                    quotient <= std::numeric_limits<float>::max();
+    const float a = ok ? quotient : 0.0f;
     const float b = ok ? kDefensivePowerShare : 1.0f;
     float running = 0.0f;
     for (size_t l = 0; l < L.count; ++l) {

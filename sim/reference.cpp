@@ -353,8 +353,10 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
         for (int pass = 0; pass < 2; ++pass)
           for (int x = 0; x < w; ++x) {
             const size_t i = static_cast<size_t>(y) * w + x;
+            // An inactive pixel (background, emitter) has no material: bsdfId is -1 there.
+            if (!active[i]) continue;
             const bool diffuse = bsdfs.type[static_cast<size_t>(g.bsdfId[i])] == static_cast<int32_t>(BsdfType::kDiffuse);
-            if (active[i] && diffuse == (pass == 0)) rowPixels.push_back(i);
+            if (diffuse == (pass == 0)) rowPixels.push_back(i);
           }
         for (size_t firstPixel = 0; firstPixel < rowPixels.size(); firstPixel += kSelectionBlock) {
           const size_t count = std::min(kSelectionBlock, rowPixels.size() - firstPixel);

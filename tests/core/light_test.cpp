@@ -51,6 +51,15 @@ TEST(LightGroups, QuadsPairAndNothingElseDoes) {
   ASSERT_EQ(g.first.size(), 2u);
   EXPECT_EQ(g.split[0], 2.0f);
   EXPECT_EQ(g.first[1], 1u);
+  // A sliver: convex, but its second half so thin (area 2e-9 of 8) that the area share rounds to 1 and the split
+  // could never reach it: two groups, each triangle keeping its own probability.
+  const Vec3 sliver[4] = {Vec3(0, 0, 0), Vec3(4, 0, 0), Vec3(4, 0, 4), Vec3(0, 0, 1e-9f)};
+  tris = Cut(sliver, L, L);
+  EXPECT_TRUE(FormsQuad(tris[0], tris[1]));
+  EXPECT_EQ(tris[0].area / (tris[0].area + tris[1].area), 1.0f);
+  EXPECT_EQ(MakeLightGroups(tris).first.size(), 2u);
+  tris = Cut(square, L, L);
+  tris.insert(tris.begin(), tris[1]);
   LightTriangle degenerate = tris[1];
   degenerate.area = 0.0f;
   EXPECT_EQ(MakeLightGroups({degenerate, tris[2]}).first.size(), 2u);
