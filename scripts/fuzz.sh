@@ -5,8 +5,9 @@
 # relative-error frames (relative_error_fuzz.cpp) and the asset importer (asset_fuzz.cpp: glTF, GLB, OBJ and PLY
 # through Assimp in its forked child, and the child's message to the parent) for SECONDS/4 each. Installs clang if
 # missing, builds the `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any
-# finding (crash, uncaught exception, sanitizer report, timeout, leak, out-of-memory), leaving the input that
-# triggered it in build/fuzz/artifacts/<target>/.
+# finding (crash, uncaught exception, sanitizer report, timeout, leak, out-of-memory, a refusal that is not one line
+# free of control bytes: tests/fuzz/fuzz_message.h), leaving the input that triggered it in
+# build/fuzz/artifacts/<target>/.
 # Usage: scripts/fuzz.sh [SECONDS]   (default 60; also FUZZ_SECONDS)
 set -euo pipefail
 cd "$(dirname "$0")/.."

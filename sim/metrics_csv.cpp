@@ -7,6 +7,7 @@
 
 #include "sim/input_file.h"
 #include "sim/sequence.h"  // InputError
+#include "sim/text.h"
 
 namespace restir {
 
@@ -58,12 +59,6 @@ bool IsPresetName(const std::string& s) {
   return !s.empty() && s[0] != '.' && std::all_of(s.begin(), s.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '+' || c == '=' || c == '-';
   });
-}
-
-std::string Printable(const std::string& s) {
-  std::string out;
-  for (char c : s.substr(0, 64)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
-  return out + (s.size() > 64 ? "..." : "");
 }
 
 }  // namespace

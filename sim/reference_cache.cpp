@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string_view>
 
 #include "sim/hash.h"
+#include "sim/text.h"
 
 namespace restir {
 
@@ -96,7 +98,7 @@ bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key,
     return false;
   }
   if (std::string(keyBytes, keyLength) != key) {
-    problem = "written for another frame or configuration (key " + std::string(keyBytes, keyLength) + ")";
+    problem = "written for another frame or configuration (key " + Printable(std::string_view(keyBytes, keyLength)) + ")";
     return false;
   }
   int32_t w = 0, h = 0;

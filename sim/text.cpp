@@ -56,11 +56,39 @@ std::string Joined(const std::vector<std::string>& items, const std::string& sep
   return s;
 }
 
+namespace {
+
+void AppendHexEscape(std::string& out, unsigned char b) {
+  static const char kHex[] = "0123456789abcdef";
+  out += "\\x";
+  out += kHex[b >> 4];
+  out += kHex[b & 15];
+}
+
+}  // namespace
+
 std::string OneLine(std::string s) {
-  std::replace(s.begin(), s.end(), '\n', ' ');
-  std::replace(s.begin(), s.end(), '\r', ' ');
-  std::replace(s.begin(), s.end(), '\t', ' ');
-  return s;
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    const auto b = static_cast<unsigned char>(c);
+    if (c == '\n' || c == '\r' || c == '\t') out += ' ';
+    else if (b < 0x20 || b == 0x7f) AppendHexEscape(out, b);
+    else out += c;
+  }
+  return out;
+}
+
+std::string Printable(std::string_view s, size_t maxBytes) {
+  std::string out;
+  const size_t shown = std::min(s.size(), maxBytes);
+  for (size_t i = 0; i < shown; ++i) {
+    const auto b = static_cast<unsigned char>(s[i]);
+    if (b >= 0x20 && b < 0x7f && b != '\\') out += static_cast<char>(b);
+    else AppendHexEscape(out, b);
+  }
+  if (shown < s.size()) out += "... (" + std::to_string(s.size() - shown) + " more bytes)";
+  return out;
 }
 
 }  // namespace restir

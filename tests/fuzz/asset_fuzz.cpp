@@ -19,6 +19,7 @@
 #include <fstream>
 #include <string>
 
+#include "fuzz_message.h"
 #include "importer_child.h"
 #include "sim/asset_import.h"
 #include "sim/sequence.h"  // InputError
@@ -37,7 +38,7 @@ void RemoveScratch() {
 
 void CheckMessage(const restir::InputError& e) {
   const std::string message = e.what();
-  if (message.empty() || message.find('\n') != std::string::npos) __builtin_trap();
+  if (!IsOneCleanLine(message)) __builtin_trap();
 }
 
 }  // namespace

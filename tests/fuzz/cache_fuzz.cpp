@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_message.h"
 #include "sim/reference_cache.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -17,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string problem;
   if (!restir::DecodeReferenceCacheEntry(bytes, "fuzz0000fuzz0000", 3, 2, mean, standardError, lumaStandardError,
                                          problem)) {
-    if (problem.empty() || problem.find('\n') != std::string::npos) __builtin_trap();
+    if (!IsOneCleanLine(problem)) __builtin_trap();
     return 0;
   }
   for (const restir::ImageRgb* img : {&mean, &standardError})

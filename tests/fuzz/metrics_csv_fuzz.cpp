@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 
+#include "fuzz_message.h"
 #include "sim/metrics_csv.h"
 #include "sim/sequence.h"  // InputError
 
@@ -21,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   } catch (const restir::InputError& e) {
     const std::string message = e.what();
-    if (message.empty() || message.find('\n') != std::string::npos) __builtin_trap();
+    if (!IsOneCleanLine(message)) __builtin_trap();
   }
   return 0;
 }

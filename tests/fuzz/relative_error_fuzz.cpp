@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_message.h"
 #include "sim/relative_error_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -16,13 +17,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string problem;
   if (restir::DecodeRelativeErrorHeader(bytes, 2, 1, 3, problem)) {
     if (restir::EncodeRelativeErrorHeader(2, 1, 3) != bytes) __builtin_trap();
-  } else if (problem.empty() || problem.find('\n') != std::string::npos) {
+  } else if (!IsOneCleanLine(problem)) {
     __builtin_trap();
   }
   problem.clear();
   std::vector<float> values;
   if (!restir::DecodeRelativeErrorFrame(bytes, 6, values, problem)) {
-    if (problem.empty() || problem.find('\n') != std::string::npos) __builtin_trap();
+    if (!IsOneCleanLine(problem)) __builtin_trap();
     return 0;
   }
   for (float v : values)

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <string>
 
+#include "fuzz_message.h"
 #include "importer_child.h"
 #include "sim/sequence.h"
 
@@ -34,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } catch (const restir::InputError& e) {
     // The expected outcome for bad input: one message on one line (the command line prints it as is).
     const std::string message = e.what();
-    if (message.empty() || message.find('\n') != std::string::npos) __builtin_trap();
+    if (!IsOneCleanLine(message)) __builtin_trap();
   }
   return 0;
 }

@@ -87,6 +87,32 @@ TEST(ReferenceCacheEntry, AnotherKeyOrSizeIsRefusedAndSaysWhy) {
   EXPECT_FALSE(Decodes(std::string(100, '\0'), kKey, 1, 1));
 }
 
+bool PrintableAscii(const std::string& s) {
+  for (char c : s)
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7f) return false;
+  return true;
+}
+
+// Another key with a valid checksum (an entry written by another version, or forged): the refusal names the key
+// it found, but the key's bytes come from the file, so control bytes are escaped and a long key is cut (the fuzzer
+// found a key holding a newline, which would have split the one-line message).
+TEST(ReferenceCacheEntry, AForeignKeyIsShownEscapedOnOneShortLine) {
+  const ImageRgb mean = Ramp(2, 2, 0.5f), se = Ramp(2, 2, 0.01f);
+  const std::vector<float> lumaSe = LumaRamp(2, 2, 0.01f);
+  const std::string keys[] = {std::string("ab\ncd\r\t", 8), std::string("k\0ey\x1b[31m", 9),
+                              std::string("\xff\x80\x7f\\", 4), std::string(5000, 'z'), std::string()};
+  for (const std::string& foreign : keys) {
+    std::string why;
+    EXPECT_FALSE(Decodes(EncodeReferenceCacheEntry(foreign, mean, se, lumaSe), kKey, 2, 2, &why));
+    EXPECT_NE(why.find("another frame"), std::string::npos) << why;
+    EXPECT_TRUE(PrintableAscii(why)) << why;
+    EXPECT_LT(why.size(), 200u) << why;
+  }
+  std::string why;
+  Decodes(EncodeReferenceCacheEntry("ab\ncd", mean, se, lumaSe), kKey, 2, 2, &why);
+  EXPECT_NE(why.find("ab\\x0acd"), std::string::npos) << why;
+}
+
 // A valid checksum over invalid values (written by a broken renderer, or forged) is refused too.
 TEST(ReferenceCacheEntry, NonFiniteOrNegativeValuesAreRefusedEvenWithAValidChecksum) {
   const float bad[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
