@@ -8,9 +8,6 @@ namespace restir {
 
 namespace {
 
-// The largest float below 1: where a rescaled uniform is clamped so it stays in [0, 1).
-constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
-
 Vec3 SchlickFresnel(const Vec3& f0, float cosTheta) {
   const float m = 1.0f - std::min(1.0f, std::max(0.0f, cosTheta));
   const float m5 = (m * m) * (m * m) * m;

@@ -29,9 +29,6 @@ namespace restir {
 namespace HWY_NAMESPACE {
 namespace {
 
-// The largest float below 1 (core/bsdf.cpp's clamp of a rescaled uniform).
-constexpr float kBelowOne = 0x1.fffffep-1f;
-
 // core/sampling.h SinCos2Pi.
 HWY_INLINE void SinCos2PiV(VF u, VF& sine, VF& cosine) {
   const DF df;
@@ -112,7 +109,7 @@ HWY_INLINE void SampleBsdfV(const BsdfContext& ctx, VF u0, VF u1, VF (&wi)[3], V
   if (bsdf.type == BsdfType::kDiffuse) return SampleCosineLobeV(ctx, u0, u1, wi, pdf);
   if (bsdf.type == BsdfType::kGgx) return SampleGgxLobeV(ctx, bsdf.alpha, u0, u1, wi, pdf);
   const float p = LayeredSpecularProbability(bsdf);
-  const VF below = hn::Set(df, kBelowOne);
+  const VF below = hn::Set(df, kOneMinusEpsilon);
   const auto min1 = [&](VF v) { return hn::IfThenElse(hn::Lt(below, v), below, v); };  // std::min(v, below)
   const MF specular = hn::Lt(u0, hn::Set(df, p));
   VF ggxWi[3], ggxPdf, cosWi[3], cosPdf;
@@ -129,7 +126,7 @@ HWY_INLINE void SampleBsdfV(const BsdfContext& ctx, VF u0, VF u1, VF (&wi)[3], V
 
 // Draws [k, k + Lanes) of the uniforms (those of `valid` lanes); the ones that count are appended at `written`,
 // which grows by their number. Writes Lanes entries from `written` on.
-HWY_INLINE void DrawPacket(const BsdfContext& ctx, const BsdfDraws& draws, const float* u0, const float* u1, MF valid,
+HWY_INLINE void DrawPacket(const BsdfContext& ctx, const float* u0, const float* u1, MF valid,
                            float* const (&out)[10], uint32_t* draw, uint32_t firstDraw, size_t k, size_t& written) {
   const DF df;
   const DI di;
@@ -164,15 +161,8 @@ size_t BsdfDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, cons
   const DF df;
   const size_t N = hn::Lanes(df);
   BsdfContext ctx;
-  VF x[3], ng[3], n[3], wo[3];
-  for (int c = 0; c < 3; ++c) {
-    x[c] = hn::Set(df, r.position[c]);
-    ng[c] = hn::Set(df, r.geometricNormal[c]);
-    n[c] = hn::Set(df, r.shadingNormal[c]);
-    wo[c] = hn::Set(df, r.wo[c]);
-  }
   ctx.bsdf = materials.At(static_cast<size_t>(r.materialId));
-  ctx.sp = MakeShadingPointV(x, ng, n, wo, BroadcastBsdfV(ctx.bsdf));
+  ctx.sp = BroadcastShadingPointV(r.position, r.geometricNormal, r.shadingNormal, r.wo, ctx.bsdf);
   Vec3 t, b;
   OrthonormalBasis(r.shadingNormal, t, b);
   for (int c = 0; c < 3; ++c) {
@@ -185,7 +175,7 @@ size_t BsdfDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, cons
                         out.dir[2],    out.weight[0], out.weight[1], out.weight[2], out.pdf};
   size_t k = 0, written = 0;
   for (; k + N <= draws.count; k += N)
-    DrawPacket(ctx, draws, draws.u0, draws.u1, hn::FirstN(df, N), o, out.draw, out.firstDraw, k, written);
+    DrawPacket(ctx, draws.u0, draws.u1, hn::FirstN(df, N), o, out.draw, out.firstDraw, k, written);
   if (k == draws.count) return written;
   // Tail: one packet on padded copies, its lanes past the end masked off.
   constexpr size_t kMax = hn::MaxLanes(DF());
@@ -200,7 +190,7 @@ size_t BsdfDrawKernel(const LightDrawReceiver& r, const BsdfSoa& materials, cons
   float* const p[10] = {padded[0], padded[1], padded[2], padded[3], padded[4],
                         padded[5], padded[6], padded[7], padded[8], padded[9]};
   size_t kept = 0;
-  DrawPacket(ctx, draws, u[0], u[1], hn::FirstN(df, rest), p, index, 0, 0, kept);
+  DrawPacket(ctx, u[0], u[1], hn::FirstN(df, rest), p, index, 0, 0, kept);
   for (size_t l = 0; l < kept; ++l) {
     for (int f = 0; f < 10; ++f) o[f][written + l] = padded[f][l];
     out.draw[written + l] = index[l] + static_cast<uint32_t>(k) + out.firstDraw;

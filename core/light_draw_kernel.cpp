@@ -43,15 +43,8 @@ struct DrawContext {
 
 // The receiver in every lane, its BSDF the frame table's entry.
 HWY_INLINE ShadingPointV BroadcastReceiverV(const LightDrawReceiver& r, const BsdfSoa& materials) {
-  const DF df;
-  VF x[3], ng[3], ns[3], wo[3];
-  for (int c = 0; c < 3; ++c) {
-    x[c] = hn::Set(df, r.position[c]);
-    ng[c] = hn::Set(df, r.geometricNormal[c]);
-    ns[c] = hn::Set(df, r.shadingNormal[c]);
-    wo[c] = hn::Set(df, r.wo[c]);
-  }
-  return MakeShadingPointV(x, ng, ns, wo, BroadcastBsdfV(materials.At(static_cast<size_t>(r.materialId))));
+  return BroadcastShadingPointV(r.position, r.geometricNormal, r.shadingNormal, r.wo,
+                                materials.At(static_cast<size_t>(r.materialId)));
 }
 
 // The records (WriteLightDrawRecord's fields) of lights `id`, one field per register.
@@ -68,9 +61,10 @@ HWY_INLINE void LoadLightRecordsV(const float* records, VI id, VF (&r)[16]) {
 // <= target}, at most n - 1 (its halving keeps cdf[lo - 1] <= target < cdf[lo + len - 1]); so does this. A coarse
 // count over every S-th entry (S a power of two, at least 8, at most 16 such entries; broadcast compares, no
 // gathers) puts A in [lo, lo + S); SampleCdf's halving over that window, whose entries at n or beyond count as
-// above the target, gives A, with log2(S) + 1 gathers where the full halving takes about log2(n) + 1: 4 instead of
-// 8 at the flagship's 72 lights, on which the kernel's time waited most (perf annotate: a third of it on the
-// halving's gathers). Every lane halves the same lengths, only its lower bound differs.
+// above the target, gives A, with log2(S) + 1 gathers where the full halving takes about log2(n) + 1 (at 72
+// entries, before short tables took the path below, a third of the kernel's time waited on the halving's gathers:
+// perf annotate). Tables of at most 96 entries, the flagship's 72 light groups among them, are counted whole
+// without gathers. Every lane halves the same lengths, only its lower bound differs.
 HWY_INLINE VI SampleCdfV(const float* cdf, size_t n, VF target) {
   const DF df;
   const DI di;

@@ -164,6 +164,8 @@ void SelectionKernel(const SelectionReceivers& R, const BsdfSoa& materials, cons
                      float* columns, float* estimate) {
   const DF df;
   const DI di;
+  // Whole packets within a block's arrays: a wider target (SVE, RVV) would read past them.
+  static_assert(hn::MaxLanes(DF()) <= kSelectionBlock && kSelectionBlock % hn::MaxLanes(DF()) == 0);
   const size_t N = hn::Lanes(df);
   const VF zero = hn::Zero(df);
   const VF maxFloat = hn::Set(df, std::numeric_limits<float>::max());

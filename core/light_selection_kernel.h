@@ -71,8 +71,9 @@ float LightIrradianceEstimate(const Vec3& x, const Vec3& n, const SelectionLight
 // 0 where the result is not finite.
 float LightSelectionWeight(const ShadingPoint& sp, const SelectionLight& light);
 
-// A block of receivers, structure of arrays; lanes at or beyond `count` are ignored (their outputs are not
-// written), and every lane's materialId must index the BsdfSoa.
+// A block of receivers, structure of arrays; lanes at or beyond `count` are ignored (the SIMD kernel still writes
+// their outputs, whole packets at a time, but nothing reads them), and every lane's materialId must index the
+// BsdfSoa.
 struct SelectionReceivers {
   alignas(64) float x[3][kSelectionBlock];   // position
   alignas(64) float ng[3][kSelectionBlock];  // geometric normal, facing the viewer

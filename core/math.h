@@ -17,6 +17,8 @@ using Mat4 = glm::mat4;
 
 inline constexpr float kPi = 3.14159265358979323846f;
 inline constexpr float kInvPi = 0.31830988618379067154f;
+// The largest float below 1 (pbrt-v4's OneMinusEpsilon): where a rescaled uniform is clamped so it stays in [0, 1).
+inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
 
 // Rec. 709 luminance (DESIGN §4 target and §6 metrics).
 inline float Luminance(const Vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }

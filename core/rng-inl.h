@@ -1,6 +1,6 @@
-// Per-target Highway form of core/rng.h's hash: RandomBits (PCG4D) for a packet of dimensions, or of pixels,
-// (core/qmc_kernel.cpp draws the reference's uniforms with it), and PCG4D's second half, which the RIS kernel's
-// hash (core/ris_kernel.cpp, its first half specialised to lanes that share y z w) finishes with.
+// Per-target Highway form of core/rng.h's hash: RandomWords4 for a packet of pixels (core/qmc_kernel.cpp draws the
+// reference's random shifts with it), and PCG4D's second half, which the RIS kernel's hash (core/ris_kernel.cpp,
+// its first half specialised to lanes that share y z w) finishes with.
 //
 // Include after "hwy/foreach_target.h" and "hwy/highway.h", outside any namespace: like every Highway -inl header
 // it is compiled once per target and opens restir::HWY_NAMESPACE itself.
@@ -45,24 +45,6 @@ HWY_INLINE V Pcg4dFinishV(V x, V y, V z, V w) {
   return hn::Xor(x, hn::ShiftRight<7>(w));
 }
 
-// RandomBits(key, dimension) (core/rng.h) per lane of `pixel` (in place of key.pixel) and `dimension`.
-template <class DU>
-HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> pixel, hn::Vec<DU> dimension) {
-  const auto lcg = [&](hn::Vec<DU> v) {
-    return hn::Add(hn::Mul(v, hn::Set(du, 1664525u)), hn::Set(du, 1013904223u));
-  };
-  auto x = lcg(pixel);
-  auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
-  auto z = lcg(hn::Set(du, key.seed));
-  auto w = lcg(hn::Xor(hn::Set(du, key.pass << 20), hn::And(dimension, hn::Set(du, 0xFFFFFu))));
-  // Pcg4d's first mixing round, then its second half.
-  x = hn::Add(x, hn::Mul(y, w));
-  y = hn::Add(y, hn::Mul(z, x));
-  z = hn::Add(z, hn::Mul(x, y));
-  w = hn::Add(w, hn::Mul(y, z));
-  return Pcg4dFinishV(x, y, z, w);
-}
-
 // RandomWords4(key, q) (core/rng.h) per lane of `pixel` (in place of key.pixel): words[i] is word i.
 template <class DU>
 HWY_INLINE void RandomWords4V(DU du, const RngKey& key, hn::Vec<DU> pixel, uint32_t q, hn::Vec<DU> (&words)[4]) {
@@ -73,6 +55,7 @@ HWY_INLINE void RandomWords4V(DU du, const RngKey& key, hn::Vec<DU> pixel, uint3
   auto y = lcg(hn::Set(du, key.frame ^ (key.seed * 0x9E3779B9u)));
   auto z = lcg(hn::Set(du, key.seed));
   auto w = lcg(hn::Set(du, (key.pass << 20) ^ (q & 0xFFFFFu)));
+  // Pcg4d's first mixing round, then its second half.
   x = hn::Add(x, hn::Mul(y, w));
   y = hn::Add(y, hn::Mul(z, x));
   z = hn::Add(z, hn::Mul(x, y));
@@ -82,12 +65,6 @@ HWY_INLINE void RandomWords4V(DU du, const RngKey& key, hn::Vec<DU> pixel, uint3
   words[1] = y;
   words[2] = z;
   words[3] = w;
-}
-
-// RandomBits(key, dimension) (core/rng.h) per lane of `dimension`.
-template <class DU>
-HWY_INLINE hn::Vec<DU> RandomBitsV(DU du, const RngKey& key, hn::Vec<DU> dimension) {
-  return RandomBitsV(du, key, hn::Set(du, key.pixel), dimension);
 }
 
 // NOLINTNEXTLINE(google-readability-namespace-comments)

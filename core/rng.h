@@ -46,15 +46,21 @@ inline void Pcg4d(uint32_t& x, uint32_t& y, uint32_t& z, uint32_t& w) {
   w += y * z;
 }
 
-// 32 random bits for one dimension of a key. The dimension is folded into the pass word (pass in the top 12
-// bits, dimension in the low 20), then the seed is mixed into the frame word so that keys differing in any one
-// field never collide before hashing.
-inline uint32_t RandomBits(const RngKey& key, uint32_t dimension) {
-  uint32_t x = key.pixel;
-  uint32_t y = key.frame ^ (key.seed * 0x9E3779B9u);
-  uint32_t z = key.seed;
-  uint32_t w = (key.pass << 20) ^ (dimension & 0xFFFFFu);
+// PCG4D of a key's words for one dimension. The dimension is folded into the pass word (pass in the top 12 bits,
+// dimension in the low 20), then the seed is mixed into the frame word so that keys differing in any one field
+// never collide before hashing.
+inline void HashedKey(const RngKey& key, uint32_t dimension, uint32_t& x, uint32_t& y, uint32_t& z, uint32_t& w) {
+  x = key.pixel;
+  y = key.frame ^ (key.seed * 0x9E3779B9u);
+  z = key.seed;
+  w = (key.pass << 20) ^ (dimension & 0xFFFFFu);
   Pcg4d(x, y, z, w);
+}
+
+// 32 random bits for one dimension of a key.
+inline uint32_t RandomBits(const RngKey& key, uint32_t dimension) {
+  uint32_t x, y, z, w;
+  HashedKey(key, dimension, x, y, z, w);
   return x ^ (w >> 7);
 }
 
@@ -62,15 +68,7 @@ inline uint32_t RandomBits(const RngKey& key, uint32_t dimension) {
 // 4q + 3 of its stream. A pass draws either RandomBits or RandomWords4, never both: the two hash the same input for
 // dimension q.
 inline void RandomWords4(const RngKey& key, uint32_t q, uint32_t (&out)[4]) {
-  uint32_t x = key.pixel;
-  uint32_t y = key.frame ^ (key.seed * 0x9E3779B9u);
-  uint32_t z = key.seed;
-  uint32_t w = (key.pass << 20) ^ (q & 0xFFFFFu);
-  Pcg4d(x, y, z, w);
-  out[0] = x;
-  out[1] = y;
-  out[2] = z;
-  out[3] = w;
+  HashedKey(key, q, out[0], out[1], out[2], out[3]);
 }
 
 // Uniform float in [0, 1): the top 24 bits scaled exactly, so 1.0 is never returned.

@@ -139,6 +139,20 @@ HWY_INLINE ShadingPointV MakeShadingPointV(const VF (&x)[3], const VF (&ng)[3], 
   return sp;
 }
 
+// One receiver in every lane (the draw kernels sample many directions or lights at one receiver).
+HWY_INLINE ShadingPointV BroadcastShadingPointV(const Vec3& x, const Vec3& ng, const Vec3& n, const Vec3& wo,
+                                                const Bsdf& bsdf) {
+  const DF df;
+  VF xv[3], ngv[3], nv[3], wov[3];
+  for (int c = 0; c < 3; ++c) {
+    xv[c] = hn::Set(df, x[c]);
+    ngv[c] = hn::Set(df, ng[c]);
+    nv[c] = hn::Set(df, n[c]);
+    wov[c] = hn::Set(df, wo[c]);
+  }
+  return MakeShadingPointV(xv, ngv, nv, wov, BroadcastBsdfV(bsdf));
+}
+
 // LightPath (core/shading.h) of each lane, plus whether UnshadowedContribution gets past its early zero.
 struct LightPathV {
   VF wi[3];       // normalize(p_y - x) as d / distance

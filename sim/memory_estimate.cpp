@@ -63,7 +63,10 @@ int64_t CountLightGroups(const std::vector<Light>& lights) {
     std::vector<LightTriangle> triangles;
     for (size_t v = 0; v + 2 < l.vertices.size(); v += 3) {
       LightTriangle t;
-      if (MakeLightTriangle(l.vertices[v], l.vertices[v + 1], l.vertices[v + 2], Vec3(1.0f), t)) triangles.push_back(t);
+      // Each triangle's own radiance, as the frames build them (sim/embree_scene.cpp): a pair whose halves differ
+      // is two groups there.
+      const Vec3 radiance = l.triangleRadiance.empty() ? l.radiance : l.triangleRadiance[v / 3];
+      if (MakeLightTriangle(l.vertices[v], l.vertices[v + 1], l.vertices[v + 2], radiance, t)) triangles.push_back(t);
     }
     groups += static_cast<int64_t>(MakeLightGroups(triangles).first.size());
   }
@@ -100,7 +103,8 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =
-      s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), double(s.lightGroups), s.sky) : 0.0;
+      s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), double(s.lightGroups),
+                                                      s.referenceSamplesPerPixel, s.sky) : 0.0;
   // The background writer, when images are written, beside the frame loop's transients: the image jobs (the
   // waiting ones, the one it writes and the one being submitted), each a preset's estimate, FLIP map and ensemble
   // images; the frames' inputs they share (the reference, its standard error, five G-buffer arrays and the

@@ -28,6 +28,9 @@ struct RunShape {
   int64_t lightGroups = 0;       // what the reference's light distributions select (core/light.h: a quad is one)
   bool textures = false;         // the scene has base-colour textures: texels in the G-buffers, a per-pixel BSDF table
   bool sky = false;              // an environment or a sun: the reference keeps a light mixture per pixel
+  // The most samples one pixel's reference may take (sim/reference.h ReferenceMaxSamplesPerPixel): a block of
+  // pixels' samples are held at once.
+  double referenceSamplesPerPixel = 0.0;
   double processBytes = 0.0;     // what the process holds already (libraries, the parsed sequence)
 };
 

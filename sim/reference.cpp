@@ -553,12 +553,24 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   return ref;
 }
 
-double ReferenceScratchBytes(double pixels, double lights, double groups, bool sky) {
+double ReferenceMaxSamplesPerPixel(const ReferenceParams& params) {
+  if (params.targetRelativeError > 0.0) return double(kMaxSamplesPerPixel);
+  const double meanPerReplicate = std::max(1.0, std::ceil(double(std::max(1, params.samplesPerPixel) - kPilotSamples) /
+                                                          kReplicates));
+  return std::max(double(kPilotSamples), meanPerReplicate * kMaxAllocationScale * kReplicates);
+}
+
+double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky) {
   // Per worker thread (as many as TBB runs here), a block's light distributions (rows and columns), its selection
-  // weights and its samples.
+  // weights and its samples: BlockScratch holds every sample of a block at once (its points, values, the two draw
+  // kernels' rays and their answers; under a sky SampleBatch's per-sample terms too), in vectors that may reserve
+  // up to twice what the largest block asked for.
   const double threads = double(tbb::this_task_arena::max_concurrency());
   const double perFrame = groups * sizeof(SelectionLight) + lights * (kLightDrawRecordFloats + 4.0) * sizeof(float);
-  const double perThread = 3.0 * groups * kSelectionBlock * sizeof(float) + 64.0 * 1024.0;
+  const double perSample = (kSkySampleDims + 3.0 + 7.0 + 10.0) * sizeof(float) + 2.0 * sizeof(uint32_t) + 1.0 +
+                           (sky ? 2.0 * sizeof(Vec3) + sizeof(ShadowRay) + sizeof(uint32_t) + 1.0 : 0.0);
+  const double blockSamples = double(kSelectionBlock) * std::max(maxSamplesPerPixel, double(kPilotSamples));
+  const double perThread = 3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample;
   // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture
   const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) : 0.0);
   return perFrame + threads * perThread + pixels * perPixel;

@@ -59,11 +59,17 @@ uint64_t HashFrameState(const FrameState& state);
 // renderer version). Not the frame index: identical states share one reference.
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
+// The most samples one pixel's reference can take with these parameters, its pilot's included: the allocation's
+// cap (16 times the mean in budget mode, 65536 with a target error).
+double ReferenceMaxSamplesPerPixel(const ReferenceParams& params);
+
 // The most RenderReference allocates while it runs beyond its result and its kept distributions, for a frame of
-// `pixels` pixels and `lights` light triangles in `groups` light groups (the workers' scratch and the pilot's
-// per-pixel state, with each pixel's light mixture when the frame has a sky); for the run's memory estimate
+// `pixels` pixels and `lights` light triangles in `groups` light groups, no pixel taking more than
+// `maxSamplesPerPixel` samples (the workers' scratch, a block's samples at once among it, and the pilot's per-pixel
+// state, with each pixel's light mixture when the frame has a sky); for the run's memory estimate
 // (sim/memory_estimate.h).
-double ReferenceScratchBytes(double pixels, double lights, double groups, bool sky = false);
+double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel,
+                             bool sky = false);
 
 // The pilot's per-pixel light distributions kept for the main pass, for a frame of width × height pixels and
 // `groups` light groups: 0 where they would pass kKeptDistributionBytes (then the main pass builds them again).

@@ -260,8 +260,8 @@ std::vector<Preset> ResolvePresets(const RunOptions& opt, const Sequence& seq) {
 }
 
 // The run's memory against what it may take (--max-memory; DESIGN §10), before anything is allocated or written.
-void CheckRunMemory(const RunOptions& opt, const Sequence& seq, int width, int height, int frames, size_t presets,
-                    int members) {
+void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceParams& refParams, int width,
+                    int height, int frames, size_t presets, int members) {
   if (opt.maxMemoryBytes < 0.0) return;
   RunShape shape;
   shape.width = width;
@@ -276,6 +276,7 @@ void CheckRunMemory(const RunOptions& opt, const Sequence& seq, int width, int h
   shape.lightGroups = CountLightGroups(seq.lights);
   shape.textures = !seq.textures.empty();
   shape.sky = seq.environment.present || seq.sun.present;
+  shape.referenceSamplesPerPixel = ReferenceMaxSamplesPerPixel(refParams);
   shape.processBytes = CurrentResidentBytes();
   const MemoryEstimate estimate = EstimateRunMemory(shape);
   if (opt.maxMemoryBytes > 0.0) {
@@ -314,11 +315,11 @@ RunResult Run(const RunOptions& opt) {
   if (!opt.relativeErrorPath.empty() && (resolved.size() != 1 || !opt.reference || opt.resume))
     throw InputError(opt.relativeErrorPath + ": error: relative-error frames need one preset, a reference and no "
                      "--resume");
-  CheckRunMemory(opt, seq, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
   ReferenceParams refParams;
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
   refParams.targetRelativeError = opt.referenceError;
   refParams.cacheDir = opt.cacheDir;
+  CheckRunMemory(opt, seq, refParams, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
   const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
 
   // run.json first, so an interrupted run still says what it was.

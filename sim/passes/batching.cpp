@@ -114,7 +114,7 @@ void TargetEvaluator::Resolve(uint64_t& rays) {
     const DomainFrame& v = views_[e.c->view[e.j]];
     const LightSample& y = e.c->samples[e.i];
     const size_t p = e.c->domainPixel[e.j];
-    LightPoint lp;
+    LightPoint lp{};  // always filled: Request queues only samples whose light this frame has
     LightPointAt(v.gbuffer->Position(p), y.lightId, y.position, y.normal, *v.lights, v.sky, lp);
     pairs_.Add(v.eye, *v.gbuffer, p, lp.position, lp.normal, lp.radiance);
   }
@@ -130,7 +130,7 @@ void TargetEvaluator::Resolve(uint64_t& rays) {
     const int f = v.scene == SceneFrame::kCurrent ? 0 : 1;
     const LightSample& y = e.c->samples[e.i];
     const size_t p = e.c->domainPixel[e.j];
-    LightPoint lp;
+    LightPoint lp{};  // always filled, as above
     LightPointAt(v.gbuffer->Position(p), y.lightId, y.position, y.normal, *v.lights, nullptr, lp);
     rays_[f].Add(*v.gbuffer, p, lp.position, lp.normal, lp.errorScale);
     rayRefs_[f].push_back(static_cast<int64_t>(k));

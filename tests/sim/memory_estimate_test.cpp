@@ -8,7 +8,10 @@
 #include <string>
 #include <vector>
 
+#include "core/light.h"
+#include "sim/embree_scene.h"
 #include "sim/input_file.h"
+#include "sim/reference.h"
 #include "sim/sequence.h"
 #include "sim_binary.h"
 
@@ -27,6 +30,37 @@ TEST(ParseByteSize, AcceptsUnitsAndRejectsTheRest) {
   EXPECT_EQ(*ParseByteSize("64K"), 65536.0);
   for (const char* bad : {"", "G", "-1G", "0", "1e400", "nan", "inf", "12Q", "8 G", " 8G", "8GG", "0x10"})
     EXPECT_FALSE(ParseByteSize(bad).has_value()) << bad;
+}
+
+// The count bounds what the reference's frames select from: the groups MakeLightGroups forms over the frame's own
+// light list (BuildLightTriangles, every light on), for quads whose halves shine alike and quads whose
+// imported halves do not (then they are two groups), beside a lone triangle.
+TEST(CountLightGroups, IsAtLeastWhatTheFramesLightListForms) {
+  auto quad = [](float x0, std::vector<Vec3> triangleRadiance) {
+    Light l;
+    l.vertices = {Vec3(x0, 2, 0), Vec3(x0 + 1, 2, 0), Vec3(x0 + 1, 2, 1),
+                  Vec3(x0, 2, 0), Vec3(x0 + 1, 2, 1), Vec3(x0, 2, 1)};
+    l.radiance = Vec3(3.0f);
+    l.triangleRadiance = std::move(triangleRadiance);
+    return l;
+  };
+  Light lone;
+  lone.vertices = {Vec3(5, 2, 0), Vec3(6, 2, 0), Vec3(5, 2, 1)};
+  const std::vector<std::vector<Light>> scenes = {
+      {quad(0, {})},
+      {quad(0, {Vec3(1), Vec3(1)})},
+      {quad(0, {Vec3(1), Vec3(2)})},
+      {quad(0, {Vec3(1), Vec3(0)}), quad(3, {}), lone},
+  };
+  const int64_t expected[] = {1, 1, 2, 4};
+  for (size_t k = 0; k < scenes.size(); ++k) {
+    Sequence seq;
+    seq.lights = scenes[k];
+    const std::vector<LightTriangle> frame = BuildLightTriangles(seq, FrameState{});
+    const int64_t formed = static_cast<int64_t>(MakeLightGroups(frame).first.size());
+    EXPECT_EQ(formed, expected[k]) << k;
+    EXPECT_GE(CountLightGroups(scenes[k]), formed) << k;
+  }
 }
 
 TEST(MachineMemoryLimit, IsPositiveAndAtMostTheMachinesMemory) {
@@ -55,6 +89,8 @@ TEST(EstimateRunMemory, GrowsWithEveryDimension) {
   EXPECT_GT(with([](RunShape& s) { s.frames = 100000; }), b);
   EXPECT_GT(with([](RunShape& s) { s.sceneTriangles = 1 << 20; }), b);
   EXPECT_LT(with([](RunShape& s) { s.reference = false; }), b);
+  // --reference-error: a block of 16 pixels may take 65536 samples each, held at once (over 100 MB a thread).
+  EXPECT_GT(with([](RunShape& s) { s.referenceSamplesPerPixel = 65536; }), b + 1e8);
   // The case: 16384² is valid by the format's limits; it needs far more than any ordinary machine.
   EXPECT_GT(with([](RunShape& s) { s.width = s.height = 16384; s.frames = 100000; }), 64.0 * 1073741824.0);
 }
@@ -111,6 +147,9 @@ TEST(EstimateRunMemory, BoundsTheMeasuredPeakOfRealRuns) {
     s.sceneTriangles = sceneTriangles;
     s.lightTriangles = lightTriangles;
     s.lightGroups = CountLightGroups(seq.lights);
+    ReferenceParams spp1;
+    spp1.samplesPerPixel = 1;  // as --reference-spp 1 above
+    s.referenceSamplesPerPixel = ReferenceMaxSamplesPerPixel(spp1);
     s.processBytes = idle.peakBytes;
     const double estimate = EstimateRunMemory(s).bytes;
     const std::string what = std::to_string(c.width) + "x" + std::to_string(c.height) + " " + presetList +

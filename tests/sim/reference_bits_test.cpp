@@ -9,8 +9,10 @@
 // sim/reference_cache.cpp stores them), recorded from this test's scalar-twin runs when issue 16 redesigned the
 // reference (light-selection and BSDF-draw kernels, light groups, fixed-point QMC points; kReferenceVersion 8);
 // scripts/reference_bits_hashes.sh renders the same configurations with a restir-sim binary and prints the same
-// hashes from its cache entries, an independent reading of the bytes. A NaN's payload is the one thing the kernels
-// canonicalise; none occurs in these frames.
+// hashes from its cache entries. The hashes come from this code, so this is a determinism and regression check,
+// not a proof of correctness: the answers the project did not compute are in reference_test (Lambert's formula),
+// reference_glossy_test (quadrature), light_selection_kernel_test and light_test. A NaN's payload is the one thing
+// the kernels canonicalise; none occurs in these frames.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 

@@ -1,6 +1,6 @@
 // The reference at glossy receivers without a sky (light sampling with its MIS weight in the light-draw kernel, BSDF
-// sampling in sim/reference.cpp BsdfTerm) against an answer it did not compute: the outgoing radiance of a GGX
-// floor under a quad light, integrated over the light by a deterministic midpoint rule on subtriangles, with the
+// sampling in the BSDF-draw kernel) against an answer it did not compute: the outgoing radiance of a GGX floor
+// under a quad light, integrated over the light by a deterministic midpoint rule on subtriangles, with the
 // microfacet BRDF written out here in double from its papers (Walter et al. 2007 Eq. 20: D G2 F / (4 cos θo cos θi);
 // GGX D; Heitz 2014 Eq. 99 height-correlated Smith; Schlick's Fresnel with F0 = albedo), not taken from core/bsdf.
 // Nothing occludes the light, so the integral is the whole answer. Rough to fairly sharp lobes (roughness 0.3 to
