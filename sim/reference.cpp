@@ -151,6 +151,11 @@ constexpr double kUniformShare = 0.25;
 constexpr int kMaxAllocationScale = 16;
 constexpr int kMaxSamplesPerPixel = 1 << 16;
 
+// Budget mode's mean per-replicate count of the main pass: the budget after the pilot's samples, in replicates.
+double MeanPerReplicate(const ReferenceParams& params) {
+  return std::max(1.0, std::ceil(double(std::max(1, params.samplesPerPixel) - kPilotSamples) / kReplicates));
+}
+
 // Per-replicate sample counts from the pilot's relative variances (negative: the pilot saw no light).
 std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
                                       const ReferenceParams& params) {
@@ -166,8 +171,7 @@ std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const st
     }
     return m;
   }
-  const int budget = std::max(1, params.samplesPerPixel);
-  const double meanPerReplicate = std::max(1.0, std::ceil(double(budget - kPilotSamples) / kReplicates));
+  const double meanPerReplicate = MeanPerReplicate(params);
   double sum = 0.0;
   for (size_t i = 0; i < relVar.size(); ++i)
     if (active[i] && relVar[i] > 0.0f) sum += relVar[i];
@@ -555,9 +559,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
 
 double ReferenceMaxSamplesPerPixel(const ReferenceParams& params) {
   if (params.targetRelativeError > 0.0) return double(kMaxSamplesPerPixel);
-  const double meanPerReplicate = std::max(1.0, std::ceil(double(std::max(1, params.samplesPerPixel) - kPilotSamples) /
-                                                          kReplicates));
-  return std::max(double(kPilotSamples), meanPerReplicate * kMaxAllocationScale * kReplicates);
+  return std::max(double(kPilotSamples), MeanPerReplicate(params) * kMaxAllocationScale * kReplicates);
 }
 
 double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky) {

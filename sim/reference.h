@@ -59,8 +59,8 @@ uint64_t HashFrameState(const FrameState& state);
 // renderer version). Not the frame index: identical states share one reference.
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
 
-// The most samples one pixel's reference can take with these parameters, its pilot's included: the allocation's
-// cap (16 times the mean in budget mode, 65536 with a target error).
+// The most samples one pixel's main pass can take with these parameters (the pilot's 16 are drawn in a pass of their
+// own): the allocation's cap, 16 times the mean in budget mode, 65536 with a target error.
 double ReferenceMaxSamplesPerPixel(const ReferenceParams& params);
 
 // The most RenderReference allocates while it runs beyond its result and its kept distributions, for a frame of

@@ -98,7 +98,8 @@ bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key,
     return false;
   }
   if (std::string(keyBytes, keyLength) != key) {
-    problem = "written for another frame or configuration (key " + Printable(std::string_view(keyBytes, keyLength)) + ")";
+    problem = "written for another frame or configuration (key " + Printable(std::string_view(keyBytes, keyLength)) +
+              ")";
     return false;
   }
   int32_t w = 0, h = 0;

@@ -153,7 +153,7 @@ Outputs LegacyScalar(const PixelRun& run, uint32_t pixelBase, const LightSampler
                      const std::vector<Bsdf>& bsdfs, const RisParams& params) {
   Outputs o(run.active.size());
   for (size_t k = 0; k < run.active.size(); ++k) {
-    Reservoir r;
+    Reservoir r{};  // always set below; {} for GCC -O1 flow analysis
     bool any = false;
     if (run.active[k] && !sampler.Empty()) {
       ShadingPoint sp;

@@ -327,13 +327,17 @@ TEST(IndependentVisibility, BudgetGoesToThePenumbraAndAveragesTheBudget) {
   ASSERT_GT(lit, 20);
   EXPECT_GT(sumPenumbra / penumbra, 2.0 * sumLit / lit);
   uint64_t total = 0;
+  uint32_t most = 0;
   int active = 0;
   for (size_t i = 0; i < g.Size(); ++i)
     if (g.IsSurface(i)) {
       total += ref.pixelSamples[i];
+      most = std::max(most, ref.pixelSamples[i]);
       ++active;
     }
   EXPECT_NEAR(double(total) / active, 256.0, 0.1 * 256.0);
+  // The memory estimate's bound on a pixel's samples (its block's samples are held at once), the pilot's 16 beside.
+  EXPECT_LE(double(most), ReferenceMaxSamplesPerPixel(params) + 16.0);
 }
 
 TEST(IndependentVisibility, ReferenceMatchesQuadratureUnderLampAboveSlab) {
@@ -375,7 +379,7 @@ TEST(IndependentVisibility, ReferenceMatchesQuadratureUnderLampAboveSlab) {
 // because most of the 72 emitters are small and far; the quadrature's error estimate stays ~6x below the
 // reference's.
 TEST(IndependentVisibility, ReferenceMatchesQuadratureInWindowBars) {
-  const Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
+  const Sequence seq = LoadSequence(RESTIR_SOURCE_DIR "/sequences/window_bars_pan.json");
   const FrameState state = Evaluate(seq, 0, 64, 36);
   const Outcome o = Compare("window bars", seq, state, 768, 8, 4000);
   ExpectAgreement(o, 1000);

@@ -82,7 +82,7 @@ TEST_F(ReferenceBits, AreTheRecordedOnesOnEveryTargetAndThreadCount) {
 // A frame whose every light is switched off has an empty power sampler: the reference is the dark frame it was
 // (zero wherever no emitter is seen), not a read of the sampler's missing table.
 TEST_F(ReferenceBits, EveryLightSwitchedOffGivesADarkFrame) {
-  Sequence seq = LoadSequence(std::string(RESTIR_SOURCE_DIR) + "/sequences/window_bars_pan.json");
+  Sequence seq = LoadSequence(RESTIR_SOURCE_DIR "/sequences/window_bars_pan.json");
   FrameLoop loop(seq, 32, 18);
   loop.BeginFrame(0);
   FrameState dark = loop.State();
