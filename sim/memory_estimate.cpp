@@ -89,6 +89,9 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   if (s.textures) add("BSDF table of textured receivers", px * 2.0 * (sizeof(Bsdf) + kBsdfEntry));
   // Per member: this frame's and last frame's reservoirs, the spatial pass's output buffer and its image.
   add("reservoirs", px * presets * members * 3.0 * kReservoir);
+  // A frame's initial passes, kept for the presets that share them (sim/pipeline.h InitialSamplingShare).
+  if (s.sharedInitialPasses > 0)
+    add("shared initial passes", px * double(s.sharedInitialPasses) * members * kReservoir);
   // Per preset: the estimate, the previous estimate, the accumulation sum and mean, FLIP's map, the temporal mask;
   // with an ensemble, the other members' images and the bias and variance images.
   add("images", px * presets * (4.0 * kRgb + sizeof(float) + 1.0 + (members > 1 ? (members - 1.0 + 2.0) * kRgb : 0.0)));
@@ -117,10 +120,11 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   if (s.writeImages) {
     const double runFrames = double(std::max<int64_t>(1, s.frames));
     const double jobs = std::min(kImageJobsWaiting + 2.0, runFrames * presets);
-    // The estimate is copied into each job; the FLIP map and the ensemble's bias and variance images move into
-    // it, so the job being submitted holds the loop's own (counted under "images").
-    const double job = kRgb;
-    const double moved = (jobs - 1.0) * ((s.reference ? sizeof(float) : 0.0) + (members > 1 ? 2.0 * kRgb : 0.0));
+    // The estimate and the FLIP map are copied into each job (the frame's metrics read them after it is
+    // submitted); the ensemble's bias and variance images move into it, so the job being submitted holds the
+    // loop's own (counted under "images").
+    const double job = kRgb + (s.reference ? sizeof(float) : 0.0);
+    const double moved = (jobs - 1.0) * (members > 1 ? 2.0 * kRgb : 0.0);
     frameInputs = px * ((s.reference ? 2.0 * kRgb + 3.0 : 0.0) + 1.0 + 4.0 * sizeof(float));
     const double frames = std::min({runFrames, jobs, std::ceil(jobs / presets) + 1.0});
     const double exrChannels = 3.0 * (1 + (s.reference ? 3 : 0) + (members > 1 ? 2 : 0)) + 6.0;

@@ -21,6 +21,7 @@ struct RunShape {
   int64_t frames = 0;            // frames rendered (metrics rows per preset)
   int64_t presets = 0;           // presets run side by side
   int64_t members = 1;           // pipelines per preset (--ensemble K)
+  int64_t sharedInitialPasses = 0;  // distinct initial-sampling configurations a frame keeps (InitialSamplingShare)
   bool reference = true;         // a reference per frame, FLIP and the error metrics
   bool writeImages = true;       // EXR and PNG per frame
   int64_t sceneTriangles = 0;    // object triangles, for Embree's BVH

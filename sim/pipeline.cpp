@@ -35,6 +35,20 @@ FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {
   return v;
 }
 
+const InitialSamplingShare::Entry* InitialSamplingShare::Find(const InitialSamplingParams& params,
+                                                             uint32_t seed) const {
+  for (const Entry& e : entries_)
+    if (e.seed == seed && e.params == params) return &e;
+  return nullptr;
+}
+
+InitialSamplingShare::Entry& InitialSamplingShare::Add(const InitialSamplingParams& params, uint32_t seed) {
+  Entry& e = entries_.emplace_back();
+  e.params = params;
+  e.seed = seed;
+  return e;
+}
+
 namespace {
 
 // The frame's counters, in pixel order (deterministic).
@@ -69,8 +83,23 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     return in.measureReservoirs ? ContributingFraction(*in.gbuffer, reservoirs_, in.diagnosticsRegion)
                                 : Contributing{};
   };
-  InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());
-  const Contributing initial = contributing();
+  Contributing initial;
+  const InitialSamplingShare::Entry* shared = in.initialShare ? in.initialShare->Find(s.initial, in.seed) : nullptr;
+  if (shared) {
+    reservoirs_ = shared->reservoirs;
+    r.passes.push_back(shared->stats);
+    const bool sameMeasure = shared->contributing && shared->region == in.diagnosticsRegion;
+    initial = sameMeasure ? *shared->contributing : contributing();
+  } else {
+    InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());
+    initial = contributing();
+    if (in.initialShare) {
+      InitialSamplingShare::Entry& e = in.initialShare->Add(s.initial, in.seed);
+      e.reservoirs = reservoirs_;
+      e.stats = r.passes.back();
+      if (in.measureReservoirs) e.contributing = initial, e.region = in.diagnosticsRegion;
+    }
+  }
   Contributing temporal = initial;
   if (s.temporal.enabled) {
     TemporalReuse(s.temporal, visibility, view, previousReservoirs_, reservoirs_, r.temporalAccepted,

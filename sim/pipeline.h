@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/bsdf.h"
@@ -28,6 +29,8 @@ struct PipelineSettings {
   ShadeParams shade;              // the shading pass
 };
 
+class InitialSamplingShare;
+
 // Everything a frame reads about the current and previous frame. Owned by the frame loop; passes never write it.
 struct FrameInputs {
   const FrameState* state = nullptr;
@@ -51,6 +54,9 @@ struct FrameInputs {
   // Pixels whose contributing fractions the diagnostics also report apart (the runner passes its 4-frame
   // disocclusion window); null: none.
   const std::vector<uint8_t>* diagnosticsRegion = nullptr;
+  // Initial sampling's outputs of this frame already computed for other presets, reused where the parameters and
+  // seed are equal; null: always compute. Never changes a result (InitialSamplingShare below).
+  InitialSamplingShare* initialShare = nullptr;
 };
 
 struct FrameResult {
@@ -63,6 +69,32 @@ struct FrameResult {
   ReservoirDiagnostics diagnostics;
   uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
+};
+
+// One frame's initial-sampling outputs, shared by the presets of a run. InitialSampling reads its parameters and the
+// frame (FrameView: G-buffer, scene, lights, seed, frame number) and nothing of a preset's history, so presets whose
+// InitialSamplingParams and seed are equal draw the same reservoirs, bit for bit: the first computes them, the
+// others copy them with the pass's statistics (its time and rays, what the pass costs each preset that runs it).
+// Six of `--preset all`'s nine presets have the same initial pass. Holds one frame: Clear() when the frame changes,
+// and keep the FrameInputs otherwise equal (the runner's presets share one FrameLoop::Inputs).
+class InitialSamplingShare {
+ public:
+  struct Entry {
+    InitialSamplingParams params;  // the pass's parameters
+    uint32_t seed = 0;             // FrameInputs::seed (ensemble members differ)
+    ReservoirBuffer reservoirs;    // the pass's output
+    PassStats stats;               // the pass's statistics when it ran
+    // The contributing fractions after the pass, when measured, and the region they were measured over.
+    std::optional<Contributing> contributing;
+    const std::vector<uint8_t>* region = nullptr;
+  };
+  const Entry* Find(const InitialSamplingParams& params, uint32_t seed) const;
+  Entry& Add(const InitialSamplingParams& params, uint32_t seed);
+  void Clear() { entries_.clear(); }
+  size_t Entries() const { return entries_.size(); }
+
+ private:
+  std::vector<Entry> entries_;  // a handful: one per distinct initial configuration and seed
 };
 
 // Per-preset estimator state across frames: the reservoirs of this frame and of the last one, ping-ponged.

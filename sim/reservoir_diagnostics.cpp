@@ -2,7 +2,9 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -25,17 +27,31 @@ bool SameSample(const StoredReservoir& a, const StoredReservoir& b) {
 Contributing ContributingFraction(const GBuffer& g, const ReservoirBuffer& reservoirs,
                                   const std::vector<uint8_t>* region) {
   const bool masked = region && region->size() == g.Size();
-  size_t surfaces = 0, contributing = 0, regionSurfaces = 0, regionContributing = 0;
-  for (size_t i = 0; i < g.Size() && i < reservoirs.size(); ++i) {
-    if (!g.IsSurface(i)) continue;
-    const bool c = Contributes(reservoirs[i]);
-    ++surfaces;
-    contributing += c;
-    if (masked && (*region)[i]) ++regionSurfaces, regionContributing += c;
-  }
+  // Counts, so the parallel sum is exact: the same fractions whatever the thread count and split.
+  struct Counts {
+    size_t surfaces = 0, contributing = 0, regionSurfaces = 0, regionContributing = 0;
+  };
+  const size_t n = std::min(g.Size(), reservoirs.size());
+  const Counts total = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, n, 4096), Counts{},
+      [&](const tbb::blocked_range<size_t>& range, Counts c) {
+        for (size_t i = range.begin(); i < range.end(); ++i) {
+          if (!g.IsSurface(i)) continue;
+          const bool contributes = Contributes(reservoirs[i]);
+          ++c.surfaces;
+          c.contributing += contributes;
+          if (masked && (*region)[i]) ++c.regionSurfaces, c.regionContributing += contributes;
+        }
+        return c;
+      },
+      [](Counts a, const Counts& b) {
+        a.surfaces += b.surfaces, a.contributing += b.contributing;
+        a.regionSurfaces += b.regionSurfaces, a.regionContributing += b.regionContributing;
+        return a;
+      });
   Contributing f;
-  f.all = surfaces ? double(contributing) / double(surfaces) : 0.0;
-  f.region = regionSurfaces ? double(regionContributing) / double(regionSurfaces) : 0.0;
+  f.all = total.surfaces ? double(total.contributing) / double(total.surfaces) : 0.0;
+  f.region = total.regionSurfaces ? double(total.regionContributing) / double(total.regionSurfaces) : 0.0;
   return f;
 }
 

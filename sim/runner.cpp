@@ -2,6 +2,7 @@
 
 #include <tbb/global_control.h>
 #include <tbb/info.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -161,6 +162,15 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
 
 constexpr uint64_t kCheckpointMagic = 0x36544B43'52545352ull;  // "RSTRCKT6" (6: reservoirs carry their age)
 
+// One preset's frame between rendering and writing (Run's frame loop).
+struct PresetFrame {
+  FrameResult fr;                           // member 0's frame
+  ImageRgb ensembleBias, ensembleVariance;  // --ensemble K > 1: the members' split, and its statistics
+  EnsembleStats ensemble;
+  FlipMap flipMap;                          // against the reference (empty without one)
+  FrameMetricsRow row;                      // its metrics.csv row
+};
+
 // What a preset carries from frame to frame besides its pipelines' reservoirs.
 struct PresetState {
   Preset preset;
@@ -261,14 +271,19 @@ std::vector<Preset> ResolvePresets(const RunOptions& opt, const Sequence& seq) {
 
 // The run's memory against what it may take (--max-memory; DESIGN §10), before anything is allocated or written.
 void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceParams& refParams, int width,
-                    int height, int frames, size_t presets, int members) {
+                    int height, int frames, const std::vector<Preset>& presets, int members) {
   if (opt.maxMemoryBytes < 0.0) return;
   RunShape shape;
   shape.width = width;
   shape.height = height;
   shape.frames = frames;
-  shape.presets = static_cast<int64_t>(presets);
+  shape.presets = static_cast<int64_t>(presets.size());
   shape.members = members;
+  std::vector<InitialSamplingParams> initialConfigs;  // what the frame's InitialSamplingShare keeps
+  for (const Preset& p : presets)
+    if (std::find(initialConfigs.begin(), initialConfigs.end(), p.settings.initial) == initialConfigs.end())
+      initialConfigs.push_back(p.settings.initial);
+  shape.sharedInitialPasses = static_cast<int64_t>(initialConfigs.size());
   shape.reference = opt.reference;
   shape.writeImages = opt.writeImages;
   for (const Object& o : seq.objects) shape.sceneTriangles += static_cast<int64_t>(o.mesh.triangles.size());
@@ -319,7 +334,7 @@ RunResult Run(const RunOptions& opt) {
   refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
   refParams.targetRelativeError = opt.referenceError;
   refParams.cacheDir = opt.cacheDir;
-  CheckRunMemory(opt, seq, refParams, width, height, frameEnd - opt.frameBegin, resolved.size(), members);
+  CheckRunMemory(opt, seq, refParams, width, height, frameEnd - opt.frameBegin, resolved, members);
   const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
 
   // run.json first, so an interrupted run still says what it was.
@@ -431,24 +446,53 @@ RunResult Run(const RunOptions& opt) {
     std::optional<FlipReference> flipReference;
     if (opt.reference) flipReference.emplace(ref.mean);
 
+    // Presets with equal initial-sampling parameters run the frame's initial pass once (sim/pipeline.h).
+    InitialSamplingShare initialShare;
+    // Each preset's frame: rendered and FLIP'd preset by preset (each of those parallel inside), then measured for
+    // all presets at once, a preset per task (MeasureFrame sums in pixel order, serially: the same bits whatever
+    // the thread count), then written in preset order.
+    std::vector<PresetFrame> work(presets.size());
     for (size_t p = 0; p < presets.size(); ++p) {
       PresetState& ps = presets[p];
+      PresetFrame& pf = work[p];
       progress.Show(frame - opt.frameBegin,
                     ps.preset.name + " (" + std::to_string(p + 1) + "/" + std::to_string(presets.size()) + ")");
       FrameInputs inputs = loop.Inputs(seed);
       inputs.measureReservoirs = true;
       inputs.diagnosticsRegion = &recentMask;
-      FrameResult fr = ps.members[0]->RenderFrame(inputs);
+      inputs.initialShare = &initialShare;
+      pf.fr = ps.members[0]->RenderFrame(inputs);
       // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
-      ImageRgb ensembleBias, ensembleVariance;
-      EnsembleStats ens;
       if (members > 1) {
         std::vector<ImageRgb> images;
-        images.push_back(fr.image);
-        for (int k = 1; k < members; ++k)
-          images.push_back(ps.members[k]->RenderFrame(loop.Inputs(seed + static_cast<uint32_t>(k))).image);
-        ens = MeasureEnsemble(images, ref.mean, ref.standardError, ensembleBias, ensembleVariance);
+        images.push_back(pf.fr.image);
+        for (int k = 1; k < members; ++k) {
+          FrameInputs memberInputs = loop.Inputs(seed + static_cast<uint32_t>(k));
+          memberInputs.initialShare = &initialShare;
+          images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
+        }
+        pf.ensemble = MeasureEnsemble(images, ref.mean, ref.standardError, pf.ensembleBias, pf.ensembleVariance);
       }
+      if (opt.reference) pf.flipMap = HdrFlip(*flipReference, pf.fr.image);
+      if (opt.writeImages) {
+        char name[32];
+        std::snprintf(name, sizeof(name), "%04d", frame);
+        const auto stem = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name / name;
+        // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as the metrics
+        // below read them; the ensemble images moved) and the frame's shared inputs. Submitted now, so the writer
+        // works while the next preset renders.
+        auto images = std::make_shared<const PresetImages>(PresetImages{
+            pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
+        imageWriter->Submit([stem, images, frameInputs = imageInputs] {
+          WritePresetFiles(stem.string(), *images, *frameInputs);
+        });
+      }
+    }
+    const double referenceRelStdError = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
+    tbb::parallel_for(size_t{0}, presets.size(), [&](size_t p) {
+      PresetState& ps = presets[p];
+      PresetFrame& pf = work[p];
+      const FrameResult& fr = pf.fr;
       if (stateChanged) {
         ps.accumSum = fr.image;
       } else {
@@ -456,7 +500,6 @@ RunResult Run(const RunOptions& opt) {
       }
       ImageRgb accumMean(width, height);
       for (size_t i = 0; i < accumMean.Size(); ++i) accumMean.pixels[i] = ps.accumSum.pixels[i] / float(accumFrames);
-      FlipMap flipMap = opt.reference ? HdrFlip(*flipReference, fr.image) : FlipMap{};
 
       FrameMeasurement m;
       m.frame = frame;
@@ -477,36 +520,27 @@ RunResult Run(const RunOptions& opt) {
         m.reference = &ref.mean;
         m.msReference = ref.ms;
         m.referenceCached = ref.fromCache;
-        m.referenceRelStdError = MeanRelativeStandardError(ref);
+        m.referenceRelStdError = referenceRelStdError;
         m.referenceNoise = ReferenceNoise{&ref.standardError, &ref.lumaStandardError};
         m.previousReference = &previousReference;
-        m.flip = &flipMap;
+        m.flip = &pf.flipMap;
         m.recentMask = &recentMask;
         m.restMask = &restMask;
         m.accumulatedMean = &accumMean;
         m.accumFrames = accumFrames;
-        if (members > 1) m.ensemble = &ens;
+        if (members > 1) m.ensemble = &pf.ensemble;
       }
-      result.rows.push_back(MeasureFrame(m));
+      pf.row = MeasureFrame(m);
+    });
+    for (size_t p = 0; p < presets.size(); ++p) {
+      PresetFrame& pf = work[p];
+      result.rows.push_back(std::move(pf.row));
       if (relativeErrors) {
         std::vector<float> e;
-        AppendRelativeError(fr.image, ref.mean, e);
+        AppendRelativeError(pf.fr.image, ref.mean, e);
         relativeErrors->Write(EncodeRelativeErrorFrame(e));
       }
-
-      if (opt.writeImages) {
-        char name[32];
-        std::snprintf(name, sizeof(name), "%04d", frame);
-        const auto stem = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name / name;
-        // The job owns what it writes: this preset's images (the estimate copied, as it lives on as previousImage;
-        // the FLIP map and ensemble images moved, measured already) and the frame's shared inputs.
-        auto images = std::make_shared<const PresetImages>(PresetImages{
-            fr.image, std::move(flipMap.values), std::move(ensembleBias), std::move(ensembleVariance)});
-        imageWriter->Submit([stem, images, frameInputs = imageInputs] {
-          WritePresetFiles(stem.string(), *images, *frameInputs);
-        });
-      }
-      ps.previousImage = std::move(fr.image);
+      presets[p].previousImage = std::move(pf.fr.image);
     }
     // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame. It may
     // lead the frame files by the jobs the writer holds (a failed one is reported here or at the next Submit);

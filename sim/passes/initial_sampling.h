@@ -23,6 +23,9 @@ struct InitialSamplingParams {
   int environmentCandidates = 1;  // directions from the environment map (RTXDI numPrimaryEnvironmentSamples)
   int brdfCandidates = 0;         // BSDF-sampled rays to an emitter or the sky (RTXDI numPrimaryBrdfSamples)
   float brdfCutoff = 0.0f;        // shortens BSDF rays, RTXDI's brdfCutoff (core/candidates.h BrdfRayMaxDistance)
+
+  // Equal parameters draw equal reservoirs from equal frames (sim/pipeline.h InitialSamplingShare).
+  friend bool operator==(const InitialSamplingParams&, const InitialSamplingParams&) = default;
 };
 
 // Writes one reservoir per pixel into `out` (resized to the frame): the RIS reservoir of every surface pixel, an

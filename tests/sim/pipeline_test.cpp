@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <string>
@@ -495,6 +496,96 @@ TEST(Pipeline, ThreadCountDoesNotChangeBits) {
   for (size_t p = 0; p < one.size(); ++p)
     for (size_t f = 0; f < one[p].size(); ++f)
       EXPECT_EQ(one[p][f], two[p][f]) << AllPresets()[p].name << " frame " << 8 + f;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+// sim/pipeline.h InitialSamplingShare: presets whose initial-sampling parameters are equal run the frame's
+// initial pass once, and every preset then gets the bits it gets alone. Every preset (three initial
+// configurations among them: no visibility, visibility, RTXDI's mixed sources with a uniform light choice), two
+// seeds as an ensemble's members, over frames with a moving occluder and over the sunlit street (sun, sky, an
+// imported emissive asset, BSDF candidates): images, the reservoirs carried to the next frame, every pass's
+// statistics and the diagnostics equal the unshared pipelines', and the share holds one entry per
+// configuration and seed. Deterministic.
+void ExpectSharedInitialPassChangesNothing(const Sequence& seq, int w, int h, int firstFrame, int frames) {
+  const std::vector<uint32_t> seeds = {42, 43};
+  std::vector<std::unique_ptr<Pipeline>> alone, shared;
+  for (const Preset& p : AllPresets())
+    for (size_t k = 0; k < seeds.size(); ++k) {
+      alone.push_back(std::make_unique<Pipeline>(p.settings));
+      shared.push_back(std::make_unique<Pipeline>(p.settings));
+    }
+  FrameLoop loop(seq, w, h);
+  std::vector<uint8_t> region(size_t(w) * h, 0);
+  for (size_t i = 0; i < region.size(); i += 3) region[i] = 1;
+  for (int f = firstFrame; f < firstFrame + frames; ++f) {
+    loop.BeginFrame(f);
+    InitialSamplingShare share;
+    for (size_t i = 0; i < alone.size(); ++i) {
+      const std::string what = AllPresets()[i / seeds.size()].name + " seed " +
+                               std::to_string(seeds[i % seeds.size()]) + " frame " + std::to_string(f);
+      FrameInputs in = loop.Inputs(seeds[i % seeds.size()]);
+      in.measureReservoirs = true;
+      in.diagnosticsRegion = &region;
+      const FrameResult a = alone[i]->RenderFrame(in);
+      in.initialShare = &share;
+      const FrameResult b = shared[i]->RenderFrame(in);
+      EXPECT_EQ(HashImage(a.image), HashImage(b.image)) << what;
+      ASSERT_EQ(alone[i]->History().size(), shared[i]->History().size()) << what;
+      EXPECT_EQ(0, std::memcmp(alone[i]->History().data(), shared[i]->History().data(),
+                               alone[i]->History().size() * sizeof(StoredReservoir)))
+          << what;
+      ASSERT_EQ(a.passes.size(), b.passes.size()) << what;
+      for (size_t k = 0; k < a.passes.size(); ++k) {
+        EXPECT_EQ(a.passes[k].name, b.passes[k].name) << what;
+        EXPECT_EQ(a.passes[k].rays, b.passes[k].rays) << what << " " << a.passes[k].name;
+        EXPECT_EQ(a.passes[k].risPixels, b.passes[k].risPixels) << what;
+        EXPECT_EQ(a.passes[k].targets, b.passes[k].targets) << what;
+        EXPECT_EQ(a.passes[k].combinations, b.passes[k].combinations) << what;
+        EXPECT_EQ(a.passes[k].guarded, b.passes[k].guarded) << what;
+        EXPECT_EQ(a.passes[k].contributing, b.passes[k].contributing) << what;
+      }
+      EXPECT_EQ(a.diagnostics.contributingInitial, b.diagnostics.contributingInitial) << what;
+      EXPECT_EQ(a.diagnostics.contributingInitialRegion, b.diagnostics.contributingInitialRegion) << what;
+      EXPECT_EQ(a.diagnostics.contributingSpatial, b.diagnostics.contributingSpatial) << what;
+      EXPECT_EQ(a.diagnostics.duplicateFraction, b.diagnostics.duplicateFraction) << what;
+      EXPECT_EQ(a.temporalAccepted, b.temporalAccepted) << what;
+    }
+    std::vector<InitialSamplingParams> configs;
+    for (const Preset& p : AllPresets())
+      if (std::find(configs.begin(), configs.end(), p.settings.initial) == configs.end())
+        configs.push_back(p.settings.initial);
+    EXPECT_EQ(configs.size(), 3u);
+    EXPECT_EQ(share.Entries(), configs.size() * seeds.size()) << "frame " << f;
+    loop.EndFrame();
+  }
+}
+
+TEST(Pipeline, SharedInitialPassGivesEveryPresetItsOwnBits) {
+  ExpectSharedInitialPassChangesNothing(TeleportingOccluderScene(48, 32), 48, 32, 8, 3);
+  ExpectSharedInitialPassChangesNothing(LoadSequence(RESTIR_SOURCE_DIR "/sequences/sun_street_pan.json"), 80, 45,
+                                        20, 2);
+}
+
+// A parameter that differs, however slightly, keeps two presets apart; the seed too.
+TEST(Pipeline, SharedInitialPassKeysOnEveryParameterAndTheSeed) {
+  InitialSamplingShare share;
+  InitialSamplingParams base;
+  share.Add(base, 7);
+  EXPECT_NE(share.Find(base, 7), nullptr);
+  EXPECT_EQ(share.Find(base, 8), nullptr);
+  std::vector<InitialSamplingParams> variants(8, base);
+  variants[0].candidates += 1;
+  variants[1].lightSelection = LightSelection::kUniform;
+  variants[2].visibility = !base.visibility;
+  variants[3].countCandidates = !base.countCandidates;
+  variants[4].sunCandidates += 1;
+  variants[5].environmentCandidates += 1;
+  variants[6].brdfCandidates += 1;
+  variants[7].brdfCutoff = std::nextafter(base.brdfCutoff, 1.0f);
+  for (size_t i = 0; i < variants.size(); ++i) EXPECT_EQ(share.Find(variants[i], 7), nullptr) << "variant " << i;
+  share.Clear();
+  EXPECT_EQ(share.Find(base, 7), nullptr);
 }
 
 // ---------------------------------------------------------------------------------------------------------

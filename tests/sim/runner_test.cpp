@@ -57,6 +57,37 @@ TEST(Run, ImageHashesIdenticalAcrossThreadCounts) {
     }
 }
 
+// Presets whose initial sampling is the same pass run it once a frame (sim/pipeline.h InitialSamplingShare); each
+// still reports the pass's time and rays. restir-unbiased and restir-balance share theirs; ris draws without
+// initial visibility, so it runs its own, which traces no ray.
+TEST(Run, PresetsSharingTheirInitialPassEachReportItsTimeAndRays) {
+  RunOptions o = SmokeOptions(TempOut("restir-run-share"));
+  o.writeImages = false;
+  o.reference = false;
+  o.frameEnd = 3;
+  o.presets = {"restir-unbiased", "ris", "restir-balance"};
+  const RunResult r = restir::Run(o);
+  ASSERT_EQ(r.rows.size(), 9u);
+  auto value = [](const FrameMetricsRow& row, const std::string& name) {
+    for (const auto& [n, v] : row.values)
+      if (n == name) return v;
+    ADD_FAILURE() << "no column " << name;
+    return -1.0;
+  };
+  for (size_t f = 0; f < 3; ++f) {
+    const FrameMetricsRow &unbiased = r.rows[3 * f], &ris = r.rows[3 * f + 1], &balance = r.rows[3 * f + 2];
+    ASSERT_EQ(unbiased.preset, "restir-unbiased");
+    ASSERT_EQ(balance.preset, "restir-balance");
+    EXPECT_GT(value(unbiased, "ms_initial"), 0.0);
+    EXPECT_EQ(value(unbiased, "ms_initial"), value(balance, "ms_initial")) << "frame " << f;
+    EXPECT_GT(value(unbiased, "rays_per_pixel_initial"), 0.0);
+    EXPECT_EQ(value(unbiased, "rays_per_pixel_initial"), value(balance, "rays_per_pixel_initial"));
+    EXPECT_GT(value(ris, "ms_initial"), 0.0);
+    EXPECT_EQ(value(ris, "rays_per_pixel_initial"), 0.0);
+    EXPECT_GE(value(unbiased, "ms_frame"), value(unbiased, "ms_initial"));
+  }
+}
+
 TEST(Run, DifferentSeedsGiveDifferentImages) {
   RunOptions a = SmokeOptions(TempOut("restir-run-s1"));
   a.writeImages = false;
