@@ -11,6 +11,7 @@
 #include "core/light.h"
 #include "sim/embree_scene.h"
 #include "sim/input_file.h"
+#include "sim/passes/frame_view.h"
 #include "sim/reference.h"
 #include "sim/sequence.h"
 #include "sim_binary.h"
@@ -88,6 +89,10 @@ TEST(EstimateRunMemory, GrowsWithEveryDimension) {
   EXPECT_GT(with([](RunShape& s) { s.members = 4; }), b);
   EXPECT_GT(with([](RunShape& s) { s.frames = 100000; }), b);
   EXPECT_GT(with([](RunShape& s) { s.sceneTriangles = 1 << 20; }), b);
+  // The frame's shared initial passes: one reservoir buffer per configuration and member.
+  EXPECT_NEAR(with([](RunShape& s) { s.sharedInitialPasses = 3; s.members = 2; }) -
+                  with([](RunShape& s) { s.sharedInitialPasses = 0; s.members = 2; }),
+              640.0 * 360.0 * 3 * 2 * sizeof(StoredReservoir), 1.0);
   EXPECT_LT(with([](RunShape& s) { s.reference = false; }), b);
   // --reference-error: a block of 16 pixels may take 65536 samples each, held at once (over 100 MB a thread).
   EXPECT_GT(with([](RunShape& s) { s.referenceSamplesPerPixel = 65536; }), b + 1e8);
