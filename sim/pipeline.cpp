@@ -88,7 +88,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   if (shared) {
     reservoirs_ = shared->reservoirs;
     r.passes.push_back(shared->stats);
-    const bool sameMeasure = shared->contributing && shared->region == in.diagnosticsRegion;
+    const bool sameMeasure = in.measureReservoirs && shared->contributing && shared->region == in.diagnosticsRegion;
     initial = sameMeasure ? *shared->contributing : contributing();
   } else {
     InitialSampling(s.initial, view, reservoirs_, r.passes.emplace_back());

@@ -269,6 +269,14 @@ std::vector<Preset> ResolvePresets(const RunOptions& opt, const Sequence& seq) {
   return presets;
 }
 
+// True when another of `presets` runs the same initial pass as presets[p] (InitialSamplingShare, sim/pipeline.h):
+// a pass no other preset reads is not kept.
+bool SharesInitialPass(const std::vector<Preset>& presets, size_t p) {
+  for (size_t q = 0; q < presets.size(); ++q)
+    if (q != p && presets[q].settings.initial == presets[p].settings.initial) return true;
+  return false;
+}
+
 // The run's memory against what it may take (--max-memory; DESIGN §10), before anything is allocated or written.
 void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceParams& refParams, int width,
                     int height, int frames, const std::vector<Preset>& presets, int members) {
@@ -279,11 +287,12 @@ void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceP
   shape.frames = frames;
   shape.presets = static_cast<int64_t>(presets.size());
   shape.members = members;
-  std::vector<InitialSamplingParams> initialConfigs;  // what the frame's InitialSamplingShare keeps
-  for (const Preset& p : presets)
-    if (std::find(initialConfigs.begin(), initialConfigs.end(), p.settings.initial) == initialConfigs.end())
-      initialConfigs.push_back(p.settings.initial);
-  shape.sharedInitialPasses = static_cast<int64_t>(initialConfigs.size());
+  std::vector<InitialSamplingParams> shared;  // what the frame's InitialSamplingShare keeps
+  for (size_t p = 0; p < presets.size(); ++p)
+    if (SharesInitialPass(presets, p) &&
+        std::find(shared.begin(), shared.end(), presets[p].settings.initial) == shared.end())
+      shared.push_back(presets[p].settings.initial);
+  shape.sharedInitialPasses = static_cast<int64_t>(shared.size());
   shape.reference = opt.reference;
   shape.writeImages = opt.writeImages;
   for (const Object& o : seq.objects) shape.sceneTriangles += static_cast<int64_t>(o.mesh.triangles.size());
@@ -460,7 +469,8 @@ RunResult Run(const RunOptions& opt) {
       FrameInputs inputs = loop.Inputs(seed);
       inputs.measureReservoirs = true;
       inputs.diagnosticsRegion = &recentMask;
-      inputs.initialShare = &initialShare;
+      InitialSamplingShare* share = SharesInitialPass(resolved, p) ? &initialShare : nullptr;
+      inputs.initialShare = share;
       pf.fr = ps.members[0]->RenderFrame(inputs);
       // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
       if (members > 1) {
@@ -468,7 +478,7 @@ RunResult Run(const RunOptions& opt) {
         images.push_back(pf.fr.image);
         for (int k = 1; k < members; ++k) {
           FrameInputs memberInputs = loop.Inputs(seed + static_cast<uint32_t>(k));
-          memberInputs.initialShare = &initialShare;
+          memberInputs.initialShare = share;
           images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
         }
         pf.ensemble = MeasureEnsemble(images, ref.mean, ref.standardError, pf.ensembleBias, pf.ensembleVariance);

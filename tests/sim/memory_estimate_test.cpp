@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "sim/embree_scene.h"
 #include "sim/input_file.h"
 #include "sim/passes/frame_view.h"
+#include "sim/presets.h"
 #include "sim/reference.h"
 #include "sim/sequence.h"
 #include "sim_binary.h"
@@ -146,6 +148,16 @@ TEST(EstimateRunMemory, BoundsTheMeasuredPeakOfRealRuns) {
     s.height = c.height;
     s.frames = c.frames;
     s.presets = int64_t(c.presets.size());
+    // The initial passes the run keeps for other presets: configurations two or more of its presets run.
+    std::vector<InitialSamplingParams> initial;
+    for (const std::string& name : c.presets)
+      for (const Preset& p : AllPresets())
+        if (p.name == name) initial.push_back(p.settings.initial);
+    ASSERT_EQ(initial.size(), c.presets.size());
+    for (size_t i = 0; i < initial.size(); ++i)
+      if (std::count(initial.begin(), initial.end(), initial[i]) >= 2 &&
+          std::find(initial.begin(), initial.end(), initial[i]) == initial.begin() + ptrdiff_t(i))
+        ++s.sharedInitialPasses;
     s.members = c.reference ? c.ensemble : 1;
     s.reference = c.reference;
     s.writeImages = c.images;

@@ -88,6 +88,36 @@ TEST(Run, PresetsSharingTheirInitialPassEachReportItsTimeAndRays) {
   }
 }
 
+// And each gets the bits it gets alone: restir-unbiased beside two presets (one sharing its initial pass, one not)
+// writes the image hashes and every non-timing column it writes run alone, with a reference and an ensemble of 2
+// (whose second member shares with the other preset's second member).
+TEST(Run, APresetSharingItsInitialPassWritesWhatItWritesAlone) {
+  RunOptions o = SmokeOptions(TempOut("restir-run-share-three"));
+  o.writeImages = false;
+  o.frameEnd = 3;
+  o.ensemble = 2;
+  o.presets = {"restir-balance", "ris", "restir-unbiased"};
+  RunOptions alone = o;
+  alone.outDir = TempOut("restir-run-share-alone");
+  alone.cacheDir = alone.outDir + "/cache";
+  alone.presets = {"restir-unbiased"};
+  const RunResult three = restir::Run(o), one = restir::Run(alone);
+  std::vector<const FrameMetricsRow*> unbiased;
+  for (const FrameMetricsRow& row : three.rows)
+    if (row.preset == "restir-unbiased") unbiased.push_back(&row);
+  ASSERT_EQ(unbiased.size(), one.rows.size());
+  ASSERT_EQ(one.rows.size(), 3u);
+  for (size_t f = 0; f < one.rows.size(); ++f) {
+    EXPECT_EQ(unbiased[f]->imageHash, one.rows[f].imageHash) << "frame " << f;
+    ASSERT_EQ(unbiased[f]->values.size(), one.rows[f].values.size());
+    for (size_t k = 0; k < one.rows[f].values.size(); ++k) {
+      const std::string& name = one.rows[f].values[k].first;
+      if (name.rfind("ms_", 0) == 0 || name == "reference_cached") continue;
+      EXPECT_EQ(unbiased[f]->values[k].second, one.rows[f].values[k].second) << name << " frame " << f;
+    }
+  }
+}
+
 TEST(Run, DifferentSeedsGiveDifferentImages) {
   RunOptions a = SmokeOptions(TempOut("restir-run-s1"));
   a.writeImages = false;
