@@ -129,7 +129,7 @@ std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool 
   OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
   if (srgb) spec.attribute("oiio:ColorSpace", "sRGB");
   // Stored, not deflated: on a 1280x360 preview of noisy renders zlib's fastest level took 27 ms and kept 58% of the
-  // bytes, storing takes 3 ms (README command 1: 576 previews, 15 s of CPU for 330 MB of disk).
+  // bytes, storing takes 3 ms (README command 1: 576 previews, 14 s of CPU for 330 MB of disk).
   spec.attribute("png:compressionLevel", 0);
   // No row filter (PNG_FILTER_NONE): on noisy tone-mapped renders libpng's adaptive choice among the five filters
   // cost more than it saved (README command 1's 8-frame prefix: 1.5 s of CPU, and the files 3% larger with it).

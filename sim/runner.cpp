@@ -174,6 +174,7 @@ struct PresetFrame {
 // What a preset carries from frame to frame besides its pipelines' reservoirs.
 struct PresetState {
   Preset preset;
+  bool sharesInitialPass = false;                  // another preset runs its initial pass (SharesInitialPass)
   std::vector<std::unique_ptr<Pipeline>> members;  // --ensemble K: member k runs with seed + k
   ImageRgb previousImage;                          // member 0's estimate of the previous frame
   ImageRgb accumSum;                               // Σ of member 0's estimates since the scene state changed
@@ -398,6 +399,7 @@ RunResult Run(const RunOptions& opt) {
   for (const Preset& p : resolved) {
     PresetState& ps = presets.emplace_back();
     ps.preset = p;
+    ps.sharesInitialPass = SharesInitialPass(resolved, presets.size() - 1);
     for (int k = 0; k < members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
   }
   FrameLoop loop(seq, width, height);
@@ -469,7 +471,7 @@ RunResult Run(const RunOptions& opt) {
       FrameInputs inputs = loop.Inputs(seed);
       inputs.measureReservoirs = true;
       inputs.diagnosticsRegion = &recentMask;
-      InitialSamplingShare* share = SharesInitialPass(resolved, p) ? &initialShare : nullptr;
+      InitialSamplingShare* share = ps.sharesInitialPass ? &initialShare : nullptr;
       inputs.initialShare = share;
       pf.fr = ps.members[0]->RenderFrame(inputs);
       // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
