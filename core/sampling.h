@@ -36,6 +36,32 @@ inline Vec2 SampleUniformDiskPolar(float radius, float u0, float u1) {
   return Vec2(r * std::cos(phi), r * std::sin(phi));
 }
 
+// A neighbour's pixel offset: SampleUniformDiskPolar's point with each coordinate rounded by std::lround, the same
+// integers, without libm's sinf and cosf wherever the answer is already certain (they were 2-3% of README command
+// 1's CPU). SinCos2Pi places the point within r·1e-6 of libm's (its fit, φ's rounding to float and libm's own
+// error; tests/core/sampling_test.cpp bounds the cosine's share), so the rounding is decided wherever a
+// coordinate lies more than (r + 1)·4e-6 from a half-integer; a point closer than that (about one coordinate in
+// 10^4) is computed the defining way.
+struct PixelOffset {
+  int dx = 0, dy = 0;
+  bool operator==(const PixelOffset&) const = default;
+};
+inline PixelOffset RoundedDiskOffset(float radius, float u0, float u1) {
+  const float r = radius * std::sqrt(u0);
+  if (u1 >= 0.0f && u1 < 1.0f && r >= 0.0f && r <= 1e4f) {
+    float s, c;
+    SinCos2Pi(u1, s, c);
+    const float x = r * c, y = r * s;
+    const float fx = std::floor(x), fy = std::floor(y);
+    const float past = x - fx - 0.5f, pastY = y - fy - 0.5f;  // signed distance beyond the half-integer
+    const float margin = (r + 1.0f) * 4e-6f;
+    if (std::abs(past) > margin && std::abs(pastY) > margin)
+      return {static_cast<int>(fx) + (past > 0.0f ? 1 : 0), static_cast<int>(fy) + (pastY > 0.0f ? 1 : 0)};
+  }
+  const Vec2 d = SampleUniformDiskPolar(radius, u0, u1);
+  return {static_cast<int>(std::lround(d.x)), static_cast<int>(std::lround(d.y))};
+}
+
 // Veach's power heuristic with β = 2 for one sample from each of two strategies (Veach 1997 §9.2.1):
 // w_a = p_a² / (p_a² + p_b²); 0 when both densities are 0.
 inline float PowerHeuristic(float a, float b) {

@@ -10,6 +10,10 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 #include "sim/atomic_file.h"
@@ -64,19 +68,91 @@ float SrgbEncode(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
+// The preview byte by its definition: sRGB-encoded, scaled to 255 and rounded; non-finite values black.
+int DefinedPreviewByte(float v) {
+  return static_cast<int>(std::lround(255.0f * SrgbEncode(std::isfinite(v) ? v : 0.0f)));
+}
+
+// Where the preview byte steps: threshold[b] is the least float in [0, 1] whose byte is b or more (b = 1..255), so
+// a value's byte is the number of thresholds at or below it. Found by bisection over the floats' bit patterns,
+// which order non-negative floats as numbers; that counting equals the definition wherever the definition never
+// steps back down, which tests/sim/frame_writer_test.cpp checks around every threshold (and a sweep of all 1.07e9
+// floats of [0, 1] did once). To count without a search, `first` holds the byte at the start of each bucket of
+// floats sharing their top 16 bits (exponent and 7 mantissa bits): a bucket spans less than 1% of its values, over
+// which the byte rises by at most 0.9 (its steepest is 255 · 1.055 / 2.4 = 112 per unit of ln v, at v = 1; the
+// constructor checks it), so one comparison finishes it.
+// One powf and one lroundf per channel cost README command 1 about 1% of its CPU.
+struct PreviewByteTable {
+  static constexpr int kShift = 16;
+  static constexpr uint32_t kBuckets = (0x3F800000u >> kShift) + 1;  // through the bucket of 1.0f
+  float threshold[257] = {};  // [256]: +inf, so a bucket at byte 255 never steps
+  uint8_t first[kBuckets] = {};
+  PreviewByteTable() {
+    const uint32_t one = std::bit_cast<uint32_t>(1.0f);
+    for (int b = 1; b < 256; ++b) {
+      uint32_t lo = 0, hi = one;  // DefinedPreviewByte(1) = 255 >= b
+      while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (DefinedPreviewByte(std::bit_cast<float>(mid)) >= b) hi = mid;
+        else lo = mid + 1;
+      }
+      threshold[b] = std::bit_cast<float>(lo);
+    }
+    threshold[256] = std::numeric_limits<float>::infinity();
+    int b = 0;
+    for (uint32_t k = 0; k < kBuckets; ++k) {
+      const float start = std::bit_cast<float>(k << kShift), last = std::bit_cast<float>(((k + 1) << kShift) - 1);
+      while (b < 255 && start >= threshold[b + 1]) ++b;
+      first[k] = static_cast<uint8_t>(b);
+      if (b < 254 && last >= threshold[b + 2]) throw std::logic_error("a preview bucket spans two byte steps");
+    }
+  }
+};
+
+const PreviewByteTable& PreviewTable() {
+  static const PreviewByteTable table;
+  return table;
+}
+
+unsigned char TablePreviewByte(const PreviewByteTable& t, float linear) {
+  if (!(linear > 0.0f) || !std::isfinite(linear)) return 0;  // negative, zero, NaN and infinities
+  if (linear >= 1.0f) return 255;
+  const int b = t.first[std::bit_cast<uint32_t>(linear) >> PreviewByteTable::kShift];
+  return static_cast<unsigned char>(b + (linear >= t.threshold[b + 1] ? 1 : 0));
+}
+
 }  // namespace
+
+unsigned char PreviewByte(float linear) { return TablePreviewByte(PreviewTable(), linear); }
 
 void SetExrThreads(int threads) { Imf::setGlobalThreadCount(std::max(0, threads)); }
 
-void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
+const char* ExrCompressionName(ExrCompression c) {
+  switch (c) {
+    case ExrCompression::kNone: return "none";
+    case ExrCompression::kRle: return "rle";
+    case ExrCompression::kZip: return "zip";
+  }
+  return "none";
+}
+
+std::optional<ExrCompression> ParseExrCompression(const std::string& name) {
+  for (ExrCompression c : {ExrCompression::kNone, ExrCompression::kRle, ExrCompression::kZip})
+    if (name == ExrCompressionName(c)) return c;
+  return std::nullopt;
+}
+
+void WriteFrameExr(const std::string& path, const FrameLayers& layers, ExrCompression compression) {
   const ImageRgb& est = *layers.estimate;
   const int w = est.width, h = est.height;
   const GBuffer& g = *layers.gbuffer;
   Imf::Header header(w, h);
-  // Run-length: noisy float radiance barely deflates (zip at level 1 kept 56 % of the bytes, run-length keeps 63 %,
-  // both mostly by the flat G-buffer, background and flag channels), and on README command 1 the EXRs' deflate
-  // was the largest cost after the passes and the reference (issue 16: 304 s with zip, budget 300 s).
-  header.compression() = Imf::RLE_COMPRESSION;
+  // Stored by default: noisy float radiance barely compresses (run-length keeps 63% of the bytes, zip at level 1
+  // 56%, both mostly by the flat G-buffer, background and flag channels), and on README command 1 OpenEXR's
+  // run-length coding was 5% of the run's CPU (issue 16: the run must fit in five minutes), zip more.
+  header.compression() = compression == ExrCompression::kRle   ? Imf::RLE_COMPRESSION
+                         : compression == ExrCompression::kZip ? Imf::ZIP_COMPRESSION
+                                                               : Imf::NO_COMPRESSION;
   Imf::FrameBuffer fb;
   AddRgbLayer(header, fb, "", est);
   ImageRgb error;
@@ -112,8 +188,8 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers) {
   StringOStream stream(channels * est.Size() * sizeof(float) + size_t{16} * static_cast<size_t>(h) +
                        (size_t{64} << 10));
   {
-    // ZIP compresses 16-line chunks independently; OpenEXR's own pool (SetExrThreads) compresses them in
-    // parallel, with the same bytes whatever the thread count.
+    // Chunks are compressed independently; OpenEXR's own pool (SetExrThreads) compresses them in parallel, with
+    // the same bytes whatever the thread count.
     Imf::OutputFile file(stream, header, Imf::globalThreadCount());
     file.setFrameBuffer(fb);
     file.writePixels(h);
@@ -158,10 +234,10 @@ float PreviewExposure(const ImageRgb& exposureSource) {
 
 std::vector<unsigned char> TonemapPreview(const ImageRgb& img, float exposure) {
   std::vector<unsigned char> rgb(img.Size() * 3);
+  const PreviewByteTable& table = PreviewTable();
   for (size_t i = 0; i < img.Size(); ++i) {
     const Vec3 v = img.pixels[i] * exposure;
-    for (int c = 0; c < 3; ++c)
-      rgb[i * 3 + c] = static_cast<unsigned char>(std::lround(255.0f * SrgbEncode(std::isfinite(v[c]) ? v[c] : 0.0f)));
+    for (int c = 0; c < 3; ++c) rgb[i * 3 + c] = TablePreviewByte(table, v[c]);
   }
   return rgb;
 }

@@ -79,7 +79,8 @@ struct PresetImages {
 
 // One preset's frame files, on the background writer: the EXR (sim/frame_writer.h's layers) and the PNG preview,
 // whose exposure and reference panel the frame's first job makes for all of them.
-void WritePresetFiles(const std::string& stem, const PresetImages& images, const FrameImageInputs& frame) {
+void WritePresetFiles(const std::string& stem, const PresetImages& images, const FrameImageInputs& frame,
+                      ExrCompression compression) {
   FrameLayers layers;
   layers.estimate = &images.estimate;
   layers.reference = frame.hasReference ? &frame.reference : nullptr;
@@ -88,7 +89,7 @@ void WritePresetFiles(const std::string& stem, const PresetImages& images, const
   layers.flip = frame.hasReference ? &images.flip : nullptr;
   layers.ensembleBias = images.ensembleBias.Size() ? &images.ensembleBias : nullptr;
   layers.ensembleVariance = images.ensembleVariance.Size() ? &images.ensembleVariance : nullptr;
-  WriteFrameExr(stem + ".exr", layers);
+  WriteFrameExr(stem + ".exr", layers, compression);
   if (!frame.hasReference) return WritePreviewPng(stem + ".png", images.estimate, nullptr);
   std::call_once(frame.previewOnce, [&] {
     frame.exposure = PreviewExposure(frame.reference);
@@ -360,6 +361,7 @@ RunResult Run(const RunOptions& opt) {
       {"simd", ActiveSimdTargetName()},
       {"embreeIsa", EmbreeIsaName(ActiveEmbreeIsa())},
       {"threads", threads},
+      {"exrCompression", opt.writeImages ? nlohmann::json(ExrCompressionName(opt.exrCompression)) : nullptr},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"targetRelativeError", refParams.targetRelativeError},
                                                     {"cacheDir", refParams.cacheDir}}
@@ -495,8 +497,8 @@ RunResult Run(const RunOptions& opt) {
         // works while the next preset renders.
         auto images = std::make_shared<const PresetImages>(PresetImages{
             pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
-        imageWriter->Submit([stem, images, frameInputs = imageInputs] {
-          WritePresetFiles(stem.string(), *images, *frameInputs);
+        imageWriter->Submit([stem, images, frameInputs = imageInputs, compression = opt.exrCompression] {
+          WritePresetFiles(stem.string(), *images, *frameInputs, compression);
         });
       }
     }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/frame_writer.h"
 #include "sim/metrics.h"
 
 namespace restir {
@@ -26,6 +27,7 @@ struct RunOptions {
   std::string outDir = "out";            // where frames, metrics.csv and run.json go
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
   bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
+  ExrCompression exrCompression = ExrCompression::kNone;  // how the EXRs store their channels (same pixels)
   bool progress = true;                  // progress line on stderr when stderr is a terminal
   bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
   // Seconds of work between checkpoints (after the first frame's, which is always written); 0: every frame. A

@@ -48,6 +48,16 @@ void ForEachBatch(int width, int height, F&& f) {
   });
 }
 
+// Starts loading the G-buffer lines of pixel p that the similarity test and the target kernel read, for a pixel
+// picked at random (a neighbour, a cell's draw), so that the misses overlap instead of stalling one at a time.
+inline void PrefetchSurface(const GBuffer& g, size_t p) {
+  for (const auto* a : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth})
+    __builtin_prefetch(a->data() + p);
+  __builtin_prefetch(g.objectId.data() + p);
+  __builtin_prefetch(g.materialId.data() + p);
+  __builtin_prefetch(g.bsdfId.data() + p);
+}
+
 // The frame a combination's domain lives in: its G-buffer, camera, light list and scene (DESIGN §4 "p̂ from i").
 struct DomainFrame {
   const GBuffer* gbuffer = nullptr;

@@ -53,17 +53,13 @@ void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const
         Sampler s(SpatialRngKey(view, i, iteration));
         for (int t = 0; t < k; ++t) {
           const float u0 = s.Next(), u1 = s.Next();
-          const Vec2 d = SampleUniformDiskPolar(params.radius, u0, u1);
-          const int nx = x + static_cast<int>(std::lround(d.x));
-          const int ny = y + static_cast<int>(std::lround(d.y));
+          const PixelOffset d = RoundedDiskOffset(params.radius, u0, u1);
+          const int nx = x + d.dx, ny = y + d.dy;
           int32_t& ni = neighbour[x - x0][t];
           ni = -1;
           if (nx < 0 || ny < 0 || nx >= w || ny >= h || (nx == x && ny == y)) continue;
           ni = ny * w + nx;
-          for (const auto* a : {&g.posX, &g.posY, &g.posZ, &g.ngX, &g.ngY, &g.ngZ, &g.nsX, &g.nsY, &g.nsZ, &g.depth})
-            __builtin_prefetch(a->data() + ni);
-          __builtin_prefetch(g.objectId.data() + ni);
-          __builtin_prefetch(g.bsdfId.data() + ni);
+          PrefetchSurface(g, static_cast<size_t>(ni));
           __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni));
           __builtin_prefetch(reinterpret_cast<const char*>(input.data() + ni) + sizeof(StoredReservoir) - 1);
         }

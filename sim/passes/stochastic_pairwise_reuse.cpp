@@ -214,10 +214,9 @@ void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibi
         float radius = sp.cellSearchRadius;
         for (int it = 0; it < iterations; ++it, radius *= sp.cellSearchGrowth) {
           const float u0 = s.Next(), u1 = s.Next();
-          const Vec2 d = SampleUniformDiskPolar(radius, u0, u1);
+          const PixelOffset d = RoundedDiskOffset(radius, u0, u1);
           pick[it] = s.Next();
-          const int qx = x + static_cast<int>(std::lround(d.x));
-          const int qy = y + static_cast<int>(std::lround(d.y));
+          const int qx = x + d.dx, qy = y + d.dy;
           q[it] = qx < 0 || qy < 0 || qx >= w || qy >= h ? -1 : qy * w + qx;
           if (q[it] >= 0) __builtin_prefetch(grid.pixelCell.data() + q[it]);
         }
@@ -252,6 +251,9 @@ void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibi
         // The search used the first three dimensions of each iteration.
         Sampler s(SpatialRngKey(view, i, iteration), 3u * static_cast<uint32_t>(iterations));
         if (!Draw(sp, grid, i, sc.chosenCell[x - x0], input, s, c, draws[count])) continue;
+        // The second Resolve evaluates targets at the drawn pixels' surfaces: start loading them now.
+        for (int t = 1; t < c.count; ++t) PrefetchSurface(g, c.domainPixel[t]);
+        for (int j = 0; j < draws[count].distinct; ++j) PrefetchSurface(g, draws[count].drawnPixel[j]);
         // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
         if (carryVisibility)
           for (int t = 1; t < c.count; ++t)

@@ -96,10 +96,9 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       c.u[1] = UniformFloat(key, 1);
       // Fused spatiotemporal: previous-frame neighbours of the reprojected pixel, each its own input and domain.
       for (int t = 0; t < params.fusedNeighbours; ++t) {
-        const Vec2 d = SampleUniformDiskPolar(params.fusedRadius, UniformFloat(key, 32u + 2u * t),
-                                              UniformFloat(key, 33u + 2u * t));
-        const int qx = static_cast<int>(pi % w) + static_cast<int>(std::lround(d.x));
-        const int qy = static_cast<int>(pi / w) + static_cast<int>(std::lround(d.y));
+        const PixelOffset d =
+            RoundedDiskOffset(params.fusedRadius, UniformFloat(key, 32u + 2u * t), UniformFloat(key, 33u + 2u * t));
+        const int qx = static_cast<int>(pi % w) + d.dx, qy = static_cast<int>(pi / w) + d.dy;
         if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
         const size_t qi = static_cast<size_t>(qy) * w + qx;
         if (qi == pi || !pg.IsSurface(qi) || pg.objectId[qi] != g.objectId[i] ||

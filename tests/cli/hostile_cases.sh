@@ -274,6 +274,7 @@ expect2 6.10 "--seed -1" run sequences/smoke.json --seed -1 --out "$W/cl"
 expect2 6.11 "--reference-spp 1e9" run sequences/smoke.json --reference-spp 1e9 --out "$W/cl"
 expect2 6.12 "--ensemble 0" run sequences/smoke.json --ensemble 0 --out "$W/cl"
 expect2 6.13 "--max-memory -5G" run sequences/smoke.json --max-memory -5G --out "$W/cl"
+expect2 6.19 "--exr-compression piz" run sequences/smoke.json --exr-compression piz --out "$W/cl"
 printf '{"sequence": "%s/sequences/smoke.json", "resolution": [8, 8], "frames": [0, 1], "referenceSpp": 16, "presets": ["ris"]}\n' \
   "$PWD" >"$W/tiny_sweep.json"
 expect2 6.14 "sweep --threads -3" sweep "$W/tiny_sweep.json" --threads -3 --out "$W/cl"

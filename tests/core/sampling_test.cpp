@@ -3,12 +3,15 @@
 // 1 to 600 entries with zero steps, plateaus and twelve decades of step sizes, at random uniforms and at the
 // cdf's own boundaries; CdfPmf against the measure of the uniforms SampleCdf maps to each index;
 // RobertsCoordinate against the same fixed-point sum in 64-bit integers, and the sequence's generators against
-// an independent root of its polynomial.
+// an independent root of its polynomial; RoundedDiskOffset against its definition (the polar point, std::cos and
+// std::sin, std::lround) at random points and at points built to sit on a rounding boundary.
 #include "core/sampling.h"
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -143,6 +146,69 @@ TEST(RobertsSequence, GeneratorsArePowersOfTheGeneralisedGoldenRatio) {
   check(RobertsSequence<5>(), 5);
   check(RobertsSequence<7>(), 7);
   EXPECT_EQ(RobertsSequence<1>().alpha[0], 2654435769u);  // 2^32 / φ, the golden ratio's well-known word
+}
+
+// The definition the spatial passes had inlined: the polar point, each coordinate rounded half away from zero.
+PixelOffset DefinedDiskOffset(float radius, float u0, float u1) {
+  const float r = radius * std::sqrt(u0);
+  const float phi = 2.0f * kPi * u1;
+  return {static_cast<int>(std::lround(r * std::cos(phi))), static_cast<int>(std::lround(r * std::sin(phi)))};
+}
+
+// The premise of the fast path: SinCos2Pi(u) within 1e-6 of libm's cosf and sinf of the float 2πu, a quarter of
+// the margin RoundedDiskOffset allows per unit of radius.
+TEST(RoundedDiskOffset, SinCos2PiStaysWithinAQuarterOfTheMarginOfLibm) {
+  float worst = 0.0f;
+  for (uint32_t bits = 0; bits < std::bit_cast<uint32_t>(1.0f); bits += 331) {
+    const float u = std::bit_cast<float>(bits), phi = 2.0f * kPi * u;
+    float s, c;
+    SinCos2Pi(u, s, c);
+    worst = std::max({worst, std::abs(s - std::sin(phi)), std::abs(c - std::cos(phi))});
+  }
+  EXPECT_LT(worst, 1e-6f);
+}
+
+TEST(RoundedDiskOffset, EqualsTheRoundedPolarPointAtRandomPoints) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (float radius : {0.0f, 0.5f, 1.0f, 2.5f, 30.0f, 64.0f, 350.0f, 3000.0f, 2e4f}) {
+    for (int k = 0; k < 400000; ++k) {
+      const float u0 = u(rng), u1 = u(rng);
+      ASSERT_EQ(RoundedDiskOffset(radius, u0, u1), DefinedDiskOffset(radius, u0, u1))
+          << "radius " << radius << " u0 " << u0 << " u1 " << u1;
+    }
+    for (float u0 : {0.0f, 1.0f, 0.25f})
+      for (float u1 : {0.0f, 0.125f, 0.25f, 0.5f, 0.75f, std::nextafter(1.0f, 0.0f)})
+        ASSERT_EQ(RoundedDiskOffset(radius, u0, u1), DefinedDiskOffset(radius, u0, u1)) << radius << " " << u1;
+  }
+}
+
+// Points whose x or y coordinate lands within a few ulps of a half-integer, where the fast path must give way:
+// u0 chosen so that r |cos φ| (or r |sin φ|) is k + 1/2, then every float of u0 within 48 ulps of it.
+TEST(RoundedDiskOffset, EqualsTheRoundedPolarPointOnRoundingBoundaries) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int compared = 0;
+  for (float radius : {1.0f, 3.0f, 30.0f, 350.0f}) {
+    for (int trial = 0; trial < 3000; ++trial) {
+      const float u1 = u(rng);
+      const double phi = 2.0 * 3.14159265358979323846 * double(u1);
+      const double along = trial % 2 ? std::abs(std::cos(phi)) : std::abs(std::sin(phi));
+      const int maxK = static_cast<int>(radius * along - 0.5);
+      if (maxK < 0 || along < 1e-3) continue;
+      const double target = (static_cast<int>(u(rng) * float(maxK + 1)) + 0.5) / (double(radius) * along);
+      const float u0 = static_cast<float>(target * target);
+      if (!(u0 <= 1.0f)) continue;
+      for (int d = -48; d <= 48; ++d) {
+        const float v = std::bit_cast<float>(static_cast<uint32_t>(int64_t(std::bit_cast<uint32_t>(u0)) + d));
+        if (!(v >= 0.0f && v <= 1.0f)) continue;
+        ASSERT_EQ(RoundedDiskOffset(radius, v, u1), DefinedDiskOffset(radius, v, u1))
+            << "radius " << radius << " u0 " << v << " u1 " << u1;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 400000);
 }
 
 }  // namespace
