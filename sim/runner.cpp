@@ -207,7 +207,9 @@ struct RunState {
 // The checkpoint (--resume) is keyed by the configuration: run.json without the fields that do not change the
 // results, so a different run never resumes from it.
 std::string ConfigurationKey(nlohmann::json runJson) {
-  for (const char* volatileField : {"commandLine", "status", "threads", "simd", "wallSeconds", "referenceThroughput"})
+  // exrCompression changes the EXRs' bytes, never their pixels, like the thread count their timing.
+  for (const char* volatileField :
+       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput"})
     runJson.erase(volatileField);
   return runJson.dump();
 }

@@ -251,6 +251,33 @@ TEST(Run, ExrReadableByExrheaderAndOiiotool) {
   EXPECT_NE(t.str().find("normal.Z"), std::string::npos) << t.str();
 }
 
+// --exr-compression reaches the files (OpenEXR's exrheader names it) and run.json; it is not part of what a
+// --resume must match, since the pixels are the same whichever is chosen.
+TEST(Run, ExrCompressionReachesTheFilesAndRunJsonButNotTheResumeKey) {
+  for (ExrCompression c : {ExrCompression::kRle, ExrCompression::kNone}) {
+    const std::string out = TempOut(std::string("restir-run-exr-") + ExrCompressionName(c));
+    RunOptions o = SmokeOptions(out);
+    o.frameEnd = 1;
+    o.reference = false;
+    o.exrCompression = c;
+    restir::Run(o);
+    const std::string cmd = "exrheader " + out + "/frames/ris/0000.exr > " + out + "/hdr.txt 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::ifstream f(out + "/hdr.txt");
+    std::stringstream s;
+    s << f.rdbuf();
+    const char* expected = c == ExrCompression::kRle ? "compression (type compression): run-length encoding"
+                                                     : "compression (type compression): none";
+    EXPECT_NE(s.str().find(expected), std::string::npos) << s.str();
+    std::ifstream j(out + "/run.json");
+    EXPECT_EQ(nlohmann::json::parse(j).at("exrCompression"), ExrCompressionName(c));
+    RunOptions again = o;
+    again.resume = true;
+    again.exrCompression = c == ExrCompression::kRle ? ExrCompression::kNone : ExrCompression::kRle;
+    EXPECT_TRUE(restir::Run(again).alreadyComplete);
+  }
+}
+
 // The run removes only what it made: a killed run's private area of temporaries (its lock free) goes, a user's
 // files go nowhere, whatever they are called (the old cleanup matched *.tmp<digits>* and took thesis.tmp2024.tex).
 TEST(Run, RemovesItsOwnStaleTemporariesAndNothingOfTheUsers) {
