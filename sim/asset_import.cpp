@@ -104,25 +104,118 @@ TextureWrap WrapOf(int gl) {
   return gl == 33071 ? TextureWrap::kClampToEdge : gl == 33648 ? TextureWrap::kMirroredRepeat : TextureWrap::kRepeat;
 }
 
+// The JSON chunk of a GLB file, after checking its framing as the glTF 2.0 specification defines it ("GLB File
+// Format"): a 12-byte header (magic "glTF", version 2, the file's total length), then chunks of (length, type,
+// data), the first of type JSON, each within the file. Each way a file can break this gets its own message, so a
+// cut-short download reads as one and not as a file of another kind.
+std::string_view GlbJsonChunk(const std::string& bytes, const std::string& path) {
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return v;
+  };
+  const std::string size = std::to_string(bytes.size());
+  if (bytes.size() < 4 || bytes.compare(0, 4, "glTF") != 0) Fail(path, "not a binary glTF file (no 'glTF' magic)");
+  if (bytes.size() < 12) Fail(path, "the binary glTF is cut short in its 12-byte header (the file has " + size + " bytes)");
+  if (u32(4) != 2) Fail(path, "the binary glTF has version " + std::to_string(u32(4)) + " (only glTF 2.0 is read)");
+  const uint64_t total = u32(8);
+  if (total != bytes.size())
+    Fail(path, "the binary glTF's header gives its length as " + std::to_string(total) + " bytes but the file has " +
+                   size + (total > bytes.size() ? " (the file is cut short)" : ""));
+  if (bytes.size() < 20) Fail(path, "the binary glTF has no chunk after its header (the file has " + size + " bytes)");
+  const uint64_t length = u32(12);
+  if (u32(16) != 0x4E4F534Au) Fail(path, "the binary glTF's first chunk is not of type JSON");
+  if (length > bytes.size() - 20)
+    Fail(path, "the binary glTF's JSON chunk is " + std::to_string(length) + " bytes long and runs past the end of " +
+                   "the file (" + std::to_string(bytes.size() - 20) + " bytes follow its chunk header)");
+  // Every further chunk (the BIN chunk, and any of an unknown type, which readers skip) lies within the file too.
+  for (uint64_t at = 20 + length; at < bytes.size();) {
+    if (bytes.size() - at < 8)
+      Fail(path, "the binary glTF is cut short in a chunk header at byte " + std::to_string(at));
+    const uint64_t n = u32(static_cast<size_t>(at));
+    if (n > bytes.size() - at - 8)
+      Fail(path, "the binary glTF's chunk at byte " + std::to_string(at) + " is " + std::to_string(n) +
+                     " bytes long and runs past the end of the file");
+    at += 8 + n;
+  }
+  return std::string_view(bytes).substr(20, static_cast<size_t>(length));
+}
+
+// What Assimp 5.2 reads leniently and the glTF 2.0 schema forbids (glTF 2.0 sections 5.19 material, 5.20
+// pbrMetallicRoughness, 5.25 node; KHR_materials_emissive_strength): a string or null where a number belongs, which
+// Assimp reads as 0 or as the default (a scale of ["nan", 1, 1] makes the mesh vanish), and factors outside the
+// schema's ranges, which Assimp clamps or passes through. Both are refused, as Khronos' validator reports them as
+// errors, naming the JSON path inside the asset: an artist's file that is wrong should say so, not render as
+// something else.
+void CheckGltfNumbers(const nlohmann::json& doc, const std::string& path) {
+  using Json = nlohmann::json;
+  // A number array at o[key] of `size` elements, each finite and in [lo, hi]; absent is fine.
+  auto numbers = [&](const Json& o, const char* key, const std::string& where, size_t size, double lo, double hi) {
+    if (!o.is_object() || !o.contains(key)) return;
+    const Json& v = o[key];
+    const std::string at = where + "/" + key;
+    if (size == 1) {
+      if (!v.is_number()) Fail(path, at + " must be a number (glTF 2.0 schema), not " + v.dump());
+      const double x = v.get<double>();
+      if (!(x >= lo && x <= hi))
+        Fail(path, at + " is " + v.dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
+                       (std::isinf(hi) ? std::string("inf") : Json(hi).dump()) + "]");
+      return;
+    }
+    if (!v.is_array() || v.size() != size)
+      Fail(path, at + " must be an array of " + std::to_string(size) + " numbers (glTF 2.0 schema)");
+    for (size_t k = 0; k < size; ++k) {
+      const std::string e = at + "/" + std::to_string(k);
+      if (!v[k].is_number()) Fail(path, e + " must be a number (glTF 2.0 schema), not " + v[k].dump());
+      const double x = v[k].get<double>();
+      if (!(x >= lo && x <= hi))
+        Fail(path, e + " is " + v[k].dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
+                       (std::isinf(hi) ? std::string("inf") : Json(hi).dump()) + "]");
+    }
+  };
+  constexpr double kAny = std::numeric_limits<double>::max();
+  if (doc.contains("materials") && doc["materials"].is_array()) {
+    const Json& materials = doc["materials"];
+    for (size_t m = 0; m < materials.size(); ++m) {
+      const Json& mat = materials[m];
+      const std::string at = "/materials/" + std::to_string(m);
+      numbers(mat, "emissiveFactor", at, 3, 0.0, 1.0);
+      if (mat.is_object() && mat.contains("pbrMetallicRoughness")) {
+        const Json& pbr = mat["pbrMetallicRoughness"];
+        const std::string p = at + "/pbrMetallicRoughness";
+        numbers(pbr, "baseColorFactor", p, 4, 0.0, 1.0);
+        numbers(pbr, "metallicFactor", p, 1, 0.0, 1.0);
+        numbers(pbr, "roughnessFactor", p, 1, 0.0, 1.0);
+      }
+      if (mat.is_object() && mat.contains("extensions") && mat["extensions"].is_object() &&
+          mat["extensions"].contains("KHR_materials_emissive_strength"))
+        numbers(mat["extensions"]["KHR_materials_emissive_strength"], "emissiveStrength",
+                at + "/extensions/KHR_materials_emissive_strength", 1, 0.0, kAny);
+    }
+  }
+  if (doc.contains("nodes") && doc["nodes"].is_array()) {
+    const Json& nodes = doc["nodes"];
+    for (size_t n = 0; n < nodes.size(); ++n) {
+      const std::string at = "/nodes/" + std::to_string(n);
+      numbers(nodes[n], "translation", at, 3, -kAny, kAny);
+      numbers(nodes[n], "rotation", at, 4, -1.0, 1.0);
+      numbers(nodes[n], "scale", at, 3, -kAny, kAny);
+      numbers(nodes[n], "matrix", at, 16, -kAny, kAny);
+    }
+  }
+}
+
 // `bytes` is the file at `path` (read once by the caller, which Assimp then reads again itself).
 std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const std::string& path, bool binary) {
   std::string_view json = bytes;
   if (binary) {
-    // GLB header: magic, version, length; then chunk 0: length, type "JSON", data (glTF 2.0 spec, "GLB File Format").
-    auto u32 = [&](size_t at) {
-      uint32_t v = 0;
-      std::memcpy(&v, bytes.data() + at, 4);
-      return v;
-    };
-    if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0) Fail(path, "not a binary glTF file (no 'glTF' header)");
-    const uint32_t chunk = u32(12);
-    if (u32(16) != 0x4E4F534Au || chunk > bytes.size() - 20) Fail(path, "the binary glTF's first chunk is not its JSON");
-    json = std::string_view(bytes).substr(20, chunk);
+    json = GlbJsonChunk(bytes, path);
   }
   using Json = nlohmann::json;
   std::vector<GltfMaterialKey> keys;
   const Json doc = Json::parse(json.begin(), json.end(), nullptr, false);
   if (!doc.is_object()) return keys;  // Assimp will say what is wrong with it
+  CheckGltfNumbers(doc, path);
   const auto materials = doc.find("materials");
   if (materials == doc.end() || !materials->is_array()) return keys;
   auto number = [](const Json& o, const char* k, float fallback) {

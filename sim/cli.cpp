@@ -6,6 +6,8 @@
 #include <charconv>
 #include <cstdio>
 #include <optional>
+#include <thread>
+#include <algorithm>
 #include <string_view>
 #include <iostream>
 
@@ -92,6 +94,25 @@ void ParseMaxMemory(const std::string& text, RunOptions& opt) {
   opt.maxMemoryBytes = *bytes;
 }
 
+// --threads up to 4 × the hardware threads: past what the machine runs, more threads only cost memory and start-up,
+// and at several hundred the process runs out of threads or Embree cannot create its device (exit 1, an error that
+// does not name the option). `zero` is the smallest value allowed (sweep's 0 means every core).
+CLI::Validator ThreadLimit(int zero) {
+  const int limit = 4 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return CLI::Validator(
+      [zero, limit](std::string& v) {
+        int n = 0;
+        const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
+        if (ec != std::errc() || end != v.data() + v.size())
+          return std::string("--threads takes a whole number, not '") + v + "'";
+        if (n < zero || n > limit)
+          return "--threads " + v + " is outside [" + std::to_string(zero) + ", " + std::to_string(limit) +
+                 "] (at most 4 x this machine's " + std::to_string(limit / 4) + " hardware threads)";
+        return std::string();
+      },
+      "THREADS");
+}
+
 }  // namespace
 
 int RunCommandLine(int argc, char** argv) {
@@ -118,7 +139,7 @@ int RunCommandLine(int argc, char** argv) {
   run->add_option("--frames", frames, "Frames A:B (A to B-1; either side may be empty)");
   run->add_option("--resolution", resolution, "Override the sequence's resolution, WxH");
   run->add_option("--threads", opt.threads, "Worker threads (default: every core); results do not depend on it")
-      ->check(CLI::Range(1, 1024));
+      ->check(ThreadLimit(1));
   run->add_option("--seed", seed, "Override the sequence's seed")->check(CLI::Range(int64_t{0}, int64_t{4294967295}));
   // CLI::Range lets NaN through (every comparison with it is false).
   const CLI::Validator kFinite(
@@ -214,9 +235,11 @@ int RunCommandLine(int argc, char** argv) {
       ->capture_default_str();
   sweep->add_option("--embree-isa", embreeIsaName, "Embree's ISA, as for run")->capture_default_str();
   sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")
-      ->check(CLI::Range(0, 1024))
+      ->check(ThreadLimit(0))
       ->capture_default_str();
-  CLI::Option* planOpt = sweep->add_flag("--plan", sweepPlan, "Print the jobs, one per line, and run nothing");
+  CLI::Option* planOpt = sweep->add_flag("--plan", sweepPlan, "Print the jobs, one per line, and run nothing (a job's index "
+                                                     "is what a Slurm array task passes to --job: "
+                                                     "$SLURM_ARRAY_TASK_ID; docs/cluster.md)");
   sweep->add_flag("--missing", sweepMissing, "With --plan: only the jobs without a complete result in OUT")
       ->needs(planOpt);
   sweep->add_option("--format", sweepFormat,
@@ -260,7 +283,12 @@ int RunCommandLine(int argc, char** argv) {
       }
       const TemporaryRoot temporaries(sweepOut);
       CheckWritableDirectory(sweepOut, "output directory");
-      if (!sweepJob.empty()) {
+      if (jobOpt->count() > 0) {
+        // An empty id is an unset variable in a job script (SLURM_ARRAY_TASK_ID outside an array): running the
+        // whole study in its place would put every task's work in one directory.
+        if (sweepJob.empty())
+          throw InputError(sweepPath + ": error: --job was given an empty id (an array task passes its index, "
+                           "0 to the plan's job count - 1, or an id from --plan)");
         const std::vector<SweepJob> jobs = PlanSweep(spec);
         const SweepJob& job = FindSweepJob(spec, jobs, sweepJob);
         std::fprintf(stderr, "sweep: job %zu/%zu %s\n", job.index + 1, jobs.size(), job.id.c_str());
