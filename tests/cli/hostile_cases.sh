@@ -278,6 +278,9 @@ expect2 6.19 "--exr-compression piz" run sequences/smoke.json --exr-compression 
 printf '{"sequence": "%s/sequences/smoke.json", "resolution": [8, 8], "frames": [0, 1], "referenceSpp": 16, "presets": ["ris"]}\n' \
   "$PWD" >"$W/tiny_sweep.json"
 expect2 6.14 "sweep --threads -3" sweep "$W/tiny_sweep.json" --threads -3 --out "$W/cl"
+expect2 6.20 "--threads 1024" run sequences/smoke.json --threads 1024 --out "$W/cl"
+expect2 6.21 "sweep --job ''" sweep "$W/tiny_sweep.json" --job "" --out "$W/cl"
+expect2 6.22 "sweep --job 99" sweep "$W/tiny_sweep.json" --job 99 --out "$W/cl"
 # 2^64 combinations: seven settings with 256 valid values each, two with 8 and one with 4; a product that wraps at
 # 2^64 comes out as 0.
 axis() { printf '"%s": [%s]' "$1" "$(seq -s, "$2" "$3" "$4")"; }
