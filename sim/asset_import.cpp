@@ -116,7 +116,8 @@ std::string_view GlbJsonChunk(const std::string& bytes, const std::string& path)
   };
   const std::string size = std::to_string(bytes.size());
   if (bytes.size() < 4 || bytes.compare(0, 4, "glTF") != 0) Fail(path, "not a binary glTF file (no 'glTF' magic)");
-  if (bytes.size() < 12) Fail(path, "the binary glTF is cut short in its 12-byte header (the file has " + size + " bytes)");
+  if (bytes.size() < 12)
+    Fail(path, "the binary glTF is cut short in its 12-byte header (the file has " + size + " bytes)");
   if (u32(4) != 2) Fail(path, "the binary glTF has version " + std::to_string(u32(4)) + " (only glTF 2.0 is read)");
   const uint64_t total = u32(8);
   if (total != bytes.size())
@@ -149,28 +150,21 @@ std::string_view GlbJsonChunk(const std::string& bytes, const std::string& path)
 // something else.
 void CheckGltfNumbers(const nlohmann::json& doc, const std::string& path) {
   using Json = nlohmann::json;
-  // A number array at o[key] of `size` elements, each finite and in [lo, hi]; absent is fine.
+  // A number array at o[key] of `size` elements (a bare number where `size` is 1), each finite and in [lo, hi];
+  // absent is fine.
   auto numbers = [&](const Json& o, const char* key, const std::string& where, size_t size, double lo, double hi) {
     if (!o.is_object() || !o.contains(key)) return;
     const Json& v = o[key];
     const std::string at = where + "/" + key;
-    if (size == 1) {
-      if (!v.is_number()) Fail(path, at + " must be a number (glTF 2.0 schema), not " + v.dump());
-      const double x = v.get<double>();
-      if (!(x >= lo && x <= hi))
-        Fail(path, at + " is " + v.dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
-                       (std::isinf(hi) ? std::string("inf") : Json(hi).dump()) + "]");
-      return;
-    }
-    if (!v.is_array() || v.size() != size)
+    if (size > 1 && (!v.is_array() || v.size() != size))
       Fail(path, at + " must be an array of " + std::to_string(size) + " numbers (glTF 2.0 schema)");
     for (size_t k = 0; k < size; ++k) {
-      const std::string e = at + "/" + std::to_string(k);
-      if (!v[k].is_number()) Fail(path, e + " must be a number (glTF 2.0 schema), not " + v[k].dump());
-      const double x = v[k].get<double>();
-      if (!(x >= lo && x <= hi))
-        Fail(path, e + " is " + v[k].dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
-                       (std::isinf(hi) ? std::string("inf") : Json(hi).dump()) + "]");
+      const Json& x = size > 1 ? v[k] : v;
+      const std::string e = size > 1 ? at + "/" + std::to_string(k) : at;
+      if (!x.is_number()) Fail(path, e + " must be a number (glTF 2.0 schema), not " + x.dump());
+      if (!(x.get<double>() >= lo && x.get<double>() <= hi))
+        Fail(path, e + " is " + x.dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
+                       (hi == std::numeric_limits<double>::max() ? std::string("inf") : Json(hi).dump()) + "]");
     }
   };
   constexpr double kAny = std::numeric_limits<double>::max();

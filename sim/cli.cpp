@@ -1,13 +1,13 @@
 #include "sim/cli.h"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <charconv>
 #include <cstdio>
 #include <optional>
 #include <thread>
-#include <algorithm>
 #include <string_view>
 #include <iostream>
 
@@ -104,9 +104,9 @@ CLI::Validator ThreadLimit(int zero) {
         int n = 0;
         const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
         if (ec != std::errc() || end != v.data() + v.size())
-          return std::string("--threads takes a whole number, not '") + v + "'";
+          return std::string("a whole number is needed, not '") + v + "'";
         if (n < zero || n > limit)
-          return "--threads " + v + " is outside [" + std::to_string(zero) + ", " + std::to_string(limit) +
+          return v + " is outside [" + std::to_string(zero) + ", " + std::to_string(limit) +
                  "] (at most 4 x this machine's " + std::to_string(limit / 4) + " hardware threads)";
         return std::string();
       },
@@ -237,9 +237,9 @@ int RunCommandLine(int argc, char** argv) {
   sweep->add_option("--threads", sweepThreads, "Worker threads (0: every core)")
       ->check(ThreadLimit(0))
       ->capture_default_str();
-  CLI::Option* planOpt = sweep->add_flag("--plan", sweepPlan, "Print the jobs, one per line, and run nothing (a job's index "
-                                                     "is what a Slurm array task passes to --job: "
-                                                     "$SLURM_ARRAY_TASK_ID; docs/cluster.md)");
+  CLI::Option* planOpt = sweep->add_flag("--plan", sweepPlan,
+                                         "Print the jobs, one per line, and run nothing (a Slurm array task passes "
+                                         "its job's index to --job: $SLURM_ARRAY_TASK_ID; docs/cluster.md)");
   sweep->add_flag("--missing", sweepMissing, "With --plan: only the jobs without a complete result in OUT")
       ->needs(planOpt);
   sweep->add_option("--format", sweepFormat,
@@ -283,12 +283,8 @@ int RunCommandLine(int argc, char** argv) {
       }
       const TemporaryRoot temporaries(sweepOut);
       CheckWritableDirectory(sweepOut, "output directory");
+      // Given, not non-empty: an empty id (an unset variable in a job script) is FindSweepJob's to refuse.
       if (jobOpt->count() > 0) {
-        // An empty id is an unset variable in a job script (SLURM_ARRAY_TASK_ID outside an array): running the
-        // whole study in its place would put every task's work in one directory.
-        if (sweepJob.empty())
-          throw InputError(sweepPath + ": error: --job was given an empty id (an array task passes its index, "
-                           "0 to the plan's job count - 1, or an id from --plan)");
         const std::vector<SweepJob> jobs = PlanSweep(spec);
         const SweepJob& job = FindSweepJob(spec, jobs, sweepJob);
         std::fprintf(stderr, "sweep: job %zu/%zu %s\n", job.index + 1, jobs.size(), job.id.c_str());

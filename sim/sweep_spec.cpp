@@ -280,6 +280,10 @@ std::vector<SweepJob> PlanSweep(const SweepSpec& spec) {
 }
 
 const SweepJob& FindSweepJob(const SweepSpec& spec, const std::vector<SweepJob>& jobs, const std::string& idOrIndex) {
+  // An unset array variable (SLURM_ARRAY_TASK_ID outside an array) must not run the whole study in its place.
+  if (idOrIndex.empty())
+    throw InputError(spec.path + ": error: --job was given an empty id (an array task passes its index, 0 to " +
+                     std::to_string(jobs.size() - 1) + ", or an id from --plan)");
   const bool number = !idOrIndex.empty() && idOrIndex.size() <= 9 &&
                       std::all_of(idOrIndex.begin(), idOrIndex.end(), [](char c) { return c >= '0' && c <= '9'; });
   if (number) {
