@@ -25,7 +25,7 @@ TEST(SequenceAssets, ZeroAreaEmitterIsSkippedCountedAndReported) {
   fs::create_directories(dir);
   const Vec3 good[3] = {Vec3(0, 2, 0), Vec3(1, 2, 0), Vec3(0, 2, 1)};
   std::ofstream(dir / "emitter.gltf") << test::MakeGltf(
-      {{"glow", Vec3(0.0f), Vec3(2.0f, 1.0f, 0.5f), -1.0f}},
+      {{"glow", Vec3(0.0f), Vec3(1.0f, 0.5f, 0.25f), 2.0f}},  // emissiveFactor within [0, 1], as glTF requires
       {{"panel", 0, {Vec3(0, 1, 0), Vec3(1, 1, 0), Vec3(2, 1, 0), good[0], good[1], good[2]}}});
   // No light of the sequence's own: the asset's emitter is its only light.
   std::ofstream(dir / "seq.json") << R"({
