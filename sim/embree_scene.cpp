@@ -509,7 +509,17 @@ EmitterHit EmbreeScene::FirstEmitter(const Vec3& org, const Vec3& dir, SceneFram
   const uint32_t objectOrLights = rh.instId == im.staticInstanceId ? rh.geomId : rh.instId;
   if (objectOrLights < static_cast<uint32_t>(im.objects.size()) || rh.primId >= im.lightNormals.size()) return out;
   out.lightId = static_cast<int32_t>(rh.primId);
-  out.t = rh.t;
+  // Embree's t divides by an approximate reciprocal (rcpps plus a Newton step), whose last bits differ between
+  // CPU vendors; the reference weighs this hit by t², so t is recomputed from the triangle in double to keep its
+  // bits one answer on every machine. A ray parallel to the plane keeps Embree's t.
+  double t = rh.t;
+  if (3 * size_t(rh.primId) + 2 < im.lightVertices.size()) {
+    glm::dvec3 p[3];
+    for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(im.lightVertices[3 * size_t(rh.primId) + k]);
+    double planeT = 0.0, u = 0.0, v = 0.0;
+    if (IntersectPlane(glm::dvec3(org), glm::dvec3(dir), p[0], p[1], p[2], planeT, u, v)) t = planeT;
+  }
+  out.t = static_cast<float>(t);
   out.frontFace = glm::dot(dir, im.lightNormals[rh.primId]) < 0.0f;
   return out;
 }

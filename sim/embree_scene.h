@@ -50,7 +50,7 @@ struct SurfaceHit {
 // The first thing a ray meets, where only an emitter matters (the reference's BSDF samples).
 struct EmitterHit {
   int32_t lightId = -1;    // index into the light-triangle list when the ray first meets an emitter, else -1
-  float t = 0.0f;          // Embree's distance to it along the unit direction
+  float t = 0.0f;          // distance to it along the unit direction, from the triangle in double
   bool frontFace = false;  // the ray met its emitting side
 };
 
