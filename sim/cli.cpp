@@ -353,6 +353,8 @@ int RunCommandLine(int argc, char** argv) {
         std::fprintf(stderr, "%s: this run is already complete (run.json); nothing to do\n", opt.outDir.c_str());
         return 0;
       }
+      if (r.resumedAtFrame >= 0)
+        std::fprintf(stderr, "resumed at frame %d from %s/checkpoint.bin\n", r.resumedAtFrame, opt.outDir.c_str());
       std::fprintf(stderr, "wrote %zu metric rows to %s/metrics.csv in %.1f s\n", r.rows.size(),
                    opt.outDir.c_str(), r.wallSeconds);
       return 0;

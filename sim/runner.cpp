@@ -20,6 +20,7 @@
 #include "sim/atomic_file.h"
 #include "sim/background_writer.h"
 #include "sim/checkpoint.h"
+#include "sim/output_manifest.h"
 #include "sim/clock.h"
 #include "sim/flip.h"
 #include "sim/input_file.h"
@@ -45,6 +46,7 @@ namespace {
 // arrays the EXR shows (disocclusion, depth, shading normal; the snapshot's other arrays stay empty).
 struct FrameImageInputs {
   bool hasReference = false;
+  std::string sequenceHash;  // the sequence's content hash, stamped on every EXR
   ImageRgb reference, referenceStdError;
   GBuffer gbuffer;
   // With a reference, every preset's preview of the frame shares its exposure and its reference panel: made once,
@@ -55,9 +57,10 @@ struct FrameImageInputs {
 };
 
 std::shared_ptr<const FrameImageInputs> SnapshotImageInputs(const ReferenceImage& ref, bool hasReference,
-                                                            const GBuffer& g) {
+                                                            const GBuffer& g, const std::string& sequenceHash) {
   auto in = std::make_shared<FrameImageInputs>();
   in->hasReference = hasReference;
+  in->sequenceHash = sequenceHash;
   if (hasReference) {
     in->reference = ref.mean;
     in->referenceStdError = ref.standardError;
@@ -89,6 +92,7 @@ void WritePresetFiles(const std::string& stem, const PresetImages& images, const
   layers.flip = frame.hasReference ? &images.flip : nullptr;
   layers.ensembleBias = images.ensembleBias.Size() ? &images.ensembleBias : nullptr;
   layers.ensembleVariance = images.ensembleVariance.Size() ? &images.ensembleVariance : nullptr;
+  layers.sequenceHash = frame.sequenceHash;
   WriteFrameExr(stem + ".exr", layers, compression);
   if (!frame.hasReference) return WritePreviewPng(stem + ".png", images.estimate, nullptr);
   std::call_once(frame.previewOnce, [&] {
@@ -161,7 +165,7 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x36544B43'52545352ull;  // "RSTRCKT6" (6: reservoirs carry their age)
+constexpr uint64_t kCheckpointMagic = 0x37544B43'52545352ull;  // "RSTRCKT7" (7: presets by name)
 
 // One preset's frame between rendering and writing (Run's frame loop).
 struct PresetFrame {
@@ -194,13 +198,36 @@ struct RunState {
     io.Pod(nextFrame);
     loop.Transfer(io);
     TransferImage(io, previousReference);
-    for (PresetState& p : presets) {
-      TransferImage(io, p.previousImage);
-      TransferImage(io, p.accumSum);
-      for (auto& member : p.members) io.Vector(member->History());
+    // By name, in name order: the configuration key holds the presets as a set, so a resume may list them in
+    // another order than the run that wrote the checkpoint, and each must get its own state back.
+    std::vector<PresetState*> byName;
+    for (PresetState& p : presets) byName.push_back(&p);
+    std::sort(byName.begin(), byName.end(),
+              [](const PresetState* a, const PresetState* b) { return a->preset.name < b->preset.name; });
+    for (PresetState* p : byName) {
+      std::string name = p->preset.name;
+      io.String(name);
+      if (name != p->preset.name) throw std::runtime_error("its presets are not this run's");
+      TransferImage(io, p->previousImage);
+      TransferImage(io, p->accumSum);
+      for (auto& member : p->members) io.Vector(member->History());
     }
     io.Pod(accumFrames);
     TransferRows(io, rows);
+    InPresetOrder(rows);
+  }
+
+  // Rows restored from a checkpoint written with the presets in another order: each frame's rows in this run's
+  // order, as an uninterrupted run writes metrics.csv.
+  void InPresetOrder(std::vector<FrameMetricsRow>& restored) const {
+    auto rank = [&](const FrameMetricsRow& r) {
+      for (size_t i = 0; i < presets.size(); ++i)
+        if (presets[i].preset.name == r.preset) return i;
+      return presets.size();
+    };
+    std::stable_sort(restored.begin(), restored.end(), [&](const FrameMetricsRow& a, const FrameMetricsRow& b) {
+      return a.frame != b.frame ? a.frame < b.frame : rank(a) < rank(b);
+    });
   }
 };
 
@@ -209,26 +236,44 @@ struct RunState {
 std::string ConfigurationKey(nlohmann::json runJson) {
   // exrCompression changes the EXRs' bytes, never their pixels, like the thread count their timing.
   for (const char* volatileField :
-       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput"})
+       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput", "outputs"})
     runJson.erase(volatileField);
   return runJson.dump();
 }
 
-void SaveCheckpoint(const std::string& path, const std::string& configKey, RunState& state, int nextFrame) {
+// The frame files written so far come before the state, so a resume checks them before it restores anything.
+void SaveCheckpoint(const std::string& path, const std::string& configKey, OutputManifest& written, RunState& state,
+                    int nextFrame) {
   ByteCounter size;
   size.Pod(kCheckpointMagic);
   size.String(configKey);
+  written.Transfer(size);
   state.Transfer(size, nextFrame);
   BinaryWriter w;
   w.Reserve(size.Bytes());
   w.Pod(kCheckpointMagic);
   w.String(configKey);
+  written.Transfer(w);
   state.Transfer(w, nextFrame);
   WriteFileAtomic(path, w.Bytes());
 }
 
-// The frame to start from: frameBegin, or the checkpoint's next frame with the run's state restored.
-int LoadCheckpoint(const std::string& path, const std::string& configKey, RunState& state, int frameBegin) {
+// Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
+// write them; false (saying nothing) when every one is as written.
+bool ReportDamagedOutputs(const std::string& outDir, const std::vector<OutputFile>& files, int frameBegin) {
+  const std::vector<std::string> damaged = DamagedOutputs(outDir, files);
+  for (const std::string& line : damaged) std::fprintf(stderr, "restir-sim: %s\n", line.c_str());
+  if (!damaged.empty())
+    std::fprintf(stderr, "restir-sim: rendering again from frame %d to write %s\n", frameBegin,
+                 damaged.size() == 1 ? "it" : "them");
+  return !damaged.empty();
+}
+
+// The frame to start from: frameBegin, or the checkpoint's next frame with the run's state and its record of
+// written files restored. A frame file of a finished frame that is missing or damaged starts the run again (its
+// bits come back only by rendering the frames before it).
+int LoadCheckpoint(const std::string& path, const std::string& configKey, const std::string& outDir,
+                   OutputManifest& written, RunState& state, int frameBegin) {
   std::string bytes, problem;
   if (!TryReadRegularFile(path, std::numeric_limits<size_t>::max(), bytes, problem)) {
     if (problem != "no such file") throw InputError(path + ": error: cannot read checkpoint (" + problem + ")");
@@ -241,6 +286,11 @@ int LoadCheckpoint(const std::string& path, const std::string& configKey, RunSta
     if (!bytes.empty()) r.Pod(magic);
     if (magic == kCheckpointMagic) r.String(key);
     if (magic == kCheckpointMagic && key == configKey) {
+      written.Transfer(r);
+      if (ReportDamagedOutputs(outDir, written.Files(), frameBegin)) {
+        written.Restore({});
+        return frameBegin;
+      }
       int nextFrame = 0;
       state.Transfer(r, nextFrame);
       if (!r.AtEnd()) throw std::runtime_error("trailing bytes");
@@ -315,12 +365,16 @@ void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceP
 }
 
 // A completed run of this configuration in the output directory (run.json says "complete" under the same key).
-bool CompleteRunExists(const std::string& runJsonPath, const std::string& configKey) {
+// Its "outputs", the frame files it wrote, go to `outputs` (none from a run.json that predates them).
+bool CompleteRunExists(const std::string& runJsonPath, const std::string& configKey,
+                       std::vector<OutputFile>& outputs) {
   std::string text, problem;
-  if (!TryReadRegularFile(runJsonPath, size_t(16) << 20, text, problem)) return false;
+  if (!TryReadRegularFile(runJsonPath, size_t(64) << 20, text, problem)) return false;
   nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (!j.is_object() || j.value("status", "") != "complete") return false;
-  return ConfigurationKey(j) == configKey;
+  if (ConfigurationKey(j) != configKey) return false;
+  if (!j.contains("outputs") || !OutputFilesFromJson(j["outputs"], outputs)) outputs.clear();
+  return true;
 }
 
 }  // namespace
@@ -377,7 +431,10 @@ RunResult Run(const RunOptions& opt) {
   const std::string configKey = ConfigurationKey(runJson);
   RunResult result;
   // Resuming a finished run has nothing to do, and must not start it again beside its own summary.
-  if (opt.resume && CompleteRunExists(runJsonPath, configKey)) {
+  // Unless a file it wrote has gone or changed since: then it renders again to write it.
+  std::vector<OutputFile> completeOutputs;
+  if (opt.resume && CompleteRunExists(runJsonPath, configKey, completeOutputs) &&
+      !ReportDamagedOutputs(opt.outDir, completeOutputs, opt.frameBegin)) {
     result.alreadyComplete = true;
     return result;
   }
@@ -411,7 +468,11 @@ RunResult Run(const RunOptions& opt) {
   int accumFrames = 0;
   RunState state{loop, presets, previousReference, accumFrames, result.rows};
   const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
-  const int firstFrame = opt.resume ? LoadCheckpoint(checkpointPath, configKey, state, opt.frameBegin) : opt.frameBegin;
+  // Declared before the image writer, whose jobs record into it.
+  OutputManifest written(opt.outDir);
+  const int firstFrame =
+      opt.resume ? LoadCheckpoint(checkpointPath, configKey, opt.outDir, written, state, opt.frameBegin)
+                 : opt.frameBegin;
   if (firstFrame > opt.frameBegin) result.resumedAtFrame = firstFrame;
   ProgressBar progress(opt.progress, seq.name, frameEnd - opt.frameBegin);
   struct {
@@ -454,7 +515,7 @@ RunResult Run(const RunOptions& opt) {
     // What this frame's image files read after the loop has moved on: the reference (moved into previousReference
     // at the frame's end) and the G-buffer layers the EXR shows (the loop reuses its buffers).
     std::shared_ptr<const FrameImageInputs> imageInputs;
-    if (opt.writeImages) imageInputs = SnapshotImageInputs(ref, opt.reference, current);
+    if (opt.writeImages) imageInputs = SnapshotImageInputs(ref, opt.reference, current, seq.contentHash);
 
     // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
     // once per preset.
@@ -499,8 +560,11 @@ RunResult Run(const RunOptions& opt) {
         // works while the next preset renders.
         auto images = std::make_shared<const PresetImages>(PresetImages{
             pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
-        imageWriter->Submit([stem, images, frameInputs = imageInputs, compression = opt.exrCompression] {
+        const std::string relative = "frames/" + ps.preset.name + "/" + name;
+        imageWriter->Submit([stem, relative, images, frameInputs = imageInputs, compression = opt.exrCompression,
+                             &written] {
           WritePresetFiles(stem.string(), *images, *frameInputs, compression);
+          for (const char* extension : {".exr", ".png"}) written.Record(relative + extension);
         });
       }
     }
@@ -568,7 +632,7 @@ RunResult Run(const RunOptions& opt) {
     if (!checkpointWritten || opt.checkpointSeconds <= 0.0 ||
         std::chrono::duration<double>(Clock::now() - lastCheckpoint).count() >= opt.checkpointSeconds) {
       if (imageWriter) imageWriter->Drain();  // a resume starts after this frame: its images must be on disk
-      SaveCheckpoint(checkpointPath, configKey, state, frame + 1);
+      SaveCheckpoint(checkpointPath, configKey, written, state, frame + 1);
       lastCheckpoint = Clock::now();
       checkpointWritten = true;
     }
@@ -582,6 +646,7 @@ RunResult Run(const RunOptions& opt) {
   std::filesystem::remove(checkpointPath, ec);  // a finished run needs no checkpoint
   runJson["status"] = "complete";
   runJson["wallSeconds"] = result.wallSeconds;
+  if (opt.writeImages) runJson["outputs"] = OutputFilesJson(written.Files());
   if (opt.reference) {
     // What the reference cost where it was rendered: its rays (shadow rays and, on glossy pixels, BSDF rays)
     // per second of its wall time, to set beside the ray floor of docs/performance.md.
