@@ -1,12 +1,15 @@
 #include "sim/compare.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "sim/report.h"
 #include "sim/summary.h"
+#include "sim/input_file.h"
 #include "sim/sequence.h"
 
 namespace restir {
@@ -58,6 +61,55 @@ std::string MetricsPath(const std::string& run) {
   if (std::filesystem::is_directory(run, ec)) return (std::filesystem::path(run) / "metrics.csv").string();
   if (std::filesystem::exists(run, ec)) return run;
   throw InputError(run + ": error: no such run directory or metrics.csv");
+}
+
+// What a run's run.json (beside its metrics.csv) says its rows are; absent when there is none.
+struct RunFacts {
+  std::string path;          // the run.json read, or "" when there is none
+  std::string sequenceHash;  // sequence.contentHash
+  int frameBegin = 0, frameEnd = 0;
+  std::vector<std::string> presets;
+};
+
+RunFacts ReadRunFacts(const std::string& metricsPath) {
+  RunFacts f;
+  const std::string path = (std::filesystem::path(metricsPath).parent_path() / "run.json").string();
+  std::string text, problem;
+  if (!TryReadRegularFile(path, size_t(64) << 20, text, problem)) {
+    if (problem == "no such file") return f;
+    throw InputError(path + ": error: cannot read (" + problem + ")");
+  }
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  auto bad = [&](const std::string& what) { throw InputError(path + ": error: " + what); };
+  if (!j.is_object()) bad("not a JSON object");
+  if (!j.contains("sequence") || !j["sequence"].is_object() || !j["sequence"].contains("contentHash") ||
+      !j["sequence"]["contentHash"].is_string())
+    bad("no sequence.contentHash");
+  if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].size() != 2 ||
+      !j["frames"][0].is_number_integer() || !j["frames"][1].is_number_integer())
+    bad("frames is not [begin, end]");
+  if (!j.contains("presets") || !j["presets"].is_object()) bad("no presets object");
+  f.path = path;
+  f.sequenceHash = j["sequence"]["contentHash"].get<std::string>();
+  f.frameBegin = j["frames"][0].get<int>();
+  f.frameEnd = j["frames"][1].get<int>();
+  for (const auto& [name, preset] : j["presets"].items()) f.presets.push_back(name);
+  return f;
+}
+
+// A metrics.csv whose rows are not its run.json's (a preset it did not run, a frame outside its range) is another
+// run's file put in its place: refused naming both.
+void CheckRowsAgainstRun(const MetricsTable& t, const RunFacts& run) {
+  if (run.path.empty()) return;
+  for (const PresetSeries& p : t.presets) {
+    if (std::find(run.presets.begin(), run.presets.end(), p.name) == run.presets.end())
+      throw InputError(t.path + ": error: preset " + p.name + " is not one of " + run.path + "'s presets");
+    for (int frame : p.frames)
+      if (frame < run.frameBegin || frame >= run.frameEnd)
+        throw InputError(t.path + ": error: frame " + std::to_string(frame) + " of preset " + p.name +
+                         " is outside " + run.path + "'s frames " + std::to_string(run.frameBegin) + ":" +
+                         std::to_string(run.frameEnd));
+  }
 }
 
 const char* VerdictText(CompareVerdict v) {
@@ -132,6 +184,13 @@ RunComparison CompareRuns(const std::string& runA, const std::string& runB) {
   r.pathA = MetricsPath(runA);
   r.pathB = MetricsPath(runB);
   const MetricsTable a = ReadMetricsCsv(r.pathA), b = ReadMetricsCsv(r.pathB);
+  // Frames are paired by number, which means the same image only in runs of one sequence.
+  const RunFacts factsA = ReadRunFacts(r.pathA), factsB = ReadRunFacts(r.pathB);
+  CheckRowsAgainstRun(a, factsA);
+  CheckRowsAgainstRun(b, factsB);
+  if (!factsA.path.empty() && !factsB.path.empty() && factsA.sequenceHash != factsB.sequenceHash)
+    throw InputError(factsB.path + ": error: sequence " + factsB.sequenceHash + " is not " + factsA.path + "'s " +
+                     factsA.sequenceHash + ": compare pairs the frames of one sequence");
   for (const std::string& col : a.columns)
     if (b.Column(col) < 0) r.columnsOnlyInA.push_back(col);
   for (const std::string& col : b.columns)

@@ -6,6 +6,7 @@
 #include <ImfOutputFile.h>
 #include <ImfIO.h>
 #include <ImfThreading.h>
+#include <ImfStringAttribute.h>
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -153,6 +154,7 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers, ExrCompre
   header.compression() = compression == ExrCompression::kRle   ? Imf::RLE_COMPRESSION
                          : compression == ExrCompression::kZip ? Imf::ZIP_COMPRESSION
                                                                : Imf::NO_COMPRESSION;
+  if (!layers.sequenceHash.empty()) header.insert("restir:sequenceHash", Imf::StringAttribute(layers.sequenceHash));
   Imf::FrameBuffer fb;
   AddRgbLayer(header, fb, "", est);
   ImageRgb error;

@@ -23,6 +23,9 @@ struct FrameLayers {
   const ImageRgb* ensembleBias = nullptr;      // --ensemble K: mean of the K estimates minus the reference
   const ImageRgb* ensembleVariance = nullptr;  // --ensemble K: per-pixel variance of the K estimates
   const GBuffer* gbuffer = nullptr;
+  // The sequence's content hash (run.json's sequence.contentHash), stored as the string attribute
+  // "restir:sequenceHash" so that `report` can tell a frame of this run from a file put in its place; "": none.
+  std::string sequenceHash;
 };
 
 // How the EXRs store their channels. The pixels are the same bits whichever is chosen; only the files' size and the

@@ -335,13 +335,42 @@ std::vector<float> ReadWholeImage(const std::string& path, OIIO::ImageSpec& spec
   return px;
 }
 
+// What run.json says every frame file of the run is; a file that is not that is another run's (or nobody's) and
+// is refused, where the report would otherwise show it as this run's frame.
+struct FrameExpectation {
+  bool known = false;        // run.json was there to say (without it nothing is checked)
+  int width = 0, height = 0;  // run.json's resolution
+  bool hasReference = false;  // the run had a reference: the EXRs carry its layers, the previews its panel
+  std::string sequenceHash;   // run.json's sequence.contentHash, stamped on every EXR
+};
+
+std::string Size(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+[[noreturn]] void NotThisRunsFrame(const std::string& path, const std::string& why) {
+  throw InputError(OneLine(path + ": error: not a frame of this run (" + why + ")"));
+}
+
 // A preview the report links must be a whole PNG: the signature, then chunks whose lengths lead exactly to IEND
-// at the end of the file (a cut file fails). Checked without decoding, so libpng prints nothing of its own.
-void CheckPngStructure(const std::string& path) {
+// at the end of the file (a cut file fails), and, as run.json says, the run's size (twice as wide with a reference:
+// estimate and reference side by side). Checked without decoding, so libpng prints nothing of its own.
+void CheckPngStructure(const std::string& path, const FrameExpectation& expect) {
   std::string bytes, problem;
   if (!TryReadRegularFile(path, size_t(1) << 30, bytes, problem)) Unreadable(path, problem);
   static const char kSignature[8] = {'\x89', 'P', 'N', 'G', '\r', '\n', '\x1a', '\n'};
   if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0) Unreadable(path, "not a PNG");
+  if (expect.known && bytes.size() >= 24 && bytes.compare(12, 4, "IHDR") == 0) {
+    auto word = [&](size_t at) {
+      uint32_t v = 0;
+      for (size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+      return v;
+    };
+    const int64_t w = word(16), h = word(20);
+    const int64_t wantW = int64_t(expect.width) * (expect.hasReference ? 2 : 1);
+    if (w != wantW || h != expect.height)
+      NotThisRunsFrame(path, "a " + std::to_string(w) + "x" + std::to_string(h) + " preview where run.json's " +
+                                 Size(expect.width, expect.height) + " run writes " +
+                                 std::to_string(wantW) + "x" + std::to_string(expect.height));
+  }
   size_t pos = 8;
   while (bytes.size() - pos >= 12) {
     const auto byte = [&](size_t i) { return static_cast<uint32_t>(static_cast<unsigned char>(bytes[pos + i])); };
@@ -357,12 +386,35 @@ void CheckPngStructure(const std::string& path) {
   Unreadable(path, "cut short or damaged: no IEND chunk at its end");
 }
 
-FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, int frame) {
+// The EXR is the run's frame: its size, the channels the run writes, the sequence it was rendered from.
+void CheckFrameExr(const std::string& path, const OIIO::ImageSpec& spec, const FrameExpectation& expect) {
+  if (!expect.known) return;
+  if (spec.width != expect.width || spec.height != expect.height)
+    NotThisRunsFrame(path, Size(spec.width, spec.height) + " pixels where run.json's resolution is " +
+                               Size(expect.width, expect.height));
+  std::vector<std::string> needed = {"R", "G", "B", "disocclusion.Y", "depth.Z"};
+  if (expect.hasReference)
+    needed.insert(needed.end(), {"reference.R", "reference.G", "reference.B", "error.R", "error.G", "error.B",
+                                 "flip.Y"});
+  for (const std::string& name : needed)
+    if (std::find(spec.channelnames.begin(), spec.channelnames.end(), name) == spec.channelnames.end())
+      NotThisRunsFrame(path, "no channel " + name + ", which every frame of this run has");
+  const std::string hash = spec.get_string_attribute("restir:sequenceHash");
+  if (hash != expect.sequenceHash)
+    NotThisRunsFrame(path, hash.empty() ? "no restir:sequenceHash attribute; this run's sequence is " +
+                                              expect.sequenceHash
+                                        : "rendered from sequence " + hash + ", this run's is " +
+                                              expect.sequenceHash);
+}
+
+FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, int frame,
+                         const FrameExpectation& expect) {
   FrameMaps maps;
   const std::string exr = (fs::path(outDir) / "frames" / preset / (FrameName(frame) + ".exr")).string();
   if (!FrameFileUsable(exr)) return maps;
   OIIO::ImageSpec spec;
   const std::vector<float> px = ReadWholeImage(exr, spec);
+  CheckFrameExr(exr, spec, expect);
   const int w = spec.width, h = spec.height, nc = spec.nchannels;
   auto channel = [&](const char* name) {
     for (int i = 0; i < nc; ++i)
@@ -442,6 +494,25 @@ RunInfo ReadRunJson(const std::string& path) {
   }
   if (!info.json.is_object()) throw InputError(path + ":1: error: run.json is not a JSON object");
   return info;
+}
+
+// What run.json says the frames are; unknown (nothing checked) without a run.json or with one that lacks the fields.
+FrameExpectation ExpectedFrames(const RunInfo& run) {
+  FrameExpectation e;
+  if (!run.present) return e;
+  const Json& j = run.json;
+  const auto res = j.find("resolution");
+  const auto seq = j.find("sequence");
+  if (res == j.end() || !res->is_array() || res->size() != 2 || !(*res)[0].is_number_integer() ||
+      !(*res)[1].is_number_integer() || seq == j.end() || !seq->is_object() || !seq->contains("contentHash") ||
+      !(*seq)["contentHash"].is_string())
+    return e;
+  e.known = true;
+  e.width = (*res)[0].get<int>();
+  e.height = (*res)[1].get<int>();
+  e.sequenceHash = (*seq)["contentHash"].get<std::string>();
+  e.hasReference = j.contains("reference") && j["reference"].is_object();
+  return e;
 }
 
 std::string JsonText(const Json& j) {
@@ -622,6 +693,7 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
          "sqrt(mean over RGB of (I − R)² / (R² + 0.01)), 0 <span class=\"bar\" style=\"background:"
       << CssGradient(kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
       << CssGradient(kMagma) << "\"></span> 1.</p>\n";
+    const FrameExpectation expect = ExpectedFrames(run);
     for (int frame : ChosenFrames(t)) {
       o << "<h3>Frame " << frame << "</h3>\n<table class=\"strip\">\n<tr><th>preset</th><th>preview</th>"
            "<th>error</th><th>FLIP</th></tr>\n";
@@ -630,8 +702,8 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
         const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
         const std::string previewPath = (fs::path(outDir) / preview).string();
         const bool hasPreview = FrameFileUsable(previewPath);
-        if (hasPreview) CheckPngStructure(previewPath);
-        const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame);
+        if (hasPreview) CheckPngStructure(previewPath, expect);
+        const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame, expect);
         auto img = [&](const std::string& rel, const std::string& alt) {
           if (rel.empty()) {
             o << "<td class=\"note\">—</td>";

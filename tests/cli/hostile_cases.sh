@@ -359,6 +359,30 @@ damaged_run 7.11 "report: a truncated EXR" 'truncate -s 2000 "$D/frames/ris/0001
 damaged_run 7.12 "report: a truncated PNG preview" 'truncate -s 300 "$D/frames/ris/0001.png"' report
 damaged_run 7.13 "report: an EXR replaced by a FIFO" 'rm "$D/frames/ris/0002.exr" && mkfifo "$D/frames/ris/0002.exr"' report
 damaged_run 7.14 "report: run.json replaced by /dev/zero" 'rm "$D/run.json" && ln -s /dev/zero "$D/run.json"' report
+# Frames that are not the run's: another resolution, another sequence (the EXR's restir:sequenceHash); compare of
+# runs of two sequences, and of rows outside run.json's frames.
+sim run sequences/smoke.json --preset ris --resolution 48x27 --frames 0:3 --reference-spp 16 --no-progress \
+  --cache-dir "" --out "$W/other_size"
+sim run sequences/static_room.json --preset ris --resolution 32x18 --frames 0:3 --reference-spp 16 --no-progress \
+  --cache-dir "" --out "$W/other_sequence"
+damaged_run 7.16 "report: an EXR of another resolution" 'cp "$W/other_size/frames/ris/0001.exr" "$D/frames/ris/"' report
+damaged_run 7.17 "report: an EXR of another sequence" \
+  'cp "$W/other_sequence/frames/ris/0001.exr" "$D/frames/ris/"' report
+damaged_run 7.18 "report: a preview of another size" 'cp "$W/other_size/frames/ris/0002.png" "$D/frames/ris/"' report
+damaged_run 7.19 "compare: runs of two sequences" \
+  'sed -i "s/\"contentHash\": \"[0-9a-f]*\"/\"contentHash\": \"0123456789abcdef\"/" "$D/run.json"' compare
+damaged_run 7.20 "compare: a row past run.json's frames" 'sed -i "\$s/^2,/9,/" "$D/metrics.csv"' compare
+# A finished run whose frame file was deleted: the resume writes it again (with its bits) instead of "complete".
+D=$W/resumed
+rm -rf "$D" && cp -r "$G" "$D" && rm "$D/frames/ris/0002.exr"
+sim run sequences/smoke.json --preset ris,restir-unbiased --resolution 32x18 --frames 0:3 --reference-spp 16 \
+  --no-progress --cache-dir "" --out "$D" --resume
+rc=$?
+ok=1; [ $rc = 0 ] && grep -q "0002.exr is missing" "$W/log" && cmp -s "$G/frames/ris/0002.exr" "$D/frames/ris/0002.exr" &&
+  ok=0
+verdict 7.21 "resume of a finished run whose EXR was deleted" "exit 0, names it, writes it again" \
+  "$(describe $rc): $(first_line)" $ok
+
 # Missing frames are not damage: the report leaves them out, and links nothing that is not there.
 D=$W/missing
 rm -rf "$D" && cp -r "$G" "$D" && rm "$D/frames/ris/0001.exr" "$D/frames/restir-unbiased/0001.png"

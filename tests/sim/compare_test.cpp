@@ -2,6 +2,8 @@
 #include "sim/compare.h"
 
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <array>
@@ -128,6 +130,36 @@ TEST(CompareCli, PrintsTableAndExitsZeroOrTwoOnBadInput) {
   std::ofstream(b / "metrics.csv", std::ios::app) << "40,ris,1\n";  // too few fields on line 66
   EXPECT_EQ(RunCli("compare " + a.string() + " " + b.string(), out), 2) << out;
   EXPECT_NE(out.find((b / "metrics.csv").string() + ":66:"), std::string::npos) << out;
+}
+
+// compare pairs frames by number, which is the same image only within one sequence: two runs whose run.json name
+// other sequences are refused, and so is a metrics.csv whose rows are not its run.json's (a frame outside its
+// range, a preset it did not run). Runs without a run.json are compared as before.
+TEST(CompareCli, RunsOfOtherSequencesOrRowsThatAreNotTheRunsAreRefused) {
+  const fs::path a = WriteRun("restir-compare-cli-seq-a", kA, kNoisy, "");
+  const fs::path b = WriteRun("restir-compare-cli-seq-b", kNoisy, kNoisy, "x");
+  auto runJson = [](const fs::path& dir, const std::string& hash, int end, bool withRis = true) {
+    nlohmann::json presets = {{"temporal", nlohmann::json::object()}};
+    if (withRis) presets["ris"] = nlohmann::json::object();
+    std::ofstream(dir / "run.json")
+        << nlohmann::json{{"sequence", {{"contentHash", hash}}}, {"frames", {0, end}}, {"presets", presets}}.dump();
+  };
+  std::string out;
+  runJson(a, "00000000000000aa", int(kA.size()));
+  runJson(b, "00000000000000aa", int(kA.size()));
+  EXPECT_EQ(RunCli("compare " + a.string() + " " + b.string(), out), 0) << out;
+  out.clear();
+  runJson(b, "00000000000000bb", int(kA.size()));
+  EXPECT_EQ(RunCli("compare " + a.string() + " " + b.string(), out), 2) << out;
+  EXPECT_NE(out.find("sequence 00000000000000bb is not"), std::string::npos) << out;
+  out.clear();
+  runJson(b, "00000000000000aa", 10);
+  EXPECT_EQ(RunCli("compare " + a.string() + " " + b.string(), out), 2) << out;
+  EXPECT_NE(out.find("frame 10 of preset ris is outside"), std::string::npos) << out;
+  out.clear();
+  runJson(b, "00000000000000aa", int(kA.size()), false);
+  EXPECT_EQ(RunCli("compare " + a.string() + " " + b.string(), out), 2) << out;
+  EXPECT_NE(out.find("preset ris is not one of"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -229,6 +229,45 @@ TEST(ReportCli, BadOrMissingRunDirectoryExitsTwoNamingFileAndLine) {
   EXPECT_EQ(r.status, 2) << r.output;
 }
 
+// A frame file put in the place of a run's own (another resolution, another sequence's, one without the reference
+// layers the run writes, a preview of another size) is refused with exit 2 naming the file and what differs from
+// run.json, where the report showed it as the run's frame.
+TEST(ReportCli, FramesThatAreNotTheRunsAreRefusedNamingTheDifference) {
+  const fs::path dir = FreshDir("restir-report-cli-foreign");
+  auto run = [&](const std::string& name, const std::string& args) {
+    const Result r = Shell(SimBinary() + " run " + args + " --preset ris --frames 0:3 --no-progress --no-report " +
+                           "--cache-dir " + (dir / "cache").string() + " --out " + (dir / name).string() + " 2>&1");
+    EXPECT_EQ(r.status, 0) << r.output;
+    return dir / name / "frames" / "ris";
+  };
+  const fs::path own = run("own", "sequences/smoke.json --resolution 48x27 --reference-spp 8");
+  const fs::path smaller = run("smaller", "sequences/smoke.json --resolution 32x18 --reference-spp 8");
+  const fs::path other = run("other", "sequences/static_room.json --resolution 48x27 --reference-spp 8");
+  const fs::path bare = run("bare", "sequences/smoke.json --resolution 48x27 --no-reference");
+  ASSERT_EQ(Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1").status, 0);
+  const std::string ownExr = ReadText(own / "0001.exr"), ownPng = ReadText(own / "0001.png");
+  struct Case {
+    fs::path from;
+    const char* file;
+    const char* said;
+  };
+  for (const Case& c : {Case{smaller, "0001.exr", "32x18 pixels where run.json's resolution is 48x27"},
+                        Case{other, "0001.exr", "rendered from sequence"},
+                        Case{bare, "0001.exr", "no channel reference.R"},
+                        Case{smaller, "0001.png", "a 64x18 preview where run.json's 48x27 run writes 96x27"}}) {
+    fs::copy_file(c.from / c.file, own / c.file, fs::copy_options::overwrite_existing);
+    const Result r = Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1");
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find((own / c.file).string() + ": error: not a frame of this run"), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find(c.said), std::string::npos) << r.output;
+    EXPECT_EQ(Count(r.output, "\n"), 1u) << r.output;
+    std::ofstream(own / "0001.exr", std::ios::binary | std::ios::trunc) << ownExr;
+    std::ofstream(own / "0001.png", std::ios::binary | std::ios::trunc) << ownPng;
+  }
+  EXPECT_EQ(Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1").status, 0);
+}
+
 // Renders the report of a real run in Debian's headless Chromium (installed by scripts/setup.sh: a missing
 // browser fails this test) and checks what a reader would see: a non-blank page, every plot with a polyline per
 // preset, and every image it references on disk.
