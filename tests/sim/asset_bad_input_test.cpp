@@ -405,5 +405,77 @@ TEST(AssetBadInput, DirectoryDeviceAndUnsupportedExtensionAreRefusedAtTheSequenc
   EXPECT_NE(m.find("is not a supported asset"), std::string::npos) << m;
 }
 
+// A GLB whose framing is wrong says which part: the magic, the version, the header's total length against the
+// file, the first chunk's type, a JSON chunk running past the end (each was "the first chunk is not its JSON" or
+// was ignored).
+TEST(AssetBadInput, GlbFramingFaultsAreNamedOneByOne) {
+  Scratch scratch;
+  const std::string model = kModels + "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
+  ASSERT_TRUE(HaveModel(model));
+  const std::string good = ReadBytes(model);
+  auto put = [](std::string b, size_t at, uint32_t v) {
+    for (int k = 0; k < 4; ++k) b[at + k] = static_cast<char>(v >> (8 * k) & 0xff);
+    return b;
+  };
+  const uint32_t size = static_cast<uint32_t>(good.size());
+  struct Case {
+    const char* name;
+    std::string bytes;
+    const char* said;
+  };
+  std::string magic = good;
+  magic[0] = 'x';
+  for (const Case& c : {Case{"magic", magic, "no 'glTF' magic"}, Case{"version", put(good, 4, 1), "has version 1"},
+                        Case{"total", put(good, 8, size + 100), "gives its length as"},
+                        Case{"type", put(good, 16, 0x4E4F5342u), "first chunk is not of type JSON"},
+                        Case{"past", put(good, 12, size), "JSON chunk is"}}) {
+    const fs::path f = scratch.Path() / (std::string("box_") + c.name + ".glb");
+    WriteBytes(f, c.bytes);
+    const std::string m = ExpectRefused(scratch.Path(), f.string(), Where::kInAsset);
+    EXPECT_NE(m.find(c.said), std::string::npos) << c.name << ": " << m;
+  }
+}
+
+// glTF numbers are checked against the schema before Assimp reads them leniently: a string where a number
+// belongs, a factor outside [0, 1], a negative emissiveStrength are refused naming the JSON path inside the asset
+// (Assimp read "nan" as 0, "50" as 1, and clamped 5 to 1). A factor inside its range still renders.
+TEST(AssetBadInput, GltfNumbersOutsideTheSchemaAreRefusedNamingTheirPath) {
+  Scratch scratch;
+  const std::string dir = kModels + "glTF2/BoxTextured-glTF/";
+  ASSERT_TRUE(HaveModel(dir + "BoxTextured.gltf"));
+  for (const char* f : {"BoxTextured0.bin", "CesiumLogoFlat.png"})
+    fs::copy_file(dir + f, scratch.Path() / f, fs::copy_options::overwrite_existing);
+  const nlohmann::json good = nlohmann::json::parse(ReadBytes(dir + "BoxTextured.gltf"));
+  struct Case {
+    const char* name;
+    const char* pointer;  // JSON pointer of the value set
+    nlohmann::json value;
+    const char* said;  // nullptr: accepted
+  };
+  const nlohmann::json strength = {{"KHR_materials_emissive_strength", {{"emissiveStrength", "50"}}}};
+  const nlohmann::json negative = {{"KHR_materials_emissive_strength", {{"emissiveStrength", -1}}}};
+  for (const Case& c :
+       {Case{"scale", "/nodes/1/scale", {"nan", 1, 1}, "/nodes/1/scale/0 must be a number"},
+        Case{"factor", "/materials/0/pbrMetallicRoughness/baseColorFactor", {5, 1, 1, 1},
+             "/materials/0/pbrMetallicRoughness/baseColorFactor/0 is 5, outside"},
+        Case{"huge", "/materials/0/pbrMetallicRoughness/baseColorFactor", {1, 1e30, 1, 1},
+             "baseColorFactor/1 is 1e+30, outside"},
+        Case{"strength", "/materials/0/extensions", strength,
+             "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength must be a number"},
+        Case{"negative", "/materials/0/extensions", negative, "emissiveStrength is -1, outside"},
+        Case{"inside", "/materials/0/pbrMetallicRoughness/baseColorFactor", {0.5, 1, 0.25, 1}, nullptr}}) {
+    nlohmann::json doc = good;
+    doc[nlohmann::json::json_pointer(c.pointer)] = c.value;
+    const fs::path f = scratch.Path() / (std::string("box_") + c.name + ".gltf");
+    WriteBytes(f, doc.dump());
+    if (!c.said) {
+      ExpectRendered(scratch.Path(), f.string());
+      continue;
+    }
+    const std::string m = ExpectRefused(scratch.Path(), f.string(), Where::kInAsset);
+    EXPECT_NE(m.find(c.said), std::string::npos) << c.name << ": " << m;
+  }
+}
+
 }  // namespace
 }  // namespace restir
