@@ -5,6 +5,11 @@
 #                 (scripts/fuzz.sh passes it; about 100 MB, so the plain setup leaves it out)
 #   --with-slurm  also Slurm (slurmctld, slurmd, slurm-client) and munge, for the test that runs a sweep as a job
 #                 array on a single-node cluster on localhost (tests/cli/slurm_sweep.sh; about 30 MB)
+#   --with-gltf-validator
+#                 also the Khronos glTF validator (npm's gltf-validator, the version tests/tools/gltf_validator's
+#                 package-lock.json pins, 110 KB, no dependencies) under tests/tools/gltf_validator/node_modules, with
+#                 Debian's nodejs and npm where the machine has no node or npm: the importer's oracle test
+#                 (tests/sim/gltf_validator_oracle_test.cpp) runs it. This one step uses the npm registry.
 # The tools the tests read our EXRs with (exrheader, oiiotool) are always installed; --with-tools, which used to
 # add them, is still accepted and does nothing.
 set -euo pipefail
@@ -27,12 +32,19 @@ packages=(
   time                   # GNU time: the hostile-input cases measure each run's peak memory with it
 )
 
+validator=no
 for arg in "$@"; do
   case "$arg" in
+    --with-gltf-validator)
+      validator=yes
+      # Only where missing: a machine's own Node.js (NodeSource's, say) ships npm and conflicts with Debian's npm.
+      command -v node >/dev/null || packages+=(nodejs)
+      command -v npm >/dev/null || packages+=(npm) ;;
     --with-fuzz) packages+=(clang libclang-rt-14-dev) ;;  # clang++ and libclang_rt.fuzzer/asan/ubsan
     --with-slurm) packages+=(slurmctld slurmd slurm-client munge) ;;  # the cluster test's Slurm
     --with-tools) ;;
-    *) echo "setup: unknown option '$arg' (usage: scripts/setup.sh [--with-fuzz] [--with-slurm])" >&2; exit 2 ;;
+    *) echo "setup: unknown option '$arg' (usage: scripts/setup.sh [--with-fuzz] [--with-slurm]" \
+            "[--with-gltf-validator])" >&2; exit 2 ;;
   esac
 done
 
@@ -45,12 +57,26 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages present"
-  exit 0
+else
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  echo "setup: installing ${missing[*]}"
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" \
+    >/dev/null
+  echo "setup: done"
 fi
 
-sudo_cmd=()
-if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
-echo "setup: installing ${missing[*]}"
-"${sudo_cmd[@]}" apt-get update -qq
-DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-echo "setup: done"
+# The glTF validator at the version the lock file pins (npm ci checks the package's integrity hash against it).
+if [ "$validator" = yes ]; then
+  dir="$(dirname "$0")/../tests/tools/gltf_validator"
+  want=$(sed -n 's/.*"gltf-validator": "\(.*\)".*/\1/p' "$dir/package.json")
+  have=$(sed -n 's/^ *"version": "\(.*\)".*/\1/p' "$dir/node_modules/gltf-validator/package.json" 2>/dev/null || true)
+  if [ "$have" = "$want" ]; then
+    echo "setup: gltf-validator $want present"
+  else
+    echo "setup: installing gltf-validator $want (npm)"
+    (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+    echo "setup: gltf-validator $want installed"
+  fi
+fi

@@ -2,6 +2,7 @@
 #include "sim/asset_import.h"
 
 #include <assimp/GltfMaterial.h>
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/SceneCombiner.h>
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
@@ -20,6 +21,8 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 
+#include "sim/gltf_buffers.h"  // PercentDecoded
+#include "sim/gltf_document.h"
 #include "sim/input_file.h"
 #include "sim/sequence.h"  // InputError
 #include "sim/text.h"
@@ -104,112 +107,10 @@ TextureWrap WrapOf(int gl) {
   return gl == 33071 ? TextureWrap::kClampToEdge : gl == 33648 ? TextureWrap::kMirroredRepeat : TextureWrap::kRepeat;
 }
 
-// The JSON chunk of a GLB file, after checking its framing as the glTF 2.0 specification defines it ("GLB File
-// Format"): a 12-byte header (magic "glTF", version 2, the file's total length), then chunks of (length, type,
-// data), the first of type JSON, each within the file. Each way a file can break this gets its own message, so a
-// cut-short download reads as one and not as a file of another kind.
-std::string_view GlbJsonChunk(const std::string& bytes, const std::string& path) {
-  auto u32 = [&](size_t at) {
-    uint32_t v = 0;
-    std::memcpy(&v, bytes.data() + at, 4);
-    return v;
-  };
-  const std::string size = std::to_string(bytes.size());
-  if (bytes.size() < 4 || bytes.compare(0, 4, "glTF") != 0) Fail(path, "not a binary glTF file (no 'glTF' magic)");
-  if (bytes.size() < 12)
-    Fail(path, "the binary glTF is cut short in its 12-byte header (the file has " + size + " bytes)");
-  if (u32(4) != 2) Fail(path, "the binary glTF has version " + std::to_string(u32(4)) + " (only glTF 2.0 is read)");
-  const uint64_t total = u32(8);
-  if (total != bytes.size())
-    Fail(path, "the binary glTF's header gives its length as " + std::to_string(total) + " bytes but the file has " +
-                   size + (total > bytes.size() ? " (the file is cut short)" : ""));
-  if (bytes.size() < 20) Fail(path, "the binary glTF has no chunk after its header (the file has " + size + " bytes)");
-  const uint64_t length = u32(12);
-  if (u32(16) != 0x4E4F534Au) Fail(path, "the binary glTF's first chunk is not of type JSON");
-  if (length > bytes.size() - 20)
-    Fail(path, "the binary glTF's JSON chunk is " + std::to_string(length) + " bytes long and runs past the end of " +
-                   "the file (" + std::to_string(bytes.size() - 20) + " bytes follow its chunk header)");
-  // Every further chunk (the BIN chunk, and any of an unknown type, which readers skip) lies within the file too.
-  for (uint64_t at = 20 + length; at < bytes.size();) {
-    if (bytes.size() - at < 8)
-      Fail(path, "the binary glTF is cut short in a chunk header at byte " + std::to_string(at));
-    const uint64_t n = u32(static_cast<size_t>(at));
-    if (n > bytes.size() - at - 8)
-      Fail(path, "the binary glTF's chunk at byte " + std::to_string(at) + " is " + std::to_string(n) +
-                     " bytes long and runs past the end of the file");
-    at += 8 + n;
-  }
-  return std::string_view(bytes).substr(20, static_cast<size_t>(length));
-}
-
-// What Assimp 5.2 reads leniently and the glTF 2.0 schema forbids (glTF 2.0 sections 5.19 material, 5.20
-// pbrMetallicRoughness, 5.25 node; KHR_materials_emissive_strength): a string or null where a number belongs, which
-// Assimp reads as 0 or as the default (a scale of ["nan", 1, 1] makes the mesh vanish), and factors outside the
-// schema's ranges, which Assimp clamps or passes through. Both are refused, as Khronos' validator reports them as
-// errors, naming the JSON path inside the asset: an artist's file that is wrong should say so, not render as
-// something else.
-void CheckGltfNumbers(const nlohmann::json& doc, const std::string& path) {
-  using Json = nlohmann::json;
-  // A number array at o[key] of `size` elements (a bare number where `size` is 1), each finite and in [lo, hi];
-  // absent is fine.
-  auto numbers = [&](const Json& o, const char* key, const std::string& where, size_t size, double lo, double hi) {
-    if (!o.is_object() || !o.contains(key)) return;
-    const Json& v = o[key];
-    const std::string at = where + "/" + key;
-    if (size > 1 && (!v.is_array() || v.size() != size))
-      Fail(path, at + " must be an array of " + std::to_string(size) + " numbers (glTF 2.0 schema)");
-    for (size_t k = 0; k < size; ++k) {
-      const Json& x = size > 1 ? v[k] : v;
-      const std::string e = size > 1 ? at + "/" + std::to_string(k) : at;
-      if (!x.is_number()) Fail(path, e + " must be a number (glTF 2.0 schema), not " + x.dump());
-      if (!(x.get<double>() >= lo && x.get<double>() <= hi))
-        Fail(path, e + " is " + x.dump() + ", outside the glTF 2.0 schema's range [" + Json(lo).dump() + ", " +
-                       (hi == std::numeric_limits<double>::max() ? std::string("inf") : Json(hi).dump()) + "]");
-    }
-  };
-  constexpr double kAny = std::numeric_limits<double>::max();
-  if (doc.contains("materials") && doc["materials"].is_array()) {
-    const Json& materials = doc["materials"];
-    for (size_t m = 0; m < materials.size(); ++m) {
-      const Json& mat = materials[m];
-      const std::string at = "/materials/" + std::to_string(m);
-      numbers(mat, "emissiveFactor", at, 3, 0.0, 1.0);
-      if (mat.is_object() && mat.contains("pbrMetallicRoughness")) {
-        const Json& pbr = mat["pbrMetallicRoughness"];
-        const std::string p = at + "/pbrMetallicRoughness";
-        numbers(pbr, "baseColorFactor", p, 4, 0.0, 1.0);
-        numbers(pbr, "metallicFactor", p, 1, 0.0, 1.0);
-        numbers(pbr, "roughnessFactor", p, 1, 0.0, 1.0);
-      }
-      if (mat.is_object() && mat.contains("extensions") && mat["extensions"].is_object() &&
-          mat["extensions"].contains("KHR_materials_emissive_strength"))
-        numbers(mat["extensions"]["KHR_materials_emissive_strength"], "emissiveStrength",
-                at + "/extensions/KHR_materials_emissive_strength", 1, 0.0, kAny);
-    }
-  }
-  if (doc.contains("nodes") && doc["nodes"].is_array()) {
-    const Json& nodes = doc["nodes"];
-    for (size_t n = 0; n < nodes.size(); ++n) {
-      const std::string at = "/nodes/" + std::to_string(n);
-      numbers(nodes[n], "translation", at, 3, -kAny, kAny);
-      numbers(nodes[n], "rotation", at, 4, -1.0, 1.0);
-      numbers(nodes[n], "scale", at, 3, -kAny, kAny);
-      numbers(nodes[n], "matrix", at, 16, -kAny, kAny);
-    }
-  }
-}
-
-// `bytes` is the file at `path` (read once by the caller, which Assimp then reads again itself).
-std::vector<GltfMaterialKey> GltfMaterialKeys(const std::string& bytes, const std::string& path, bool binary) {
-  std::string_view json = bytes;
-  if (binary) {
-    json = GlbJsonChunk(bytes, path);
-  }
+// Each material's keys and texture uses from the asset's checked glTF JSON.
+std::vector<GltfMaterialKey> GltfMaterialKeys(const nlohmann::json& doc, const std::string& path) {
   using Json = nlohmann::json;
   std::vector<GltfMaterialKey> keys;
-  const Json doc = Json::parse(json.begin(), json.end(), nullptr, false);
-  if (!doc.is_object()) return keys;  // Assimp will say what is wrong with it
-  CheckGltfNumbers(doc, path);
   const auto materials = doc.find("materials");
   if (materials == doc.end() || !materials->is_array()) return keys;
   auto number = [](const Json& o, const char* k, float fallback) {
@@ -360,6 +261,7 @@ class Converter {
       : path_(path), scene_(scene), limits_(limits) {}
 
   ImportedAsset Convert(const std::vector<GltfMaterialKey>& gltfMaterials, bool gltf) {
+    gltf_ = gltf;
     for (unsigned m = 0; m < scene_.mNumMaterials; ++m)
       asset_.materials.push_back(ConvertMaterial(*scene_.mMaterials[m], gltfMaterials, gltf));
     if (asset_.materials.empty()) asset_.materials.push_back(AssetMaterial{});
@@ -597,6 +499,8 @@ class Converter {
       std::replace(portable.begin(), portable.end(), '\\', '/');
       fs::path file = fs::path(portable);
       if (file.is_relative()) file = fs::path(path_).parent_path() / file;
+      // A glTF image's URI is percent-encoded, which Assimp passes on as written.
+      if (gltf_ && !fs::exists(file) && fs::exists(PercentDecoded(file.string()))) file = PercentDecoded(file.string());
       t.name = file.lexically_normal().string();
       std::string problem;
       if (!TryReadRegularFile(t.name, kMaxTextureFileBytes, t.bytes, problem))
@@ -611,6 +515,7 @@ class Converter {
   const std::string& path_;
   const aiScene& scene_;
   const AssetLimits& limits_;
+  bool gltf_ = false;  // the asset is glTF: its texture references are URIs
   ImportedAsset asset_;
   std::map<std::string, int32_t> textureIndex_;
   // Per material (asset_.materials' order): how its textures read the mesh's UVs.
@@ -619,6 +524,19 @@ class Converter {
     GltfTextureUse emission;   // present: it has an emission texture
   };
   std::vector<MaterialUvs> materialUvs_;
+};
+
+// glTF's buffer URIs are percent-encoded (RFC 3986: a file "Box Textured.bin" is "Box%20Textured.bin"), and Assimp
+// 5.2 opens them as written: a file that does not exist under the name given is looked for under its decoded name.
+class UriDecodingIOSystem : public Assimp::DefaultIOSystem {
+ public:
+  bool Exists(const char* file) const override {
+    return DefaultIOSystem::Exists(file) || DefaultIOSystem::Exists(PercentDecoded(file).c_str());
+  }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (DefaultIOSystem::Exists(file)) return DefaultIOSystem::Open(file, mode);
+    return DefaultIOSystem::Open(PercentDecoded(file).c_str(), mode);
+  }
 };
 
 }  // namespace
@@ -674,9 +592,11 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
   if (bytes.empty()) Fail(path, "the file is empty");
   const bool gltf = ext == ".gltf" || ext == ".glb";
   const std::vector<GltfMaterialKey> gltfMaterials =
-      gltf ? GltfMaterialKeys(bytes, path, ext == ".glb") : std::vector<GltfMaterialKey>{};
+      gltf ? GltfMaterialKeys(ReadGltfDocument(bytes, path, ext == ".glb", kMaxAssetFileBytes).json, path)
+           : std::vector<GltfMaterialKey>{};
   if (!gltf) std::string().swap(bytes);  // only glTF needs them; Assimp reads the file itself
   Assimp::Importer importer;
+  if (gltf) importer.SetIOHandler(new UriDecodingIOSystem);  // the importer owns it
   // SortByPType puts points and lines in meshes of their own, which are skipped.
   const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
   const aiScene* scene = importer.ReadFile(path, flags);

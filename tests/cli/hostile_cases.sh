@@ -395,5 +395,77 @@ done
 verdict 7.15 "report: an EXR and a PNG missing" "exit 0, no dangling links" "$(describe $rc), $dangling dangling" \
   $([ $rc = 0 ] && [ $dangling = 0 ] && echo 0 || echo 1)
 
+# ---- 8. assets that break the glTF specification (issue 37) --------------------------------------------------
+
+# Each is placed by a sequence and validated: exit 2 with one line that names what is wrong where ("says").
+A=$W/assets
+rm -rf "$A" && mkdir -p "$A"
+BOX=/usr/share/assimp/models/glTF2/BoxTextured-glTF
+cp "$BOX/BoxTextured.gltf" "$BOX/BoxTextured0.bin" "$BOX/CesiumLogoFlat.png" "$A/"
+# asset_sequence FILE: a sequence in $A placing FILE (a name in $A) beside a floor under a quad light.
+asset_sequence() {
+  printf '{"name": "asset_probe", "resolution": [16, 9], "frames": 1,
+  "materials": [{"name": "grey", "type": "diffuse", "albedo": [0.6, 0.6, 0.6]}],
+  "objects": [{"name": "floor", "material": "grey", "shape": {"type": "quad", "center": [0, 0, 0], "u": [0, 0, 2], "v": [2, 0, 0]}},
+              {"name": "thing", "asset": {"file": "%s"}}],
+  "lights": [{"name": "key", "type": "quad", "center": [0, 3, 0], "u": [0.25, 0, 0], "v": [0, 0, 0.25], "color": [1, 1, 1], "intensity": 10}],
+  "camera": {"keyframes": [{"frame": 0, "position": [0, 2, 5], "lookAt": [0, 0, 0]}]}}\n' "$1" >"$A/seq_$1.json"
+  echo "$A/seq_$1.json"
+}
+# asset_case ID DESCRIPTION FILE SAYS: validate a sequence placing FILE; exit 2, one line, matching the regex SAYS.
+asset_case() {
+  sim validate "$(asset_sequence "$3")"; local rc=$?
+  local ok=1; [ $rc = 2 ] && [ "$(lines)" = 1 ] && grep -qE "$4" "$W/log" && ok=0
+  verdict "$1" "$2" "exit 2, one line: $4" "$(describe $rc), $(lines) line(s): $(cut -c 1-80 "$W/log" | head -n 1)" $ok
+}
+# gltf_variant NAME SED: BoxTextured.gltf edited by the sed script, reading its own copy of the buffer.
+gltf_variant() {
+  cp "$A/BoxTextured0.bin" "$A/$1.bin"
+  sed -e "s/BoxTextured0.bin/$1.bin/" -e "$2" "$A/BoxTextured.gltf" >"$A/$1.gltf"
+}
+# poke FILE OFFSET HEXBYTES: overwrite bytes in place ("e803" writes 0xe8 0x03).
+poke() { printf "$(echo "$3" | sed 's/../\\x&/g')" | dd of="$1" bs=1 seek="$2" conv=notrunc status=none; }
+
+sim validate "$(asset_sequence BoxTextured.gltf)"
+rc=$?
+verdict 8.0 "glTF: the untouched textured box" "exit 0" "$(describe $rc)" $([ $rc = 0 ] && echo 0 || echo 1)
+gltf_variant index1000 ''; poke "$A/index1000.bin" $((768 + 8)) e803
+asset_case 8.1 "glTF: an index 1000 of 24 vertices" index1000.gltf 'primitives/0 index 4 .* is 1000, past its 24 vertices'
+# A triangle with 32-bit indices, written whole: positions (0,0,0) (1,0,0) (0,0,1), indices 0 1 0xffffffff.
+printf '\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x01\x00\x00\x00\xff\xff\xff\xff' \
+  >"$A/u32.bin"
+printf '{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 1]},
+                {"bufferView": 1, "componentType": 5125, "count": 3, "type": "SCALAR"}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 12}],
+  "buffers": [{"uri": "u32.bin", "byteLength": 48}]}\n' >"$A/u32.gltf"
+asset_case 8.2 "glTF: an index 0xffffffff" u32.gltf 'index 2 .* is 4294967295, past its 3 vertices'
+gltf_variant scale '0,/"mesh": 0/s//"mesh": 0, "scale": ["nan", 1, 1]/'
+asset_case 8.3 'glTF: a node scale ["nan", 1, 1]' scale.gltf '/nodes/1/scale/0 must be a number'
+gltf_variant strength 's/"name": "Texture"/"name": "Texture", "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": "50"}}/; s/"asset": {/"extensionsUsed": ["KHR_materials_emissive_strength"], "asset": {/'
+asset_case 8.4 'glTF: emissiveStrength "50" (a string)' strength.gltf 'emissiveStrength must be a number'
+gltf_variant factor5 's/"metallicFactor": 0.0/"metallicFactor": 0.0, "baseColorFactor": [5, 1, 1, 1]/'
+asset_case 8.5 "glTF: baseColorFactor 5" factor5.gltf 'baseColorFactor/0 is 5, outside .*\[0.0, 1.0\]'
+gltf_variant factor1e30 's/"metallicFactor": 0.0/"metallicFactor": 0.0, "baseColorFactor": [1, 1e30, 1, 1]/'
+asset_case 8.6 "glTF: baseColorFactor 1e30" factor1e30.gltf 'baseColorFactor/1 is 1e\+30, outside'
+# A sparse 1.5 GiB buffer file: refused from its size, never read (the peak stays small).
+gltf_variant huge 's/"byteLength": 840/"byteLength": 1610612736/'
+truncate -s 1536M "$A/huge.bin"
+asset_case 8.7 "glTF: an external .bin of 1.5 GiB" huge.gltf 'buffers/0 .*larger than the 1 GiB'
+[ "$SANITIZED" = yes ] || verdict 8.8 "... without reading it" "peak under 200 MB" "$(peak_mb) MB" \
+  $([ "$(peak_mb)" -lt 200 ] && echo 0 || echo 1)
+rm -f "$A/huge.bin"
+GLB=/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb
+size=$(stat -c %s "$GLB")
+le32() { printf '%02x%02x%02x%02x' $(($1 & 255)) $(($1 >> 8 & 255)) $(($1 >> 16 & 255)) $(($1 >> 24 & 255)); }
+cp "$GLB" "$A/total.glb"; poke "$A/total.glb" 8 "$(le32 $((size + 100)))"
+asset_case 8.9 "GLB: its header's total length wrong" total.glb "gives its length as $((size + 100)) bytes but the file has $size"
+json=$(od -An -tu4 -j12 -N4 "$GLB" | tr -d ' ')
+head -c $((20 + json / 2)) "$GLB" >"$A/cut.glb"; poke "$A/cut.glb" 8 "$(le32 $((20 + json / 2)))"
+asset_case 8.10 "GLB: its JSON chunk cut short" cut.glb "JSON chunk is $json bytes long and runs past the end"
+cp "$GLB" "$A/past.glb"; poke "$A/past.glb" $((20 + json)) "$(le32 $size)"
+asset_case 8.11 "GLB: its BIN chunk's length past the end" past.glb "chunk at byte $((20 + json)) is $size bytes long and runs past the end"
+
 echo "hostile cases: $PASSED held, $FAILED failed"
 [ $FAILED = 0 ]

@@ -209,18 +209,27 @@ size_t ImportedTriangles(const fs::path& scratch, const std::string& asset) {
   return n;
 }
 
-TEST(AssetBadInput, GltfWithWrongJsonTypesIsRefused) {
+// Assimp's wrongTypes models: each refused by the schema check before Assimp reads it, naming the JSON path of the
+// value of the wrong type (Assimp's own message named only the member: "Member "name" was not of type ...").
+TEST(AssetBadInput, GltfWithWrongJsonTypesIsRefusedNamingTheJsonPath) {
   Scratch scratch;
-  const std::string dir = kModels + "glTF2/wrongTypes";
+  const std::string dir = kModels + "glTF2/wrongTypes/";
   ASSERT_TRUE(HaveModel(dir));
-  std::vector<std::string> files;
-  for (const auto& e : fs::directory_iterator(dir))
-    if (e.path().extension() == ".gltf") files.push_back(e.path().string());
-  std::sort(files.begin(), files.end());
-  EXPECT_GE(files.size(), 6u);
-  for (const std::string& f : files) {
-    const std::string m = ExpectRefused(scratch.Path(), f, Where::kInAsset);
-    EXPECT_NE(m.find("was not of type"), std::string::npos) << m;
+  const std::pair<const char*, const char*> cases[] = {
+      {"badArray.gltf", "/meshes/0/primitives must be an array"},
+      {"badExtension.gltf", "/materials/0/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform "
+                            "must be an object"},
+      {"badNumber.gltf", "/materials/0/normalTexture must have 'index'"},
+      {"badObject.gltf", "/materials/0/pbrMetallicRoughness must be an object"},
+      {"badString.gltf", "/scenes/0/name must be a string"},
+      {"badUint.gltf", "/materials/0/pbrMetallicRoughness/baseColorTexture/index is -1: an index must not be negative"}};
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) files += e.path().extension() == ".gltf";
+  EXPECT_EQ(files, std::size(cases)) << "a new model in " << dir;
+  for (const auto& [file, said] : cases) {
+    const std::string m = ExpectRefused(scratch.Path(), dir + file, Where::kInAsset);
+    EXPECT_NE(m.find(said), std::string::npos) << m;
+    EXPECT_NE(m.find("(glTF 2.0 schema)"), std::string::npos) << m;
   }
 }
 
@@ -231,10 +240,10 @@ TEST(AssetBadInput, GltfWhoseIndicesAreAllOutOfRangeIsRefused) {
   ExpectRefused(scratch.Path(), f, Where::kInAsset);
 }
 
-// IndexOutOfRange.gltf: 12 triangles, one of which uses a vertex beyond the POSITION accessor. Assimp 5.2
-// drops that triangle and imports the rest, so the asset is accepted with the 11 good triangles (counted here
-// from the file's index buffer) and renders.
-TEST(AssetBadInput, GltfWithOneIndexOutOfRangeImportsTheGoodTrianglesAndRenders) {
+// IndexOutOfRange.gltf: 12 triangles, one of which uses a vertex beyond the POSITION accessor (counted here from
+// the file's index buffer). glTF 2.0 §3.7.2.1 forbids it; Assimp 5.2 drops that triangle and imported the rest, so
+// the asset rendered with a hole. Refused, naming the primitive, the index and the vertex count.
+TEST(AssetBadInput, GltfWithOneIndexOutOfRangeIsRefusedNamingTheIndex) {
   Scratch scratch;
   const std::string f = kModels + "glTF2/IndexOutOfRange/IndexOutOfRange.gltf";
   ASSERT_TRUE(HaveModel(f));
@@ -250,20 +259,85 @@ TEST(AssetBadInput, GltfWithOneIndexOutOfRangeImportsTheGoodTrianglesAndRenders)
   const size_t start = view.value("byteOffset", size_t(0)) + indices.value("byteOffset", size_t(0));
   const size_t count = indices.at("count");
   ASSERT_LE(start + 2 * count, bin.size());
-  size_t good = 0;
-  for (size_t t = 0; t < count / 3; ++t) {
-    bool ok = true;
-    for (size_t k = 0; k < 3; ++k) {
-      uint16_t i = 0;
-      std::memcpy(&i, bin.data() + start + 2 * (3 * t + k), 2);
-      ok = ok && i < vertices;
+  size_t bad = 0, firstBad = count, firstValue = 0;
+  for (size_t k = 0; k < count; ++k) {
+    uint16_t i = 0;
+    std::memcpy(&i, bin.data() + start + 2 * k, 2);
+    if (i >= vertices) {
+      if (!bad) firstBad = k, firstValue = i;
+      ++bad;
     }
-    good += ok;
   }
   EXPECT_EQ(count / 3, 12u);
-  EXPECT_EQ(good, 11u);
-  EXPECT_EQ(ImportedTriangles(scratch.Path(), f), good);
-  ExpectRendered(scratch.Path(), f);
+  ASSERT_EQ(bad, 1u);
+  const std::string m = ExpectRefused(scratch.Path(), f, Where::kInAsset);
+  EXPECT_NE(m.find("/meshes/0/primitives/0 index " + std::to_string(firstBad) + " "), std::string::npos) << m;
+  EXPECT_NE(m.find("is " + std::to_string(firstValue) + ", past its " + std::to_string(vertices) + " vertices"),
+            std::string::npos)
+      << m;
+}
+
+// A GLB's indices (in its BIN chunk) past the vertex count, 1000 and 0xffffffff as an audit wrote them, an accessor
+// running past its buffer view, a view past its buffer, and a buffer shorter than its byteLength are each refused
+// naming the JSON path; the untouched file still renders.
+TEST(AssetBadInput, GltfBinaryDataOutsideItsBoundsIsRefused) {
+  Scratch scratch;
+  const std::string dir = kModels + "glTF2/BoxTextured-glTF/";
+  ASSERT_TRUE(HaveModel(dir + "BoxTextured.gltf"));
+  fs::copy_file(dir + "CesiumLogoFlat.png", scratch.Path() / "CesiumLogoFlat.png");
+  const nlohmann::json good = nlohmann::json::parse(ReadBytes(dir + "BoxTextured.gltf"));
+  const std::string goodBin = ReadBytes(dir + "BoxTextured0.bin");
+  const nlohmann::json& prim = good.at("meshes").at(0).at("primitives").at(0);
+  const size_t indexAccessor = prim.at("indices");
+  const nlohmann::json& acc = good.at("accessors").at(indexAccessor);
+  ASSERT_EQ(acc.at("componentType").get<int>(), 5123);
+  const size_t view = acc.at("bufferView");
+  const size_t start = good.at("bufferViews").at(view).value("byteOffset", size_t(0)) + acc.value("byteOffset", 0);
+  auto write = [&](const std::string& name, const nlohmann::json& doc, const std::string& bin) {
+    nlohmann::json d = doc;
+    d["buffers"][0]["uri"] = name + ".bin";
+    WriteBytes(scratch.Path() / (name + ".bin"), bin);
+    WriteBytes(scratch.Path() / (name + ".gltf"), d.dump());
+    return (scratch.Path() / (name + ".gltf")).string();
+  };
+  ExpectRendered(scratch.Path(), write("good", good, goodBin));
+  for (uint16_t value : {uint16_t(1000), uint16_t(0xffff)}) {
+    std::string bin = goodBin;
+    std::memcpy(&bin[start + 2 * 4], &value, 2);  // index 4, of the second triangle
+    const std::string m = ExpectRefused(scratch.Path(), write("index" + std::to_string(value), good, bin),
+                                        Where::kInAsset);
+    EXPECT_NE(m.find("/meshes/0/primitives/0 index 4 (accessor " + std::to_string(indexAccessor) + ") is " +
+                     std::to_string(value) + ", past its"),
+              std::string::npos)
+        << m;
+  }
+  nlohmann::json longAccessor = good;
+  longAccessor["accessors"][indexAccessor]["count"] = 100000;
+  std::string m = ExpectRefused(scratch.Path(), write("accessor", longAccessor, goodBin), Where::kInAsset);
+  EXPECT_NE(m.find("/accessors/" + std::to_string(indexAccessor) + " (100000 elements"), std::string::npos) << m;
+  nlohmann::json longView = good;
+  longView["bufferViews"][view]["byteLength"] = 1 << 20;
+  m = ExpectRefused(scratch.Path(), write("view", longView, goodBin), Where::kInAsset);
+  EXPECT_NE(m.find("/bufferViews/" + std::to_string(view) + " (bytes"), std::string::npos) << m;
+  m = ExpectRefused(scratch.Path(), write("short", good, goodBin.substr(0, goodBin.size() - 8)), Where::kInAsset);
+  EXPECT_NE(m.find("/buffers/0 has byteLength"), std::string::npos) << m;
+  // The asset-size limit (1 GiB) holds for the external buffers together, and is applied from their sizes before
+  // they are read: one sparse file of 1.5 GiB, then the box's buffer beside one of 1 GiB less 100 bytes.
+  const fs::path huge = scratch.Path() / "huge.bin";
+  WriteBytes(huge, "");
+  fs::resize_file(huge, uint64_t(3) << 29);
+  nlohmann::json hugeBuffer = good;
+  hugeBuffer["buffers"][0] = {{"uri", "huge.bin"}, {"byteLength", 840}};
+  WriteBytes(scratch.Path() / "huge.gltf", hugeBuffer.dump());
+  m = ExpectRefused(scratch.Path(), (scratch.Path() / "huge.gltf").string(), Where::kInAsset);
+  EXPECT_NE(m.find("/buffers/0 (huge.bin): cannot read"), std::string::npos) << m;
+  EXPECT_NE(m.find("larger than the 1 GiB an asset's files may hold"), std::string::npos) << m;
+  fs::resize_file(huge, (uint64_t(1) << 30) - 100);
+  nlohmann::json twoBuffers = good;
+  twoBuffers["buffers"].push_back({{"uri", "huge.bin"}, {"byteLength", 4}});
+  m = ExpectRefused(scratch.Path(), write("two", twoBuffers, goodBin), Where::kInAsset);
+  EXPECT_NE(m.find("/buffers/1 (huge.bin): cannot read"), std::string::npos) << m;
+  EXPECT_NE(m.find("with the asset's other buffers, larger than the 1 GiB"), std::string::npos) << m;
 }
 
 // Every file of Assimp's invalid/ folder: the ones with an extension we import are refused inside the asset,
@@ -407,7 +481,7 @@ TEST(AssetBadInput, DirectoryDeviceAndUnsupportedExtensionAreRefusedAtTheSequenc
 
 // A GLB whose framing is wrong says which part: the magic, the version, the header's total length against the
 // file, the first chunk's type, a JSON chunk running past the end (each was "the first chunk is not its JSON" or
-// was ignored).
+// was ignored), a chunk length that is not a multiple of 4, an empty JSON chunk, a BIN chunk twice or not second.
 TEST(AssetBadInput, GlbFramingFaultsAreNamedOneByOne) {
   Scratch scratch;
   const std::string model = kModels + "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
@@ -421,14 +495,26 @@ TEST(AssetBadInput, GlbFramingFaultsAreNamedOneByOne) {
   struct Case {
     const char* name;
     std::string bytes;
-    const char* said;
+    std::string said;
   };
   std::string magic = good;
   magic[0] = 'x';
-  for (const Case& c : {Case{"magic", magic, "no 'glTF' magic"}, Case{"version", put(good, 4, 1), "has version 1"},
-                        Case{"total", put(good, 8, size + 100), "gives its length as"},
-                        Case{"type", put(good, 16, 0x4E4F5342u), "first chunk is not of type JSON"},
-                        Case{"past", put(good, 12, size), "JSON chunk is"}}) {
+  uint32_t json = 0;
+  std::memcpy(&json, good.data() + 12, 4);
+  const std::string bin = good.substr(20 + json);  // the BIN chunk, header and data
+  const std::string twice = put(good + bin, 8, size + static_cast<uint32_t>(bin.size()));
+  const std::string xtra = std::string("\x08\0\0\0XTRA", 8) + std::string(8, '\0');  // an unknown chunk, 8 bytes
+  const std::string binThird = put(good.substr(0, 20 + json) + xtra + bin, 8, size + 16);
+  for (const Case& c :
+       {Case{"magic", magic, "no 'glTF' magic"}, Case{"version", put(good, 4, 1), "has version 1"},
+        Case{"total", put(good, 8, size + 100), "gives its length as"},
+        Case{"type", put(good, 16, 0x4E4F5342u), "first chunk is not of type JSON"},
+        Case{"past", put(good, 12, size), "JSON chunk is"},
+        Case{"unaligned", put(good, 12, json - 1), "JSON chunk is " + std::to_string(json - 1) +
+                                                       " bytes long, not a multiple of 4"},
+        Case{"empty", put(put(std::string(good, 0, 20), 12, 0), 8, 20), "JSON chunk is empty"},
+        Case{"twice", twice, "a second BIN chunk at byte " + std::to_string(good.size())},
+        Case{"third", binThird, "BIN chunk at byte " + std::to_string(20 + json + 16) + " is not its second"}}) {
     const fs::path f = scratch.Path() / (std::string("box_") + c.name + ".glb");
     WriteBytes(f, c.bytes);
     const std::string m = ExpectRefused(scratch.Path(), f.string(), Where::kInAsset);

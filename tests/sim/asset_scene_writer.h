@@ -95,7 +95,7 @@ class Gltf {
  public:
   Gltf() {
     doc_["asset"] = {{"version", "2.0"}, {"generator", "tests/sim/asset_scene_writer.h"}};
-    doc_["extensionsUsed"] = Json::array({"KHR_materials_emissive_strength"});
+    doc_["extensionsUsed"] = Json::array({"KHR_materials_emissive_strength", "KHR_texture_transform"});
   }
   int Positions(const std::vector<D3>& p) {
     std::vector<float> f;

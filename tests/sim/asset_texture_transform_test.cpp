@@ -23,7 +23,7 @@
 //
 // SamplerWrapModesReachTheTexturePerAxis: assimp-testmodels' BoxTextured-glTF declares MIRRORED_REPEAT on s and
 //    CLAMP_TO_EDGE on t, its binary variant the default; the imported textures carry those, axis by axis.
-// ImpossibleTextureReadsAreRefused: a UV set the mesh lacks, one beyond TEXCOORD_7, a transform out of float
+// ImpossibleTextureReadsAreRefused: a UV set the mesh lacks (TEXCOORD_1, TEXCOORD_5000000), a transform out of float
 //    range: InputError naming the file.
 // MtlClampOptionClampsTheMap: an MTL map with "-clamp on" clamps, one without repeats.
 #include <gtest/gtest.h>
@@ -276,7 +276,8 @@ TEST(AssetTextureTransform, ImpossibleTextureReadsAreRefused) {
   const Json shift = {{"extensions", {{"KHR_texture_transform", {{"offset", {0.5, 0.25}}}}}}};
   const std::vector<Case> cases = {
       {"emission on a set the mesh lacks", shift, {{"texCoord", 1}}, "TEXCOORD_1"},
-      {"set beyond TEXCOORD_7", {{"texCoord", 5000000}}, Json::object(), "TEXCOORD_0 to TEXCOORD_7"},
+      {"set beyond TEXCOORD_7", {{"texCoord", 5000000}}, Json::object(),
+       "reads TEXCOORD_5000000, which the primitive does not have"},
       {"transform out of float range",
        {{"extensions", {{"KHR_texture_transform", {{"scale", {1e308, 1e308}}}}}}},
        Json::object(),
