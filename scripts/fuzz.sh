@@ -3,7 +3,8 @@
 # (tests/fuzz/sequence_fuzz.cpp) for SECONDS, then the reference cache reader (cache_fuzz.cpp) and the metrics.csv
 # reader of report and compare (metrics_csv_fuzz.cpp) for SECONDS/2 each, then the reader of a sweep job's
 # relative-error frames (relative_error_fuzz.cpp) and the asset importer (asset_fuzz.cpp: glTF, GLB, OBJ and PLY
-# through Assimp in its forked child, and the child's message to the parent) for SECONDS/4 each. Installs clang if
+# through Assimp in its forked child, and the child's message to the parent) and the glTF checks alone, in process
+# (gltf_fuzz.cpp) for SECONDS/4 each. Installs clang if
 # missing, builds the `fuzz` preset (only the readers), seeds each from its shipped inputs, and fails on any
 # finding (crash, uncaught exception, sanitizer report, timeout, leak, out-of-memory, a refusal that is not one line
 # free of control bytes: tests/fuzz/fuzz_message.h), leaving the input that triggered it in
@@ -48,3 +49,4 @@ fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 tests/fuzz/cache_seeds
 fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 tests/fuzz/metrics_seeds
 fuzz relative_error_fuzz $(( (seconds + 3) / 4 )) 256 tests/fuzz/relative_error_seeds
 fuzz asset_fuzz $(( (seconds + 3) / 4 )) 16384 tests/fuzz/asset_seeds -- -dict=tests/fuzz/asset.dict
+fuzz gltf_fuzz $(( (seconds + 3) / 4 )) 16384 tests/fuzz/gltf_seeds -- -dict=tests/fuzz/asset.dict

@@ -21,7 +21,7 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 
-#include "sim/gltf_buffers.h"  // PercentDecoded
+#include "sim/gltf_buffers.h"  // ResolveGltfUriFile
 #include "sim/gltf_document.h"
 #include "sim/input_file.h"
 #include "sim/sequence.h"  // InputError
@@ -105,6 +105,30 @@ struct GltfMaterialKey {
 // glTF's sampler wrap enums (OpenGL's values); an unknown value reads as the default, REPEAT.
 TextureWrap WrapOf(int gl) {
   return gl == 33071 ? TextureWrap::kClampToEdge : gl == 33648 ? TextureWrap::kMirroredRepeat : TextureWrap::kRepeat;
+}
+
+// The triangles the checked glTF document's scene places (every node reachable from its scene, or from the first
+// scene, once per node that instances a mesh): what Assimp will build, counted before it does.
+uint64_t GltfTriangles(const nlohmann::json& doc) {
+  if (!doc.contains("scenes")) return 0;
+  const nlohmann::json& scene = doc["scenes"][doc.value("scene", size_t(0))];
+  std::vector<uint64_t> open;
+  if (scene.contains("nodes")) open = scene["nodes"].get<std::vector<uint64_t>>();
+  uint64_t triangles = 0;
+  while (!open.empty()) {  // the hierarchy is a forest (sim/gltf_schema.h): each node is met once
+    const nlohmann::json& node = doc["nodes"][open.back()];
+    open.pop_back();
+    if (node.contains("children"))
+      for (const auto& c : node["children"]) open.push_back(c.get<uint64_t>());
+    if (!node.contains("mesh")) continue;
+    for (const auto& p : doc["meshes"][node["mesh"].get<size_t>()]["primitives"]) {
+      const auto& accessor = doc["accessors"][(p.contains("indices") ? p["indices"]
+                                                                      : p["attributes"].begin().value()).get<size_t>()];
+      const uint64_t n = accessor["count"].get<uint64_t>(), mode = p.value("mode", uint64_t(4));
+      triangles += mode == 4 ? n / 3 : mode == 5 || mode == 6 ? (n > 2 ? n - 2 : 0) : 0;
+    }
+  }
+  return triangles;
 }
 
 // Each material's keys and texture uses from the asset's checked glTF JSON.
@@ -500,7 +524,7 @@ class Converter {
       fs::path file = fs::path(portable);
       if (file.is_relative()) file = fs::path(path_).parent_path() / file;
       // A glTF image's URI is percent-encoded, which Assimp passes on as written.
-      if (gltf_ && !fs::exists(file) && fs::exists(PercentDecoded(file.string()))) file = PercentDecoded(file.string());
+      if (gltf_) file = ResolveGltfUriFile(file.string());
       t.name = file.lexically_normal().string();
       std::string problem;
       if (!TryReadRegularFile(t.name, kMaxTextureFileBytes, t.bytes, problem))
@@ -526,17 +550,20 @@ class Converter {
   std::vector<MaterialUvs> materialUvs_;
 };
 
-// glTF's buffer URIs are percent-encoded (RFC 3986: a file "Box Textured.bin" is "Box%20Textured.bin"), and Assimp
-// 5.2 opens them as written: a file that does not exist under the name given is looked for under its decoded name.
-class UriDecodingIOSystem : public Assimp::DefaultIOSystem {
+// glTF's URIs are percent-encoded (RFC 3986: a file "Box Textured.bin" is "Box%20Textured.bin"), and Assimp 5.2
+// opens them as written: each file but the asset itself is opened as sim/gltf_buffers.h resolves it, so that Assimp
+// reads the file the checks read.
+class GltfUriIOSystem : public Assimp::DefaultIOSystem {
  public:
-  bool Exists(const char* file) const override {
-    return DefaultIOSystem::Exists(file) || DefaultIOSystem::Exists(PercentDecoded(file).c_str());
-  }
+  explicit GltfUriIOSystem(std::string asset) : asset_(std::move(asset)) {}
+  bool Exists(const char* file) const override { return DefaultIOSystem::Exists(Resolve(file).c_str()); }
   Assimp::IOStream* Open(const char* file, const char* mode) override {
-    if (DefaultIOSystem::Exists(file)) return DefaultIOSystem::Open(file, mode);
-    return DefaultIOSystem::Open(PercentDecoded(file).c_str(), mode);
+    return DefaultIOSystem::Open(Resolve(file).c_str(), mode);
   }
+
+ private:
+  std::string Resolve(const char* file) const { return file == asset_ ? asset_ : ResolveGltfUriFile(file); }
+  const std::string asset_;
 };
 
 }  // namespace
@@ -588,15 +615,21 @@ ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& li
   // Refuse what is not a regular file before Assimp opens it (a FIFO would block it); glTF's JSON is read from
   // these bytes too.
   std::string bytes, problem;
-  if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem)) Fail(path, "cannot read the file (" + problem + ")");
+  if (!TryReadRegularFile(path, kMaxAssetFileBytes, bytes, problem))
+    Fail(path, "cannot read the file (" + problem + ")");
   if (bytes.empty()) Fail(path, "the file is empty");
   const bool gltf = ext == ".gltf" || ext == ".glb";
-  const std::vector<GltfMaterialKey> gltfMaterials =
-      gltf ? GltfMaterialKeys(ReadGltfDocument(bytes, path, ext == ".glb", kMaxAssetFileBytes).json, path)
-           : std::vector<GltfMaterialKey>{};
+  std::vector<GltfMaterialKey> gltfMaterials;
+  if (gltf) {
+    const GltfDocument doc = ReadGltfDocument(bytes, path, ext == ".glb", kMaxAssetFileBytes);
+    // Before Assimp allocates them (a thousand primitives instancing a million vertices each exhaust its memory).
+    if (GltfTriangles(doc.json) > limits.maxTriangles)
+      Fail(path, "the asset holds more than " + std::to_string(limits.maxTriangles) + " triangles");
+    gltfMaterials = GltfMaterialKeys(doc.json, path);
+  }
   if (!gltf) std::string().swap(bytes);  // only glTF needs them; Assimp reads the file itself
   Assimp::Importer importer;
-  if (gltf) importer.SetIOHandler(new UriDecodingIOSystem);  // the importer owns it
+  if (gltf) importer.SetIOHandler(new GltfUriIOSystem(path));  // the importer owns it
   // SortByPType puts points and lines in meshes of their own, which are skipped.
   const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
   const aiScene* scene = importer.ReadFile(path, flags);

@@ -2,6 +2,9 @@
 
 #include <cstdint>
 #include <cstring>
+#include <set>
+#include <string_view>
+#include <vector>
 
 #include "sim/gltf_buffers.h"
 #include "sim/gltf_schema.h"
@@ -14,6 +17,7 @@ namespace {
 
 constexpr uint32_t kChunkJson = 0x4E4F534Au;  // "JSON"
 constexpr uint32_t kChunkBin = 0x004E4942u;   // "BIN\0"
+constexpr size_t kMaxJsonDepth = 256;
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) {
   throw InputError(OneLine(path + ": error: " + what));
@@ -75,21 +79,64 @@ GltfDocument GlbChunks(const std::string& bytes, const std::string& path, std::s
   return doc;
 }
 
+// The glTF JSON (`what` names it in messages), refusing what readers would read differently: a byte-order mark
+// and a NUL byte (glTF 2.0 §3.2 wants UTF-8 JSON without a BOM; a GLB pads its JSON chunk with spaces, and a NUL
+// ends nlohmann's input early), a key given twice in one object (Assimp reads the first, nlohmann and the Khronos
+// validator the last, so what is checked would not be what is imported), and nesting deeper than kMaxJsonDepth
+// (Assimp's JSON reader recurses once a level; no glTF needs more).
+nlohmann::json ParseJson(std::string_view json, const std::string& path, const std::string& what) {
+  if (json.substr(0, 3) == "\xEF\xBB\xBF")
+    Fail(path, what + " begins with a byte-order mark, which glTF 2.0 forbids (§3.2: JSON in UTF-8 without one)");
+  if (const size_t nul = json.find('\0'); nul != std::string_view::npos)
+    Fail(path, what + " holds a NUL byte at byte " + std::to_string(nul) + ", which JSON does not (a binary glTF "
+                      "pads its JSON chunk with spaces)");
+  // The open objects and arrays: an object's current key (its set of keys beside), "*" for an array.
+  struct Frame {
+    std::string name;
+    bool object = false;
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> open;
+  auto pointer = [&]() {  // of the innermost open object, array positions as '*'
+    std::string p;
+    for (size_t i = 0; i + 1 < open.size(); ++i) p += "/" + open[i].name;
+    return p.empty() ? std::string("the top-level object") : p;
+  };
+  using Event = nlohmann::json::parse_event_t;
+  auto check = [&](int, Event event, nlohmann::json& parsed) {
+    if (event == Event::object_start || event == Event::array_start) {
+      if (open.size() >= kMaxJsonDepth)
+        Fail(path, what + " nests objects and arrays deeper than " + std::to_string(kMaxJsonDepth) + " levels, " +
+                       "at " + pointer() + " (Assimp's JSON reader recurses once a level)");
+      open.push_back(Frame{event == Event::array_start ? "*" : "", event == Event::object_start, {}});
+    } else if (event == Event::object_end || event == Event::array_end) {
+      open.pop_back();
+    } else if (event == Event::key) {
+      const std::string key = parsed.get<std::string>();
+      if (!open.back().keys.insert(key).second)
+        Fail(path, pointer() + " has the key '" + Printable(key) + "' twice (readers disagree on which one " +
+                       "counts: Assimp 5.2 reads the first, the Khronos validator the last)");
+      open.back().name = key;
+    }
+    return true;
+  };
+  try {
+    return nlohmann::json::parse(json.begin(), json.end(), check);
+  } catch (const nlohmann::json::exception& e) {  // a parse error, or a number past a double's range (406)
+    std::string message = e.what();
+    const size_t bracket = message.find("] ");
+    if (bracket != std::string::npos) message = message.substr(bracket + 2);
+    Fail(path, what + " is not JSON: " + Printable(message, 200));
+  }
+}
+
 }  // namespace
 
 GltfDocument ReadGltfDocument(const std::string& bytes, const std::string& path, bool binary,
                               size_t maxBufferBytes) {
   std::string_view json = bytes;
   GltfDocument doc = binary ? GlbChunks(bytes, path, json) : GltfDocument{};
-  try {
-    doc.json = nlohmann::json::parse(json.begin(), json.end());
-  } catch (const nlohmann::json::parse_error& e) {
-    std::string what = e.what();
-    const size_t bracket = what.find("] ");
-    if (bracket != std::string::npos) what = what.substr(bracket + 2);
-    Fail(path, std::string(binary ? "the binary glTF's JSON chunk" : "the file") +
-                   " is not JSON: " + Printable(what, 200));
-  }
+  doc.json = ParseJson(json, path, binary ? "the binary glTF's JSON chunk" : "the file");
   CheckGltfSchema(doc.json, path);
   CheckGltfBuffers(doc.json, doc.bin, path, maxBufferBytes);
   return doc;

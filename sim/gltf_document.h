@@ -8,19 +8,19 @@
 
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 
 namespace restir {
 
 struct GltfDocument {
-  nlohmann::json json;  // the document, every check passed
-  std::string_view
-      bin;  // a GLB's BIN chunk, a view into the bytes given; empty for a .gltf or a GLB without one
+  nlohmann::json json;                  // the document, every check passed
+  std::optional<std::string_view> bin;  // a GLB's BIN chunk, within the bytes given; nullopt for a .gltf or none
 };
 
 // `bytes` is the file at `path`, a GLB when `binary`; external buffers resolve against its directory and may
-// be at most `maxBufferBytes` long. Throws InputError "<path>: error: ..." on the first violation.
+// be at most `maxBufferBytes` long together. Throws InputError "<path>: error: ..." on the first violation.
 GltfDocument ReadGltfDocument(const std::string& bytes, const std::string& path, bool binary,
                               size_t maxBufferBytes);
 

@@ -135,7 +135,6 @@ class Schema {
   }
   void InRange(const Json& v, const std::string& at, double lo, double hi, bool aboveLo) const {
     const double x = v.get<double>();
-    if (!std::isfinite(x)) Fail(at, "is a number beyond the range of a double");
     if (!(aboveLo ? x > lo : x >= lo) || !(x <= hi))
       Fail(at, "is " + v.dump() + ", outside the glTF 2.0 schema's range " + (aboveLo ? "(" : "[") +
                    Json(lo).dump() + ", " + (hi == kInf ? std::string("inf)") : Json(hi).dump() + "]"));
@@ -149,19 +148,24 @@ class Schema {
     InRange(*v, At(at, key), lo, hi, aboveLo);
     return v->get<double>();
   }
-  // A JSON integer (not 1.0) in [lo, hi].
+  // A JSON integer that fits 64 bits. One written with a fraction or an exponent (36.0, 1e3), which JSON Schema
+  // counts an integer, is refused as Assimp 5.2 reads no other.
+  void ExpectInteger(const Json& v, const std::string& at, const char* type) const {
+    if (v.is_number_float() && v.get<double>() == std::floor(v.get<double>())) {
+      if (std::fabs(v.get<double>()) >= 9.2e18) Fail(at, "is " + v.dump() + ", past a 64-bit integer's range");
+      Fail(at, "is written " + v.dump() + ": write integers without a fraction (Assimp 5.2 reads no other)");
+    }
+    Expect(v.is_number_integer(), at, type, v);
+    if (v.is_number_unsigned() && v.get<uint64_t>() > uint64_t(std::numeric_limits<int64_t>::max()))
+      Fail(at, "is " + v.dump() + ", past a 64-bit integer's range");
+  }
+  // A JSON integer in [lo, hi].
   std::optional<int64_t> Integer(const Json& o, const std::string& at, const char* key, int64_t lo = 0,
                                  int64_t hi = std::numeric_limits<int64_t>::max(),
                                  bool required = false) const {
     const Json* v = Member(o, at, key, required);
     if (!v) return std::nullopt;
-    if (v->is_number_float() && std::isfinite(v->get<double>()) &&
-        v->get<double>() == std::floor(v->get<double>()))
-      Fail(At(at, key),
-           "is written " + v->dump() + ": write integers without a fraction (Assimp 5.2 reads no other)");
-    Expect(v->is_number_integer(), At(at, key), "an integer", *v);
-    if (v->is_number_unsigned() && v->get<uint64_t>() > uint64_t(std::numeric_limits<int64_t>::max()))
-      Fail(At(at, key), "is " + v->dump() + ", past the glTF 2.0 schema's range");
+    ExpectInteger(*v, At(at, key), "an integer");
     const int64_t x = v->get<int64_t>();
     if (x < lo || x > hi)
       Fail(At(at, key),
@@ -192,11 +196,8 @@ class Schema {
     return it != doc_.end() && it->is_array() ? it->size() : 0;
   }
   void Refers(const Json& v, const std::string& at, const char* array) const {
-    if (v.is_number_float() && std::isfinite(v.get<double>()) &&
-        v.get<double>() == std::floor(v.get<double>()))
-      Fail(at, "is written " + v.dump() + ": write integers without a fraction (Assimp 5.2 reads no other)");
-    Expect(v.is_number_integer(), at, "an index (an integer)", v);
-    if (v.is_number_integer() && v.get<int64_t>() < 0)
+    ExpectInteger(v, at, "an index (an integer)");
+    if (v.get<int64_t>() < 0)
       Fail(at, "is " + v.dump() + ": an index must not be negative" + kSchema);
     if (v.get<uint64_t>() >= Count(array))
       Fail(at, "is " + v.dump() + ", past the end of /" + array + " (" + std::to_string(Count(array)) +
@@ -268,7 +269,7 @@ class Schema {
     if (const Json* e = Object(o, at, "extensions")) {
       for (const auto& [name, value] : e->items()) {
         Expect(value.is_object(), At(At(at, "extensions"), name), "an object", value);
-        if (!extensionUse_.count(name)) extensionUse_.emplace(name, At(At(at, "extensions"), name));
+        extensionUses_.emplace_back(name, At(At(at, "extensions"), name));
       }
     }
   }
@@ -341,10 +342,28 @@ class Schema {
   }
 
   // Every extension object an object holds is listed in extensionsUsed (the Khronos validator's
-  // UNDECLARED_EXTENSION). Checked last, so that a wrong value inside an undeclared extension is named first.
+  // UNDECLARED_EXTENSION), and those the simulator reads sit where their specifications put them (its
+  // UNEXPECTED_EXTENSION_OBJECT): a texture transform in a textureInfo (a "...Texture" property, also inside
+  // another extension), emissive strength in a material, Draco in a mesh primitive. Checked last, so that a wrong
+  // value inside an extension is named first.
   void CheckExtensionsUsed() const {
-    for (const auto& [name, at] : extensionUse_)
+    for (const auto& [name, at] : extensionUses_) {
       if (!used_.count(name)) Fail(at, "is an extension that extensionsUsed does not list (glTF 2.0)");
+      const std::string holder = at.substr(0, at.size() - name.size() - std::string("/extensions/").size());
+      const std::string key = holder.substr(holder.rfind('/') + 1);
+      const auto depth = std::count(at.begin(), at.end(), '/');
+      const bool placed =
+          name == "KHR_texture_transform" ? key.size() > 7 && key.compare(key.size() - 7, 7, "Texture") == 0
+          : name == "KHR_materials_emissive_strength" ? at.rfind("/materials/", 0) == 0 && depth == 4
+          : name == "KHR_draco_mesh_compression"
+              ? at.rfind("/meshes/", 0) == 0 && depth == 6 && at.find("/primitives/") != std::string::npos
+              : true;
+      if (!placed) Fail(at, "is not where its specification puts it (in a " +
+                                std::string(name == "KHR_texture_transform" ? "textureInfo"
+                                            : name == "KHR_draco_mesh_compression" ? "mesh primitive"
+                                                                                   : "material") +
+                                ")");
+    }
   }
 
   // ---- one object of each kind (glTF 2.0 §5, the JSON schema) ----
@@ -487,7 +506,8 @@ class Schema {
       Numbers(*x, xat, "offset", 2);
       Number(*x, xat, "rotation");
       Numbers(*x, xat, "scale", 2);
-      if (const auto s = Integer(*x, xat, "texCoord")) set = *s;
+      // The transform's texCoord overrides the textureInfo's for reading, but the validator asks for both sets.
+      if (const auto s = Integer(*x, xat, "texCoord")) maxTexCoord = std::max(maxTexCoord, *s);
     }
     maxTexCoord = std::max(maxTexCoord, set);
   }
@@ -527,6 +547,7 @@ class Schema {
   void Primitive(const Json& p, const std::string& at) {
     Common(p, at);
     const Json* attributes = Object(p, at, "attributes", true);
+    if (attributes->empty()) Fail(At(at, "attributes"), "must not be empty" + kSchema);
     for (const auto& [name, value] : attributes->items())
       Refers(value, At(At(at, "attributes"), name), "accessors");
     Index(p, at, "indices", "accessors");
@@ -609,9 +630,11 @@ class Schema {
   // without byteStride; a TEXCOORD_n for every texture its material reads (Khronos'
   // MESH_PRIMITIVE_TOO_FEW_TEXCOORDS).
   void CheckPrimitives() const {
-    const Json& accessors = doc_.contains("accessors") ? doc_["accessors"] : Json::array();
+    static const Json kNone = Json::array();
+    const Json& accessors = doc_.contains("accessors") ? doc_["accessors"] : kNone;
     for (const auto& [primitive, at] : primitives_) {
       const Json& p = *primitive;
+      const bool draco = Extension(p, "KHR_draco_mesh_compression") != nullptr;  // its accessors have no views
       std::optional<uint64_t> count;
       std::map<std::string, int>
           sets;  // highest n + 1 and number of TEXCOORD_n, COLOR_n, JOINTS_n, WEIGHTS_n
@@ -621,6 +644,7 @@ class Schema {
         const Json& a = accessors[index.get<size_t>()];
         const std::string semantic = Semantic(name, aat, sets, numbered);
         if (!semantic.empty()) CheckAttributeFormat(semantic, a, aat, index.get<size_t>());
+        if (!draco) NeedsData(a, aat, index.get<size_t>());
         if (count && a["count"].get<uint64_t>() != *count)
           Fail(aat, "has " + a["count"].dump() + " elements where the primitive's other attributes have " +
                         std::to_string(*count) + " (glTF 2.0 §3.7.2.1)");
@@ -637,6 +661,7 @@ class Schema {
                                        " WEIGHTS_n (glTF 2.0 §3.7.3.3)");
       if (p.contains("indices")) {
         const Json& a = accessors[p["indices"].get<size_t>()];
+        if (!draco) NeedsData(a, At(at, "indices"), p["indices"].get<size_t>());
         const int64_t type = a["componentType"].get<int64_t>();
         if (a["type"] != "SCALAR" || !(type == 5121 || type == 5123 || type == 5125) ||
             a.value("normalized", false))
@@ -656,6 +681,13 @@ class Schema {
                        std::to_string(needs) + ", which the primitive does not have");
       }
     }
+  }
+  // A mesh's accessor without a bufferView or sparse values is all zeros (§3.6.2.1): valid, but Assimp 5.2 reads
+  // no mesh data from one ("data is null"), so it is refused here with that said.
+  void NeedsData(const Json& a, const std::string& at, size_t index) const {
+    if (!a.contains("bufferView") && !a.contains("sparse"))
+      Fail(at, "names accessor " + std::to_string(index) + ", which has neither a bufferView nor sparse values " +
+                   "(all zeros): Assimp 5.2 reads no mesh data from one");
   }
   // The semantic of attribute `name` ("TEXCOORD" for TEXCOORD_3), counting the indexed sets; "" for an
   // application-specific one. Refuses a name the specification does not define.
@@ -750,7 +782,7 @@ class Schema {
   const Json& doc_;
   const std::string& path_;
   std::set<std::string> used_, required_;
-  std::map<std::string, std::string> extensionUse_;  // each extension's first use (its JSON pointer)
+  std::vector<std::pair<std::string, std::string>> extensionUses_;  // each extension object: name, JSON pointer
   std::vector<int64_t> materialTexCoords_;  // per material: the highest UV set a texture reads, or -1
   std::vector<std::pair<const Json*, std::string>> primitives_;  // every mesh primitive with its JSON pointer
 };

@@ -5,7 +5,8 @@
 // Assimp crash, hang or runaway allocation in the child must come back as InputError, which is the property
 // under test. Anything else (another exception, a crash or sanitizer report in this process) is a finding.
 //
-// Every input is also given, whole, to DeserializeAsset (the parent's reader of the child's bytes), and what
+// A glTF or GLB input also goes through the glTF checks (sim/gltf_document.h) in this process. Every input is
+// also given, whole, to DeserializeAsset (the parent's reader of the child's bytes), and what
 // it accepts to DecodeAssetTextures and ValidateAsset, as the parent does: each must return or throw
 // InputError. Built by the `fuzz` preset, run by scripts/fuzz.sh; seeds in tests/fuzz/asset_seeds/,
 // dictionary asset.dict.
@@ -22,6 +23,7 @@
 #include "fuzz_message.h"
 #include "importer_child.h"
 #include "sim/asset_import.h"
+#include "sim/gltf_document.h"
 #include "sim/sequence.h"  // InputError
 
 RESTIR_FUZZ_SANITIZER_DEFAULTS
@@ -73,6 +75,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::ofstream f(path, std::ios::binary | std::ios::trunc);
     f.write(bytes.data() + 1, static_cast<std::streamsize>(size - 1));
     if (!f) std::abort();
+  }
+  // The glTF checks, in this process (in ImportAsset they run in the forked child, where a crash would come back
+  // as the child's InputError and hide): each glTF input must pass them or be refused with one clean line.
+  if (data[0] % 4 < 2) {
+    try {
+      restir::ReadGltfDocument(bytes.substr(1), path, data[0] % 4 == 1, size_t(1) << 20);
+    } catch (const restir::InputError& e) {
+      CheckMessage(e);
+      if (std::string(e.what()).rfind(path, 0) != 0) __builtin_trap();  // the message names the asset
+    }
   }
   restir::AssetLimits limits;
   // Far below libFuzzer's -timeout (10 s in scripts/fuzz.sh), so a hang of Assimp is the child's and an

@@ -111,6 +111,15 @@ const std::vector<std::pair<std::string, std::string>> kOurRefusals = {
     {"write integers without a fraction", "an integer written 36.0, which Assimp 5.2 does not read"},
     {"says extras should be an object", "extras that are not an object, which Assimp 5.2 does not read"},
     {"not one of TEXCOORD_0 to TEXCOORD_7", "a texture reading TEXCOORD_8 or later: Assimp 5.2 keeps eight sets"},
+    {"twice (readers disagree on which one counts", "a key twice in one object: Assimp reads the first"},
+    {"nests objects and arrays deeper than", "JSON nested past 256 levels: Assimp's reader recurses"},
+    {"is not JSON: number overflow", "a number past a double's range"},
+    {"but the binary glTF has a BIN chunk",
+     "a GLB's first buffer with a uri beside a BIN chunk: Assimp reads the chunk"},
+    {"neither a bufferView nor sparse values", "mesh data of zeros: Assimp 5.2 reads none"},
+    {"elements of zeros would take more than", "zeros past the 1 GiB an asset's data may hold"},
+    {"the asset holds more than", "more triangles than the asset limit (2^22)"},
+    {"which Assimp 5.2 reads past its data", "a sparse accessor over an interleaved view: Assimp 5.2 misreads it"},
 };
 
 std::string ReadBytes(const fs::path& path) {
@@ -477,9 +486,13 @@ class GltfValidatorOracle : public ::testing::Test {
     fs::remove_all(scratch_);
     fs::create_directories(scratch_);
   }
-  // Kept after a failure, to run the validator and the importer on a variant by hand.
+  // Kept after a failure (with the test's scratch directory), and copied to the directory
+  // RESTIR_KEEP_GLTF_VARIANTS names, to run the validator and the importer on a variant by hand.
   void TearDown() override {
-    if (!scratch_.empty() && !HasFailure()) fs::remove_all(scratch_);
+    if (scratch_.empty()) return;
+    if (const char* keep = std::getenv("RESTIR_KEEP_GLTF_VARIANTS"))
+      fs::copy(scratch_, keep, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+    if (!HasFailure()) fs::remove_all(scratch_);
   }
 
   // Every variant written into the scratch directory; returns the files with what each is meant to be.
@@ -512,6 +525,43 @@ class GltfValidatorOracle : public ::testing::Test {
       WriteBytes(f, b);
       files.emplace_back(f.string(), v.meantValid);
     }
+    // JSON nested 300 levels deep in extras (valid; the checks refuse it, as Assimp's reader recurses).
+    Json deep = box;
+    std::string nested = "0";
+    for (int k = 0; k < 300; ++k) nested = "[" + nested + "]";
+    deep["extras"] = {{"a", Json::parse(nested)}};
+    deep["buffers"][0]["uri"] = "BoxTextured0.bin";
+    fs::copy_file(dir + "BoxTextured0.bin", scratch_ / "BoxTextured0.bin");
+    WriteBytes(scratch_ / "box_deep_extras.gltf", deep.dump());
+    files.emplace_back((scratch_ / "box_deep_extras.gltf").string(), true);
+    // 4.2 million triangles of zeros under one sparse vertex (valid; past the asset's triangle limit, refused
+    // before Assimp allocates them).
+    Json many = box;
+    many["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", kIndices}, {"byteLength", 2}});    // index 0
+    many["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", kPositions}, {"byteLength", 12}});  // a vertex
+    Json lo = Json::array(), hi = Json::array();
+    for (int c = 0; c < 3; ++c) {
+      float x;
+      std::memcpy(&x, &bin[kPositions + 4 * c], 4);
+      lo.push_back(std::min(0.0f, x));
+      hi.push_back(std::max(0.0f, x));
+    }
+    const size_t views = many["bufferViews"].size();
+    many["accessors"].push_back(
+        {{"componentType", 5126}, {"count", 12600000}, {"type", "VEC3"}, {"min", lo}, {"max", hi},
+         {"sparse", {{"count", 1},
+                     {"indices", {{"bufferView", views - 2}, {"componentType", 5123}}},
+                     {"values", {{"bufferView", views - 1}}}}}});
+    many["meshes"][0]["primitives"][0] = {{"attributes", {{"POSITION", many["accessors"].size() - 1}}}};
+    WriteBytes(scratch_ / "box_many_triangles.gltf", many.dump());
+    files.emplace_back((scratch_ / "box_many_triangles.gltf").string(), true);
+    // The glTF fuzzer's seeds (their first byte chooses the form).
+    for (const auto& e : fs::directory_iterator("tests/fuzz/gltf_seeds")) {
+      const std::string seed = ReadBytes(e.path());
+      const fs::path f = scratch_ / ("seed_" + e.path().stem().stem().string() + (seed[0] == '1' ? ".glb" : ".gltf"));
+      WriteBytes(f, seed.substr(1));
+      files.emplace_back(f.string(), true);
+    }
     // A valid box whose buffer's file name holds a space (the URI escapes it).
     Json spaced = box;
     spaced["buffers"][0]["uri"] = "Box%20Textured0.bin";
@@ -533,8 +583,10 @@ TEST_F(GltfValidatorOracle, ImporterRefusesWhatTheValidatorReportsAndImportsWhat
   }
   std::sort(files.begin(), files.end());
   ASSERT_GE(files.size(), 50u) << "Debian's assimp-testmodels is missing (scripts/setup.sh installs it)";
-  for (const auto& e : fs::directory_iterator("data/assets"))
-    if (e.path().extension() == ".gltf" || e.path().extension() == ".glb") files.push_back(e.path().string());
+  for (const char* dir : {"data/assets", "tests/data/gltf_corpus"})
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+      if (e.path().extension() == ".gltf" || e.path().extension() == ".glb") files.push_back(e.path().string());
+  ASSERT_GE(files.size(), 110u) << "tests/data/gltf_corpus is missing";
   std::map<std::string, bool> meant;
   for (const auto& [file, valid] : WriteVariants()) {
     files.push_back(file);
@@ -571,6 +623,10 @@ TEST_F(GltfValidatorOracle, ImporterRefusesWhatTheValidatorReportsAndImportsWhat
       EXPECT_TRUE(weRefuse) << file << ": the validator reports " << relevant.size() << " errors (first "
                             << (v.rejected ? std::string("it cannot read the file") : relevant[0])
                             << ") and the importer imports it";
+      // Refused by the checks, which name what is wrong, not by Assimp's message or a crash in its child.
+      EXPECT_TRUE(message.empty() || (message.find("Assimp:") == std::string::npos &&
+                                      message.find("the importer ") == std::string::npos))
+          << file << ": refused by Assimp rather than the checks: " << message;
       ++agreed;
     } else if (weRefuse) {
       EXPECT_FALSE(why.empty()) << file << ": the validator passes it"
