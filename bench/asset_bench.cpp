@@ -20,10 +20,10 @@
 #include <string>
 
 #include "core/light_sampler.h"
-#include "sim/animation.h"
-#include "sim/asset_import.h"
-#include "sim/embree_scene.h"
-#include "sim/sequence.h"
+#include "sim/scene/animation.h"
+#include "sim/assets/asset_import.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/scene/sequence.h"
 
 namespace restir {
 namespace {

@@ -2,7 +2,7 @@
 // HDR gradient (luminance over 2^17, 9 exposures) with mild texture, each test image that reference with
 // per-pixel multiplicative noise, as a path-traced estimate of it looks.
 //
-//   BM_FlipLegacy     the pre-optimisation implementation (tests/sim/flip_legacy.h), the "before": one call per
+//   BM_FlipLegacy     the pre-optimisation implementation (tests/sim/metrics/flip_legacy.h), the "before": one call per
 //                     preset and frame, doing the reference's half of the work every time.
 //   BM_FlipOneCall    today's HdrFlip(reference image, test): the same one-call interface.
 //   BM_FlipReference  FlipReference construction: the reference's half, once per frame (counter MB: its size).
@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "core/simd.h"
-#include "sim/flip.h"
-#include "tests/sim/flip_legacy.h"
+#include "sim/metrics/flip.h"
+#include "tests/sim/metrics/flip_legacy.h"
 
 namespace restir {
 namespace {

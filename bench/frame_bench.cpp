@@ -1,15 +1,15 @@
 // Whole-frame benchmark (DESIGN §9; issue 6): every preset at 1920x1080 on sequences/window_bars_pan.json, a
-// frame driven as sim/runner.cpp drives it (Evaluate -> scene.Update -> TracePrimary -> Reproject -> the passes
+// frame driven as sim/run/runner.cpp drives it (Evaluate -> scene.Update -> TracePrimary -> Reproject -> the passes
 // with the previous frame's state), measured against its floors in the same run:
 //
 //   frame        scene update + primary (G-buffer) + reproject + initial + temporal + spatial + shade: the runner's
 //                ms_frame. Frame 0 is rendered once for history; frame 1 (temporal input present) is re-rendered
 //                `reps` times from the same history and the fastest repetition counts.
-//   ray floor    the exact rays that frame traced (recorded through a RayHook, sim/embree_probe.h, in a capture render of
-//                the same frame, checked bit-identical by image hash) traced alone with Embree, in the same
-//                batching as the passes (primary rays rtcIntersect1 one at a time, shadow rays through
-//                EmbreeScene::OccludedBatch with the passes' entry point, in blocks of consecutive captured rays),
-//                parallel over the rays in capture order, per pass.
+//   ray floor    the exact rays that frame traced (recorded through a RayHook, sim/scene/embree_probe.h, in a
+//                capture render of the same frame, checked bit-identical by image hash) traced alone with
+//                Embree, in the same batching as the passes (primary rays rtcIntersect1 one at a time, shadow
+//                rays through EmbreeScene::OccludedBatch with the passes' entry point, in blocks of consecutive
+//                captured rays), parallel over the rays in capture order, per pass.
 //   kernel floor each pass re-rendered with every ray answered from memory (the RayHook replays the captured
 //                answers), minus the cost of those lookups measured alone: the pass's kernels and data movement
 //                with visibility precomputed. Scene update and reprojection trace no rays and count whole.
@@ -45,13 +45,14 @@
 #include <vector>
 
 #include "core/light_sampler.h"
-#include "sim/embree_probe.h"
-#include "sim/frame_loop.h"
-#include "sim/gbuffer.h"
-#include "sim/image.h"
-#include "sim/pipeline.h"
-#include "sim/presets.h"
-#include "sim/sequence.h"
+#include "sim/scene/embree_probe.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/run/frame_loop.h"
+#include "sim/scene/gbuffer.h"
+#include "sim/util/image.h"
+#include "sim/estimator/pipeline.h"
+#include "sim/estimator/presets.h"
+#include "sim/scene/sequence.h"
 
 namespace restir {
 namespace {
@@ -714,7 +715,7 @@ double GBufferBytes(const GBuffer& g) {
 
 // Per-pixel state of one preset's frame (the driver's two G-buffers, the pipeline's reservoir buffers and cells,
 // the frame's image and per-pixel flags) after two frames of the preset with the most state, plus the runner's
-// own per-pixel arrays (sim/runner.cpp), and the process's peak resident memory at that point.
+// own per-pixel arrays (sim/run/runner.cpp), and the process's peak resident memory at that point.
 void BM_Memory(benchmark::State& state, const Preset* preset) {
   for (auto _ : state) {
     const int w = Width(), h = Height();
@@ -735,7 +736,7 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
     const double reservoirs = double(reservoirBuffers) * sizeof(StoredReservoir) * n;
     const double cells = VecBytes(p.Cells().pixelCell) + VecBytes(p.Cells().pixels) + sizeof(CellGrid::Cell) * double(p.Cells().cells.size());
     const double frame = VecBytes(fr.image.pixels) + VecBytes(fr.temporalAccepted);
-    // sim/runner.cpp, per preset: previousImages + accumSum (ImageRgb each); shared: the reference's mean and
+    // sim/run/runner.cpp, per preset: previousImages + accumSum (ImageRgb each); shared: the reference's mean and
     // standard error and previousReference (ImageRgb each), disoccAge and age (uint16), recentMask and restMask.
     const double runnerPerPreset = 2.0 * sizeof(Vec3);
     const double runnerShared = 3.0 * sizeof(Vec3) + 2.0 * sizeof(uint16_t) + 2.0;

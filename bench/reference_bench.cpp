@@ -1,8 +1,8 @@
-// Reference benchmark (issue 16): the converged reference (sim/reference.cpp) of one frame of
+// Reference benchmark (issue 16): the converged reference (sim/reference/reference.cpp) of one frame of
 // sequences/window_bars_pan.json against its ray floor, measured in the same run:
 //
 //   reference   RenderReference from an empty cache (pilot, allocation, main pass), the fastest of `reps`.
-//   ray floor   the exact rays that render traced (recorded through a RayHook, sim/embree_probe.h), traced alone
+//   ray floor   the exact rays that render traced (recorded through a RayHook, sim/scene/embree_probe.h), traced alone
 //               with Embree in the reference's own batching: each thread's shadow rays in the order it traced
 //               them, as arrays (ShadowRaysSoa, as the light-draw kernel hands them to Embree) through
 //               EmbreeScene::OccludedBatch in blocks of kFloorBlock, and its BSDF rays with rtcIntersect1 one at
@@ -19,7 +19,8 @@
 // per-pixel work (light distributions, pilot) weighs less against the rays.
 //
 // Counters: ms_reference, ms_ray_floor, floor_ratio, rays, mrays_per_s (the reference's), floor_mrays_per_s,
-// samples_per_pixel, mean_relative_standard_error (sim/reference.h MeanRelativeStandardError). Environment: RESTIR_BENCH_WIDTH / _HEIGHT (default 640x360, README command 1's size),
+// samples_per_pixel, mean_relative_standard_error (sim/reference/reference.h MeanRelativeStandardError).
+// Environment: RESTIR_BENCH_WIDTH / _HEIGHT (default 640x360, README command 1's size),
 // RESTIR_BENCH_REFERENCE_SPP, RESTIR_BENCH_REPS (default 2), RESTIR_BENCH_FRAME (default 8),
 // RESTIR_BENCH_SIMD (a core/simd.h target name: the kernels' target, default the best), RESTIR_BENCH_PROFILE=1 (only
 // the timed renders: for perf record).
@@ -36,10 +37,11 @@
 #include <vector>
 
 #include "core/simd.h"
-#include "sim/embree_probe.h"
-#include "sim/frame_loop.h"
-#include "sim/reference.h"
-#include "sim/sequence.h"
+#include "sim/scene/embree_probe.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/run/frame_loop.h"
+#include "sim/reference/reference.h"
+#include "sim/scene/sequence.h"
 
 namespace restir {
 namespace {

@@ -1,10 +1,10 @@
 // BSDF-draw kernel (issue 16): the BSDF-sampling half of the converged reference's direct lighting at a receiver
-// that is not diffuse (sim/reference.cpp), a packet of draws per register. Draw k samples a direction from the
-// receiver's BSDF (core/bsdf.h SampleBsdf at u0[k], u1[k]) and gives the ray that looks for a light along it
+// that is not diffuse (sim/reference/reference.cpp), a packet of draws per register. Draw k samples a direction from
+// the receiver's BSDF (core/bsdf.h SampleBsdf at u0[k], u1[k]) and gives the ray that looks for a light along it
 // (from core/shadow_ray.h OffsetRayOrigin, unbounded) with the sample's throughput f_r(wi) cos θi / p(wi) and its
 // density p(wi). Only the draws that can count (p > 0, wi above the geometric normal) are written, packed in draw
-// order with their index. What the ray finds (an emitter's radiance, the light strategy's density there for the
-// power heuristic) is the caller's.
+// order with their index. What the ray finds (an emitter's radiance, the light strategy's density there for the power
+// heuristic) is the caller's.
 //
 // Two implementations beside each other, as core/light_draw_kernel.h: a Highway kernel (dynamic dispatch) and its
 // scalar twin built from the core functions. Same bits on every target.

@@ -14,7 +14,7 @@
 //   kPairwise:    target(j, 0) for 1 <= j < inputs when input 0 is valid, target(i, i) for valid i >= 1
 //                 (seed 004 Eq. 11);
 //   kZ:           target(j, s) for 1 <= j < inputs, s the selected input (known only after selection: a
-//                 caller that evaluates entries lazily finds s with a dry run, as sim/pipeline.cpp does);
+//                 caller that evaluates entries lazily finds s with a dry run, as sim/estimator/pipeline.cpp does);
 //   kUniform:     nothing more.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Light-draw kernel (issue 16): the converged reference's light-sampling step (sim/reference.cpp) for one
+// Light-draw kernel (issue 16): the converged reference's light-sampling step (sim/reference/reference.cpp) for one
 // receiver and a batch of draws, a packet of draws per register. Draw k picks a light by inverting the
 // receiver's light distribution over light groups (core/sampling.h SampleSplitCdf at uSelect[k]), takes the point
 // SampleTrianglePoint(uPoint0[k], uPoint1[k]) on it, and gives the light-sampling estimate's term f / p (f =
@@ -22,13 +22,13 @@
 
 namespace restir {
 
-// The receiver, as sim/shading_point.h ShadingPointAt builds it.
+// The receiver, as sim/scene/shading_point.h ShadingPointAt builds it.
 struct LightDrawReceiver {
   Vec3 position;           // x
   Vec3 geometricNormal;    // facing the viewer
   Vec3 shadingNormal;      // n, facing the viewer
   Vec3 wo;                 // unit, towards the viewer
-  float errorScale = 0;    // x's error scale (sim/gbuffer.h GBuffer::errorScale)
+  float errorScale = 0;    // x's error scale (sim/scene/gbuffer.h GBuffer::errorScale)
   int32_t materialId = 0;  // index into the BsdfSoa
   bool bsdfMis = false;    // weight each term by PowerHeuristic(p in solid angle, PdfBsdf), else by 1
 };

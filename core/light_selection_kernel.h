@@ -1,4 +1,5 @@
-// Light-selection kernel (issue 16): the converged reference's per-pixel light distributions (sim/reference.cpp),
+// Light-selection kernel (issue 16): the converged reference's per-pixel light distributions
+// (sim/reference/reference.cpp),
 // built for a block of receivers at once, one receiver per SIMD lane and one light at a time (broadcast), so
 // that every lane runs the scalar equation below and each receiver's sums keep their order on every target.
 //
@@ -60,9 +61,9 @@ std::vector<SelectionLight> MakeSelectionLights(const std::vector<LightTriangle>
 
 // The light's unshadowed irradiance at x (shading normal n) in luminance, E = ∫ L cos θx cos θy / d² dA over the
 // part of it above x's horizon: 0 where the light faces away (or is seen edge-on, kEdgeOn2), is dark or lies
-// wholly below the horizon; wholly
-// above it and far away compared with its size, the point estimate L A cos θx cos θy / d² at the centroid (off by
-// O(size / d)); otherwise Lambert's formula on the clipped polygon (core/polygon_irradiance.h).
+// wholly below the horizon; wholly above it and far away compared with its size, the point estimate L A cos θx cos θy
+// / d² at the centroid (off by O(size / d)); otherwise Lambert's formula on the clipped polygon
+// (core/polygon_irradiance.h).
 float LightIrradianceEstimate(const Vec3& x, const Vec3& n, const SelectionLight& light);
 
 // w at a receiver: LightIrradianceEstimate × albedo / π at a diffuse receiver (the reflected radiance, exact

@@ -20,8 +20,11 @@ inline constexpr float kInvPi = 0.31830988618379067154f;
 // The largest float below 1 (pbrt-v4's OneMinusEpsilon): where a rescaled uniform is clamped so it stays in [0, 1).
 inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
 
-// Rec. 709 luminance (DESIGN §4 target and §6 metrics).
+// Rec. 709 luminance (DESIGN §4 target and §6 metrics; ITU-R BT.709-6 item 3.2), in float for the estimator and in
+// double where the reference's replicates and FLIP's exposure range accumulate it (core/shading-inl.h has the SIMD
+// twin of the float one).
 inline float Luminance(const Vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+inline double Luminance(const glm::dvec3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
 // A NaN result's sign and payload are not a property of the inputs: when a NaN input meets a NaN an operation
 // creates (x86's default NaN is negative), the result is whichever operand the compiler placed first, and the

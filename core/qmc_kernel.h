@@ -1,6 +1,6 @@
 // Randomised-QMC point kernel (issue 16): the coordinates of independently shifted copies of a Roberts
 // sequence (core/sampling.h RobertsCoordinate), which the converged reference draws for every pixel
-// (sim/reference.cpp), a packet of points per register; and the random words that shift them, core/rng.h
+// (sim/reference/reference.cpp), a packet of points per register; and the random words that shift them, core/rng.h
 // RandomWords4 for a packet of pixels at a time.
 //
 // Two implementations beside each other, as core/target_kernel.h: a Highway kernel (dynamic dispatch) and its

@@ -408,7 +408,7 @@ void RisInitialSamplingScalar(const RisPixels& px, const LightSamplerSoa& lights
       sp.shadingNormal = Vec3(px.shadingNormal[0][k], px.shadingNormal[1][k], px.shadingNormal[2][k]);
       sp.wo = Vec3(px.wo[0][k], px.wo[1][k], px.wo[2][k]);
       sp.bsdf = materials.At(static_cast<size_t>(px.materialId[k]));
-      // The pipeline's initial pass before the kernel existed (sim/pipeline.cpp), candidate by candidate.
+      // The pipeline's initial pass before the kernel existed (sim/estimator/pipeline.cpp), candidate by candidate.
       Sampler s(RngKey{params.seed, params.frame, px.pixelBase + static_cast<uint32_t>(k), params.pass});
       for (int j = 0; j < params.candidates; ++j) {
         const float u0 = s.Next(), u1 = s.Next(), u2 = s.Next(), u3 = s.Next(), uSel = s.Next();

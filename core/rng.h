@@ -14,7 +14,8 @@ enum class RngPass : uint32_t {
   kShade = 4,
   kReference = 5,
   kReferencePilot = 6,
-  kInitialSources = 7,  // initial sampling's sun, environment and BSDF candidates (sim/passes/candidate_sources.h)
+  // initial sampling's sun, environment and BSDF candidates (sim/estimator/passes/candidate_sources.h)
+  kInitialSources = 7,
   kTest = 100,
 };
 

@@ -13,11 +13,11 @@
 // rcp-based division) computes t to a few ulps, so the bound here covers its arithmetic too, with margin:
 // - a point's error scale is the largest coordinate magnitude its float value depends on: its triangle's world
 //   vertices (and, for an instanced object, the instance translation and the transform's anisotropy; see
-//   sim/embree_scene.cpp). Every float operation on such values errs by at most u·scale, u = 2^-24;
+//   sim/scene/embree_scene.cpp). Every float operation on such values errs by at most u·scale, u = 2^-24;
 // - at the far end the ray's own length adds to the scale: Embree translates the emitter's vertices to the ray
 //   origin, so their rounding grows with the distance between the two ends;
 // - kSpawnErrorUlps unit roundoffs of that scale: a few operations' worth (the point's own rounding, Embree's
-//   translation, cross products and t), times a margin of at least 2. tests/sim/embree_scene_test.cpp traces
+//   translation, cross products and t), times a margin of at least 2. tests/sim/scene/embree_scene_test.cpp traces
 //   spawned rays against the surfaces they leave and aim at over a grid of scales, distances from the origin,
 //   tilts and grazing angles; every self-hit vanishes from a quarter of this offset on.
 // The offset is a bound on float error, not a tuned length: 9.5e-7 of the coordinates' magnitude (5 µm for a

@@ -14,7 +14,7 @@ namespace restir {
 struct ShadowRayInputs {
   const float* position[3] = {};         // x
   const float* geometricNormal[3] = {};  // ng at x, either orientation (the ray picks its side)
-  const float* errorScale = nullptr;     // x's error scale (sim/gbuffer.h GBuffer::errorScale)
+  const float* errorScale = nullptr;     // x's error scale (sim/scene/gbuffer.h GBuffer::errorScale)
   const float* lightPosition[3] = {};    // y
   const float* lightNormal[3] = {};      // the emitter's normal at y, either orientation
   const float* lightErrorScale = nullptr;  // y's error scale (core/light.h LightTriangle::errorScale)

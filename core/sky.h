@@ -15,7 +15,7 @@
 namespace restir {
 
 // The light id a sample on the sky carries (LightSample::lightId; StoredReservoir::lightId). Never an index into a
-// light list: a frame's lights are far fewer (sim/sequence.cpp caps them).
+// light list: a frame's lights are far fewer (sim/scene/sequence_reader.cpp caps them).
 inline constexpr uint32_t kSkyLightId = 0x7fffffffu;
 inline bool IsSkySample(uint32_t lightId) { return lightId == kSkyLightId; }
 
@@ -117,8 +117,8 @@ struct Sky {
 // direction: the point x + R ω with R = kSkyDistance, facing back along -ω, with radiance L R². Then
 // ConnectToLight gives ω (to float rounding of R ω, ~6e-8), G = cos θx cos θy / R² with cos θy = 1 to rounding,
 // and L_e f_r G = L f_r cos θx: the solid-angle integrand. R is a power of two, so the factor R² is exact; and it
-// dwarfs any scene (coordinates are at most 1e7, sim/sequence.h), so the shadow ray to the point leaves the scene.
-// Every pass turns a stored direction into the point of its own receiver, so the shift between pixels is the
+// dwarfs any scene (coordinates are at most 1e7, sim/scene/sequence.h), so the shadow ray to the point leaves the
+// scene. Every pass turns a stored direction into the point of its own receiver, so the shift between pixels is the
 // identity on ω with Jacobian 1 (DESIGN §4).
 inline constexpr float kSkyDistance = 0x1p30f;
 inline LightSample SkyPointFor(const Vec3& receiver, const Vec3& w, const Vec3& radiance) {

@@ -1,6 +1,6 @@
 // Stochastic pairwise MIS weights kernel (seed 004 Eq. 15-19; DESIGN §4): a batch of independent combinations,
 // one per SIMD lane, computing the weights m̃_t(Y_t) and canonical targets p̂_c(Y_t) that the spatial pass hands
-// to GrisResampleBatch, bit for bit as the loop of core/spmis.h functions it replaces (sim/pipeline.cpp,
+// to GrisResampleBatch, bit for bit as the loop of core/spmis.h functions it replaces (sim/estimator/pipeline.cpp,
 // "Stochastic pairwise (seed 004 Eq. 15-19)"):
 //
 //   pc[t]  = hasSample_t ? p̂_c(Y_t) : 0
@@ -29,7 +29,7 @@
 
 namespace restir {
 
-// Distinct canonical draws per combination at most (N_c <= kMaxGrisInputs - 1, sim/settings.cpp).
+// Distinct canonical draws per combination at most (N_c <= kMaxGrisInputs - 1, sim/estimator/settings.cpp).
 inline constexpr int kMaxCanonicalDraws = kMaxGrisInputs - 1;
 
 // Inputs of `count` combinations, structure-of-arrays as GrisBatch: combination k's value for input t is

@@ -45,7 +45,7 @@ HWY_INLINE void TargetPacket(const TargetPairs& p, const BsdfSoa& mt, float* tar
     ny[c] = hn::LoadU(df, p.lightNormal[c]);
     radiance[c] = hn::LoadU(df, p.radiance[c]);
   }
-  // sim/pipeline.cpp ShadingPointAt's wo, as the twin computes it.
+  // sim/estimator/pipeline.cpp ShadingPointAt's wo, as the twin computes it.
   VF toEye[3], wo[3];
   for (int c = 0; c < 3; ++c) toEye[c] = hn::Sub(eye[c], x[c]);
   NormalizeV(toEye, wo);

@@ -16,7 +16,8 @@
 
 namespace restir {
 
-// The pairs, structure-of-arrays. The receiver's wo is normalize(eye - x), as sim/shading_point.cpp ShadingPointAt.
+// The pairs, structure-of-arrays. The receiver's wo is normalize(eye - x), as sim/scene/shading_point.cpp
+// ShadingPointAt.
 struct TargetPairs {
   const float* eye[3] = {};              // camera position of the receiver's frame
   const float* position[3] = {};         // x

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Image pairs for checking sim/flip.h against NVIDIA's FLIP (tests/data/flip_nvidia/), and NVIDIA's results on them.
+"""Image pairs for checking sim/metrics/flip.h against NVIDIA's FLIP (tests/data/flip_nvidia/), and NVIDIA's results on them.
 
   make_flip_agreement_data.py images [--out DIR] [--restir-sim BIN]
   make_flip_agreement_data.py nvidia --flip-tool FLIP --map-tool MAP --commit HASH [--out DIR]
@@ -377,7 +377,7 @@ def run_nvidia(out, flip_tool, map_tool, commit):
                                              "count": int(res["count"])}
             pairs.append(entry)
     doc = {
-        "about": "Pairs for tests/sim/flip_nvidia_test.cpp, made by scripts/make_flip_agreement_data.py. "
+        "about": "Pairs for tests/sim/metrics/flip_nvidia_test.cpp, made by scripts/make_flip_agreement_data.py. "
                  "nvidia_tool_mean is what NVIDIA's tool printed (6 decimals); nvidia_map is its float error map, "
                  "from scripts/flip_nvidia_map.cpp (the same FLIP::evaluate call), and nvidia_map_mean that "
                  "map's mean summed in double.",

@@ -138,7 +138,7 @@ def main(argv):
                                    for c in caches))
     w(f"- Run: {ctx.get('date', '?')}, host {ctx.get('host_name', '?')}; benchmarks built "
       f"{'with NDEBUG (Release)' if frames and frames[0].get('ndebug') else 'without NDEBUG'}; Embree pinned to "
-      "isa=sse4.2 (sim/embree_scene.cpp, DESIGN §3)")
+      "isa=sse4.2 (sim/scene/embree_scene.cpp, DESIGN §3)")
     loads = ctx.get("load_avg", [])
     if loads:
         w(f"- Load average when the frame benchmark started: {', '.join(f'{x:.2f}' for x in loads)} (1, 5, 15 min); "
@@ -377,7 +377,7 @@ def main(argv):
                   f"({100.0 * (1.0 - best['ms_best'] / base_ms):.0f}% less time on these rays).")
             w("")
             w("The passes trace through `EmbreeScene::OccludedBatch` with `kPassOcclusionApi` "
-              "(sim/embree_scene.h, rtcOccluded4): each batch of 64 pixels hands its shadow rays over in one call "
+              "(sim/scene/embree_scene.h, rtcOccluded4): each batch of 64 pixels hands its shadow rays over in one call "
               "per scene frame.")
         w("")
 
@@ -399,7 +399,7 @@ def main(argv):
         w(f"| frame image + temporal-accepted flags | {fmt(m['bpp_frame_image_flags'])} |")
         w(f"| **pipeline + G-buffers total** | **{fmt(m['bpp_total'])}** — "
           f"{verdict(m['bpp_total'], 256.0, True)} |")
-        w(f"| runner (sim/runner.cpp), per preset: previous image, accumulation | {fmt(m['bpp_runner_per_preset'])} |")
+        w(f"| runner (sim/run/runner.cpp), per preset: previous image, accumulation | {fmt(m['bpp_runner_per_preset'])} |")
         w(f"| runner, shared: reference mean + standard error, previous reference, disocclusion ages, masks | "
           f"{fmt(m['bpp_runner_shared'])} |")
         w("")
@@ -440,7 +440,7 @@ def main(argv):
 
     w("## Method")
     w("")
-    w("- **Frame**: as sim/runner.cpp's `ms_frame`: scene update + primary rays/G-buffer + reprojection + the "
+    w("- **Frame**: as sim/run/runner.cpp's `ms_frame`: scene update + primary rays/G-buffer + reprojection + the "
       "four passes. Frame 0 is rendered for history; frame 1 (temporal input present) is re-rendered from the "
       "same history (`Pipeline::RestoreHistory`) and the fastest repetition counts. The light sampler build and "
       "the runner's metrics are outside the frame, as in the runner.")

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Renders the configurations of tests/sim/reference_bits_test.cpp with a given restir-sim binary and prints, per
+# Renders the configurations of tests/sim/reference/reference_bits_test.cpp with a given restir-sim binary and prints, per
 # configuration, the size and the FNV-1a 64 of its reference cache entry's payload (mean, standard error,
 # luminance standard error): the test's expected hashes. Usage: scripts/reference_bits_hashes.sh BINARY SCRATCH_DIR
 set -eu

@@ -9,7 +9,7 @@
 #                 also the Khronos glTF validator (npm's gltf-validator, the version tests/tools/gltf_validator's
 #                 package-lock.json pins, 110 KB, no dependencies) under tests/tools/gltf_validator/node_modules, with
 #                 Debian's nodejs and npm where the machine has no node or npm: the importer's oracle test
-#                 (tests/sim/gltf_validator_oracle_test.cpp) runs it. This one step uses the npm registry.
+#                 (tests/sim/assets/gltf_validator_oracle_test.cpp) runs it. This one step uses the npm registry.
 # The tools the tests read our EXRs with (exrheader, oiiotool) are always installed; --with-tools, which used to
 # add them, is still accepted and does nothing.
 set -euo pipefail

@@ -3,7 +3,7 @@
 // to 10 km from it): the segment leaves the receiver on the light's side, stops on the front of the emitter, runs
 // from the offset origin to the offset end, never crosses the emitter's plane inside the emitter, and is offset
 // by a float-error bound, not a length. The rule it replaces (tests/old_shadow_ray.h) crosses the
-// emitter inside it at grazing emission: the counter-example. tests/sim/spawned_ray_test.cpp checks the same
+// emitter inside it at grazing emission: the counter-example. tests/sim/scene/spawned_ray_test.cpp checks the same
 // rule against Embree's intersector.
 #include "core/shadow_ray.h"
 

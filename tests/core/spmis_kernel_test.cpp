@@ -181,7 +181,7 @@ struct Coverage {
          positive = 0, nanOutputs = 0;
 };
 
-// The pipeline's block for combination k alone (sim/pipeline.cpp "Stochastic pairwise (seed 004 Eq. 15-19)"),
+// The pipeline's block for combination k alone (sim/estimator/pipeline.cpp "Stochastic pairwise (seed 004 Eq. 15-19)"),
 // recording the entries it reads.
 void Reference(Batch& b, size_t k, float* mis, float* pc, Coverage* cov) {
   const auto F = [&](Array a, size_t e) {

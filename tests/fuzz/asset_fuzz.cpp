@@ -1,11 +1,11 @@
-// libFuzzer target for the asset importer (sim/asset_import.h, DESIGN §10). The first input byte chooses the
+// libFuzzer target for the asset importer (sim/assets/asset_import.h, DESIGN §10). The first input byte chooses the
 // extension (byte % 4: .gltf, .glb, .obj, .ply; '0'..'3' in the seeds), the rest is written to a file with
 // that extension in a directory of this process's own, and ImportAsset, the forked path the simulator takes,
 // must either return an asset that passes ValidateAsset or throw InputError with a one-line message: an
 // Assimp crash, hang or runaway allocation in the child must come back as InputError, which is the property
 // under test. Anything else (another exception, a crash or sanitizer report in this process) is a finding.
 //
-// A glTF or GLB input also goes through the glTF checks (sim/gltf_document.h) in this process. Every input is
+// A glTF or GLB input also goes through the glTF checks (sim/assets/gltf_document.h) in this process. Every input is
 // also given, whole, to DeserializeAsset (the parent's reader of the child's bytes), and what
 // it accepts to DecodeAssetTextures and ValidateAsset, as the parent does: each must return or throw
 // InputError. Built by the `fuzz` preset, run by scripts/fuzz.sh; seeds in tests/fuzz/asset_seeds/,
@@ -22,9 +22,9 @@
 
 #include "fuzz_message.h"
 #include "importer_child.h"
-#include "sim/asset_import.h"
-#include "sim/gltf_document.h"
-#include "sim/sequence.h"  // InputError
+#include "sim/assets/asset_import.h"
+#include "sim/assets/gltf_document.h"
+#include "sim/scene/sequence.h"  // InputError
 
 RESTIR_FUZZ_SANITIZER_DEFAULTS
 

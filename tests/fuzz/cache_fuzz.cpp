@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "fuzz_message.h"
-#include "sim/reference_cache.h"
+#include "sim/reference/reference_cache.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);

@@ -1,18 +1,18 @@
-// libFuzzer target for the glTF checks (sim/gltf_document.h: GLB framing, the JSON, the document's structure, its
-// binary data), in this process and without Assimp, so that it runs thousands of inputs a second where
+// libFuzzer target for the glTF checks (sim/assets/gltf_document.h: GLB framing, the JSON, the document's structure,
+// its binary data), in this process and without Assimp, so that it runs thousands of inputs a second where
 // asset_fuzz.cpp, which forks Assimp's child for each, runs ten. The first input byte chooses the form (even: a
 // .gltf, odd: a .glb; '0' and '1' in the seeds), the rest is the file's bytes, written beside no other file (so a
-// relative buffer URI names nothing, and a data: URI or the BIN chunk carries the data). ReadGltfDocument must
-// return or throw InputError with one clean line that begins with the file's path; anything else (another
-// exception, a crash, a sanitizer report, a timeout) is a finding. Built by the `fuzz` preset, run by
-// scripts/fuzz.sh; seeds in tests/fuzz/gltf_seeds/, dictionary asset.dict.
+// relative buffer URI names nothing, and a data: URI or the BIN chunk carries the data). ReadGltfDocument must return
+// or throw InputError with one clean line that begins with the file's path; anything else (another exception, a
+// crash, a sanitizer report, a timeout) is a finding. Built by the `fuzz` preset, run by scripts/fuzz.sh; seeds in
+// tests/fuzz/gltf_seeds/, dictionary asset.dict.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
 #include "fuzz_message.h"
-#include "sim/gltf_document.h"
-#include "sim/sequence.h"  // InputError
+#include "sim/assets/gltf_document.h"
+#include "sim/scene/sequence.h"  // InputError
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;

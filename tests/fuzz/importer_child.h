@@ -1,4 +1,4 @@
-// For fuzz targets that reach ImportAsset (sim/asset_isolation.cpp), whose child process is a fork of the
+// For fuzz targets that reach ImportAsset (sim/assets/asset_isolation.cpp), whose child process is a fork of the
 // fuzzer: the child inherits libFuzzer's signal handlers, its sanitizer death callback and its malloc hook,
 // so a crash of Assimp in the child would be reported by libFuzzer as if the fuzzer had crashed, and would
 // leave a crash- or oom- artifact, although the parent turns it into an InputError, which is the property

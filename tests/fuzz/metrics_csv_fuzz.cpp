@@ -6,8 +6,8 @@
 #include <string>
 
 #include "fuzz_message.h"
-#include "sim/metrics_csv.h"
-#include "sim/sequence.h"  // InputError
+#include "sim/metrics/metrics_csv.h"
+#include "sim/scene/sequence.h"  // InputError
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "fuzz_message.h"
-#include "sim/relative_error_file.h"
+#include "sim/metrics/relative_error_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);

@@ -4,7 +4,7 @@
 //
 // Relative mesh and asset paths resolve against the repository's data/ directory, so inputs derived from the
 // shipped sequences ("meshes/tetra.obj") also exercise the importer (Assimp in a forked child,
-// sim/asset_import.h; importer_child.h keeps libFuzzer's handlers out of that child). The parser itself
+// sim/assets/asset_import.h; importer_child.h keeps libFuzzer's handlers out of that child). The parser itself
 // refuses anything that is not a regular file, so a mutated path such as "/dev/zero" cannot block the run.
 #include <cstddef>
 #include <cstdint>
@@ -12,7 +12,7 @@
 
 #include "fuzz_message.h"
 #include "importer_child.h"
-#include "sim/sequence.h"
+#include "sim/scene/sequence.h"
 
 RESTIR_FUZZ_SANITIZER_DEFAULTS
 

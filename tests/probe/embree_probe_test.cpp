@@ -1,13 +1,14 @@
-// What only the benchmarks' library (restir_sim_probe, sim/embree_probe.h) has: the observer of every query that
+// What only the benchmarks' library (restir_sim_probe, sim/scene/embree_probe.h) has: the observer of every query that
 // records a frame's rays and can answer them in Embree's place, and every Embree shadow-ray entry point, which
 // must all answer as EmbreeScene::OccludedBatch does.
-#include "sim/embree_probe.h"
+#include "sim/scene/embree_probe.h"
+#include "sim/scene/embree_scene.h"
 
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "../sim/mesh_fixtures.h"
+#include "tests/sim/mesh_fixtures.h"
 
 namespace restir {
 namespace {

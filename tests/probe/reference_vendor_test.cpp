@@ -11,11 +11,12 @@
 #include <cmath>
 #include <string>
 
-#include "sim/embree_probe.h"
-#include "sim/frame_loop.h"
-#include "sim/hash.h"
-#include "sim/reference.h"
-#include "sim/sequence.h"
+#include "sim/scene/embree_probe.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/run/frame_loop.h"
+#include "sim/util/hash.h"
+#include "sim/reference/reference.h"
+#include "sim/scene/sequence.h"
 
 namespace restir {
 namespace {
@@ -53,8 +54,8 @@ struct Case {
   int frame;
 };
 
-// The branches of sim/reference.cpp that trace closest hits: BSDF draws meeting emitters at diffuse and glossy
-// receivers, the sky, textured assets with their own normals.
+// The branches of sim/reference/reference.cpp that trace closest hits: BSDF draws meeting emitters at diffuse and
+// glossy receivers, the sky, textured assets with their own normals.
 TEST(ReferenceVendor, ItsBitsDoNotFollowEmbreesReciprocal) {
   const Case cases[] = {{"sequences/window_bars_pan.json", 8},
                         {"sequences/hard/glossy_floor.json", 0},

@@ -8,7 +8,7 @@
 #include <vector>
 #include <utility>
 
-#include "sim/sequence.h"
+#include "sim/scene/sequence.h"
 
 namespace restir::test {
 
@@ -44,7 +44,7 @@ inline Mesh BoxMesh() {
   return m;
 }
 
-// Translate, rotate (degrees; x, then y, then z) and scale, by GLM: independent of sim/animation.cpp.
+// Translate, rotate (degrees; x, then y, then z) and scale, by GLM: independent of sim/scene/animation.cpp.
 inline Mat4 Trs(const Vec3& t, const Vec3& rotDeg, const Vec3& s) {
   Mat4 m = glm::translate(Mat4(1.0f), t);
   m = glm::rotate(m, glm::radians(rotDeg.z), Vec3(0, 0, 1));

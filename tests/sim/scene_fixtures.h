@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "sim/sequence.h"
+#include "sim/scene/sequence.h"
 
 namespace restir::test {
 

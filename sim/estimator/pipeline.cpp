@@ -1,0 +1,137 @@
+#include "sim/estimator/pipeline.h"
+
+#include <stdexcept>
+
+#include "core/gris.h"
+#include "sim/scene/shading_point.h"
+
+namespace restir {
+
+Pipeline::Pipeline(const PipelineSettings& settings) : settings_(settings) {
+  const StochasticPairwiseParams& sp = settings.spatial.stochastic;
+  if (sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations || sp.cellTile < 1 ||
+      sp.cellTile > kMaxCellTile || sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
+      sp.canonicalDraws > kMaxGrisInputs - 1)
+    throw std::invalid_argument("Pipeline: spatial settings outside their validated bounds");
+  if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2)
+    throw std::invalid_argument("Pipeline: temporal.fusedNeighbours outside its validated bounds");
+}
+
+FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {
+  FrameView v;
+  v.gbuffer = in.gbuffer;
+  v.previousGbuffer = in.previousState ? in.previousGbuffer : nullptr;
+  v.scene = in.scene;
+  v.lights = in.lights;
+  v.previousLights = in.previousLights;
+  v.eye = in.state->camera.position;
+  if (in.previousState) v.previousEye = in.previousState->camera.position;
+  v.sky = in.sky;
+  v.previousSky = in.previousSky;
+  v.camera = &in.state->camera;
+  v.materials = &materials;
+  v.seed = in.seed;
+  v.frame = in.frame;
+  return v;
+}
+
+const InitialSamplingShare::Entry* InitialSamplingShare::Find(const InitialSamplingParams& params,
+                                                             uint32_t seed) const {
+  for (const Entry& e : entries_)
+    if (e.seed == seed && e.params == params) return &e;
+  return nullptr;
+}
+
+InitialSamplingShare::Entry& InitialSamplingShare::Add(const InitialSamplingParams& params, uint32_t seed) {
+  Entry& e = entries_.emplace_back();
+  e.params = params;
+  e.seed = seed;
+  return e;
+}
+
+namespace {
+
+// The frame's counters, in pixel order (deterministic).
+void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, bool measureReservoirs, FrameResult& r) {
+  size_t surfaces = 0, accepted = 0;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    if (!g.IsSurface(i)) continue;
+    ++surfaces;
+    accepted += r.temporalAccepted[i];
+  }
+  for (const PassStats& s : r.passes) r.guardedEvents += s.guarded, r.crossObjectReuse += s.crossObjectReuse;
+  r.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
+  r.diagnostics.contributingShaded = surfaces ? double(r.passes.back().contributing) / double(surfaces) : 0.0;
+  if (measureReservoirs) MeasureOutputReservoirs(g, reservoirs, r.diagnostics);
+}
+
+// One BSDF per material, and one per textured receiver when the scene has textures (GBuffer::bsdfId indexes it).
+BsdfSoa FrameMaterials(const FrameInputs& in) {
+  return in.sceneMaterials ? FrameBsdfTable(*in.materials, *in.sceneMaterials, *in.gbuffer,
+                                            in.previousState ? in.previousGbuffer : nullptr)
+                           : MakeBsdfSoa(*in.materials);
+}
+
+// The share of pixels whose reservoir contributes, in the whole frame and in the diagnostics region; zero when the
+// run does not measure reservoirs.
+Contributing MeasureContributing(const FrameInputs& in, const ReservoirBuffer& reservoirs) {
+  return in.measureReservoirs ? ContributingFraction(*in.gbuffer, reservoirs, in.diagnosticsRegion) : Contributing{};
+}
+
+}  // namespace
+
+// Initial sampling, or its reservoirs and statistics taken from a preset of this frame with the same parameters
+// and seed (FrameInputs::initialShare): the same bits, computed once.
+Contributing Pipeline::InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r) {
+  const InitialSamplingShare::Entry* shared =
+      in.initialShare ? in.initialShare->Find(settings_.initial, in.seed) : nullptr;
+  if (shared) {
+    reservoirs_ = shared->reservoirs;
+    r.passes.push_back(shared->stats);
+    const bool sameMeasure = in.measureReservoirs && shared->contributing && shared->region == in.diagnosticsRegion;
+    return sameMeasure ? *shared->contributing : MeasureContributing(in, reservoirs_);
+  }
+  InitialSampling(settings_.initial, view, reservoirs_, r.passes.emplace_back());
+  const Contributing initial = MeasureContributing(in, reservoirs_);
+  if (in.initialShare) {
+    InitialSamplingShare::Entry& e = in.initialShare->Add(settings_.initial, in.seed);
+    e.reservoirs = reservoirs_;
+    e.stats = r.passes.back();
+    if (in.measureReservoirs) e.contributing = initial, e.region = in.diagnosticsRegion;
+  }
+  return initial;
+}
+
+// The spatial pass the MIS family selects: stochastic pairwise over cells (seed 004), else k neighbours.
+void Pipeline::SpatialPass(const FrameView& view, FrameResult& r) {
+  const PipelineSettings& s = settings_;
+  if (s.spatial.mis == MisFamily::kStochasticPairwise)
+    StochasticPairwiseReuse(s.spatial, s.shade.visibility, view, reservoirs_, previousReservoirs_, cells_,
+                            r.passes.emplace_back());
+  else
+    SpatialReuse(s.spatial, s.shade.visibility, view, s.temporal.enabled ? &r.temporalAccepted : nullptr,
+                 reservoirs_, previousReservoirs_, r.passes.emplace_back());
+}
+
+// DESIGN §2, from InitialSampling to Shade. A pass the preset lacks leaves the contributing share as it was.
+FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
+  const BsdfSoa materials = FrameMaterials(in);
+  const FrameView view = MakeFrameView(in, materials);
+  const PipelineSettings& s = settings_;
+  FrameResult r;
+  r.temporalAccepted.assign(in.gbuffer->Size(), 0);
+  const Contributing initial = InitialPass(in, view, r);
+  if (s.temporal.enabled)
+    TemporalReuse(s.temporal, s.shade.visibility, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
+                  r.passes.emplace_back());
+  const Contributing temporal = s.temporal.enabled ? MeasureContributing(in, reservoirs_) : initial;
+  if (s.spatial.enabled) SpatialPass(view, r);
+  const Contributing spatial = s.spatial.enabled ? MeasureContributing(in, reservoirs_) : temporal;
+  RecordContributing(initial, temporal, spatial, r.diagnostics);
+  Shade(s.shade, view, reservoirs_, r.image, r.passes.emplace_back());
+  Tally(*in.gbuffer, reservoirs_, in.measureReservoirs, r);
+  std::swap(previousReservoirs_, reservoirs_);  // this frame's output is the next frame's temporal input
+  return r;
+}
+
+}  // namespace restir

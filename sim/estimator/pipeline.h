@@ -1,0 +1,131 @@
+// A frame's estimator (DESIGN §2): initial sampling, temporal reuse, spatial reuse, shading, each a pass of
+// sim/estimator/passes/ taking its parameter struct. A preset is a named bundle of the structs
+// (sim/estimator/presets.cpp).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/bsdf.h"
+#include "core/light_sampler.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/scene/gbuffer.h"
+#include "sim/util/image.h"
+#include "sim/estimator/passes/frame_view.h"
+#include "sim/estimator/passes/initial_sampling.h"
+#include "sim/estimator/passes/shade.h"
+#include "sim/estimator/passes/spatial_reuse.h"
+#include "sim/estimator/passes/stochastic_pairwise_reuse.h"
+#include "sim/estimator/passes/temporal_reuse.h"
+#include "sim/estimator/reservoir_diagnostics.h"
+#include "sim/scene/sequence.h"
+
+namespace restir {
+
+struct PipelineSettings {
+  InitialSamplingParams initial;  // the initial-sampling pass
+  TemporalParams temporal;        // the temporal-reuse pass
+  SpatialParams spatial;          // the spatial-reuse pass (k neighbours, or stochastic pairwise over cells)
+  ShadeParams shade;              // the shading pass
+};
+
+class InitialSamplingShare;
+
+// Everything a frame reads about the current and previous frame. Owned by the frame loop; passes never write it.
+struct FrameInputs {
+  const FrameState* state = nullptr;
+  const EmbreeScene* scene = nullptr;              // current frame; the previous one via SceneFrame::kPrevious
+  const GBuffer* gbuffer = nullptr;
+  const LightSampler* lights = nullptr;            // built on the scene's current light triangles
+  const std::vector<Bsdf>* materials = nullptr;    // one per Sequence::materials
+  // The sequence's materials, for the BSDFs of textured receivers (FrameBsdfTable); null: no textures.
+  const std::vector<Material>* sceneMaterials = nullptr;
+  const FrameState* previousState = nullptr;       // null on the first frame of a run
+  const GBuffer* previousGbuffer = nullptr;        // null on the first frame of a run
+  const std::vector<LightTriangle>* previousLights = nullptr;  // the previous frame's light list
+  Sky sky;                                         // this frame's sky (sim/scene/sky_frame.h MakeSky); empty: none
+  Sky previousSky;                                 // the previous frame's
+  uint32_t seed = 0;
+  uint32_t frame = 0;
+  // Fill FrameResult::diagnostics beyond contributingShaded: a pass over the reservoirs after each pass and a
+  // 5×5 window per pixel, about 6 ms a 640×360 frame (12% of ris's), so only the runner's reported frame asks,
+  // not ensemble members or benchmarks. Never changes the image.
+  bool measureReservoirs = false;
+  // Pixels whose contributing fractions the diagnostics also report apart (the runner passes its 4-frame
+  // disocclusion window); null: none.
+  const std::vector<uint8_t>* diagnosticsRegion = nullptr;
+  // Initial sampling's outputs of this frame already computed for other presets, reused where the parameters and
+  // seed are equal; null: always compute. Never changes a result (InitialSamplingShare below).
+  InitialSamplingShare* initialShare = nullptr;
+};
+
+struct FrameResult {
+  ImageRgb image;
+  std::vector<PassStats> passes;
+  uint64_t guardedEvents = 0;      // non-finite values caught and reset (DESIGN §10)
+  double temporalAcceptance = 0;   // fraction of surface pixels whose previous reservoir entered the combination
+  // The reservoirs after each pass and at the end (issue 20): contributingShaded always, the rest when
+  // FrameInputs::measureReservoirs.
+  ReservoirDiagnostics diagnostics;
+  uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
+  std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
+};
+
+// One frame's initial-sampling outputs, shared by the presets of a run. InitialSampling reads its parameters and the
+// frame (FrameView: G-buffer, scene, lights, seed, frame number) and nothing of a preset's history, so presets whose
+// InitialSamplingParams and seed are equal draw the same reservoirs, bit for bit: the first computes them, the
+// others copy them with the pass's statistics (its time and rays, what the pass costs each preset that runs it).
+// Six of `--preset all`'s nine presets have the same initial pass. Holds one frame: Clear() when the frame changes,
+// and keep the FrameInputs otherwise equal (the runner's presets share one FrameLoop::Inputs).
+class InitialSamplingShare {
+ public:
+  struct Entry {
+    InitialSamplingParams params;  // the pass's parameters
+    uint32_t seed = 0;             // FrameInputs::seed (ensemble members differ)
+    ReservoirBuffer reservoirs;    // the pass's output
+    PassStats stats;               // the pass's statistics when it ran
+    // The contributing fractions after the pass, when measured, and the region they were measured over.
+    std::optional<Contributing> contributing;
+    const std::vector<uint8_t>* region = nullptr;
+  };
+  const Entry* Find(const InitialSamplingParams& params, uint32_t seed) const;
+  Entry& Add(const InitialSamplingParams& params, uint32_t seed);
+  void Clear() { entries_.clear(); }
+  size_t Entries() const { return entries_.size(); }
+
+ private:
+  std::vector<Entry> entries_;  // a handful: one per distinct initial configuration and seed
+};
+
+// Per-preset estimator state across frames: the reservoirs of this frame and of the last one, ping-ponged.
+class Pipeline {
+ public:
+  // Throws std::invalid_argument for settings outside the bounds sim/estimator/settings.cpp validates (per-batch
+  // scratch is sized by them).
+  explicit Pipeline(const PipelineSettings& settings);
+  FrameResult RenderFrame(const FrameInputs& in);
+  const PipelineSettings& Settings() const { return settings_; }
+  // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).
+  const ReservoirBuffer& History() const { return previousReservoirs_; }
+  ReservoirBuffer& History() { return previousReservoirs_; }
+  // Reservoir buffers the pipeline holds (per pixel): this frame's and last frame's. A spatial iteration writes
+  // into last frame's buffer once temporal reuse has read it, so no third buffer exists.
+  static constexpr int kReservoirBuffers = 2;
+  // The cells of the last stochastic pairwise iteration (tests, memory accounting).
+  const CellGrid& Cells() const { return cells_; }
+
+ private:
+  Contributing InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r);
+  void SpatialPass(const FrameView& view, FrameResult& r);
+
+  PipelineSettings settings_;
+  ReservoirBuffer reservoirs_;          // this frame's reservoirs
+  ReservoirBuffer previousReservoirs_;  // last frame's output (temporal input), then spatial scratch
+  CellGrid cells_;
+};
+
+// The passes' view of a frame's inputs, with the materials as the kernels read them.
+FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials);
+
+}  // namespace restir

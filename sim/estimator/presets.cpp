@@ -1,0 +1,202 @@
+#include "sim/estimator/presets.h"
+
+#include <sstream>
+
+#include "sim/estimator/settings.h"
+#include "sim/util/text.h"
+
+namespace restir {
+
+namespace {
+
+Preset Make(const std::string& name, const std::string& description, const std::string& source,
+            void (*configure)(PipelineSettings&)) {
+  Preset p;
+  p.name = name;
+  p.description = description;
+  p.source = source;
+  configure(p.settings);
+  return p;
+}
+
+}  // namespace
+
+const std::vector<Preset>& AllPresets() {
+  static const std::vector<Preset> presets = {
+      Make("ris", "no reuse: streaming RIS over 32 power-sampled light candidates, one final shadow ray",
+           "seed 003 §1 (baseline); Talbot et al. 2005",
+           [](PipelineSettings&) {}),
+      Make("temporal",
+           "RIS plus temporal reuse of the reprojected reservoir with seed 003's validation list and merge "
+           "weight currentTarget * W_prev * min(c_prev, maxHistory) (uniform MIS), final shadow ray",
+           "seed 003 §3-5 (ReSTIR DI - 02 - Temporal Reuse)",
+           [](PipelineSettings& s) {
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kUniform;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.temporal.targetRatioClamp = true;
+           }),
+      Make("restir-biased",
+           "Bitterli 2020 biased ReSTIR: initial visibility, temporal + 5 spatial neighbours, uniform MIS",
+           "Bitterli et al. 2020, Spatiotemporal reservoir resampling, biased variant",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kUniform;
+             s.temporal.bias = BiasCorrection::kNone;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kUniform;
+             s.spatial.bias = BiasCorrection::kNone;
+             s.spatial.neighbours = 5;
+           }),
+      Make("restir-vis",
+           "seed 000 Algorithm 1, previous method: visibility reuse keeping V of the selected sample, "
+           "confidence-weighted balance MIS, no final shadow ray",
+           "seed 000 Algorithm 1 (Wyman & Panteleev 2021 visibility reuse)",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kBasic;
+             s.spatial.neighbours = 5;
+             s.shade.visibility = VisibilityReuse::kSelected;
+           }),
+      Make("restir-wisvis",
+           "seed 000 Algorithm 1 with the WIS visibility estimate V_X = sum V_i w_i / sum w_i, no final ray",
+           "seed 000 Eq. 4, Algorithm 1",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kBasic;
+             s.spatial.neighbours = 5;
+             s.shade.visibility = VisibilityReuse::kWeighted;
+           }),
+      Make("restir-unbiased",
+           "unbiased ReSTIR: initial visibility, temporal + 5 spatial neighbours, defensive pairwise MIS with "
+           "ray-traced bias correction (previous frame's scene for the temporal input), final shadow ray",
+           "seed 004 Eq. 11 (defensive pairwise MIS); Lin et al. 2022 GRIS",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kPairwise;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kPairwise;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.neighbours = 5;
+           }),
+      Make("restir-balance",
+           "unbiased ReSTIR with the confidence-weighted generalized balance heuristic (O(k^2) targets), "
+           "ray-traced bias correction, final shadow ray",
+           "seed 000 Eq. 3 (generalized balance MIS); Talbot 2005",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.neighbours = 5;
+           }),
+      Make("restir-spmis",
+           "unbiased ReSTIR whose spatial reuse is stochastic pairwise MIS over screen-space cells: neighbour cell "
+           "by weighted reservoir search, N = 5 draws by contribution, N_c = 5 canonical draws, N/M confidence "
+           "scaling; temporal as restir-unbiased",
+           "seed 004 (Hedstrom et al. 2026, Stochastic Pairwise MIS), Eq. 15-19, §4.3, §5",
+           [](PipelineSettings& s) {
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kPairwise;
+             s.temporal.bias = BiasCorrection::kRayTraced;
+             s.temporal.sampleChecks = false;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kStochasticPairwise;
+             s.spatial.bias = BiasCorrection::kRayTraced;
+             s.spatial.stochastic.draws = 5;
+             s.spatial.stochastic.canonicalDraws = 5;
+           }),
+      Make("rtxdi-defaults",
+           "RTXDI 3.1's library defaults where they map: 8 uniformly chosen local-light, 1 sun, 1 environment and 1 "
+           "BSDF candidates (BRDF cutoff 1e-4), initial visibility; temporal reuse (history 20, permutation "
+           "sampling, boiling filter at strength 0.2) and 1 spatial neighbour (8 where temporal reuse failed, "
+           "radius 32 px), both with the balance weights and unshadowed targets of RTXDI's Basic bias correction, "
+           "normal 0.5 / depth 0.1 thresholds; final shadow ray whose visibility is reused up to 4 frames and 16 px. "
+           "Not modelled: ReGIR",
+           "RTXDI 3.1 rtxdi-sdk ReSTIRDI.cpp GetDefaultReSTIRDI*Params (docs/architecture.md, \"rtxdi-defaults\")",
+           [](PipelineSettings& s) {
+             s.initial.candidates = 8;
+             s.initial.lightSelection = LightSelection::kUniform;
+             s.initial.sunCandidates = 1;
+             s.initial.environmentCandidates = 1;
+             s.initial.brdfCandidates = 1;
+             s.initial.brdfCutoff = 1e-4f;
+             s.initial.visibility = true;
+             s.temporal.enabled = true;
+             s.temporal.mis = MisFamily::kBalance;
+             s.temporal.bias = BiasCorrection::kBasic;
+             s.temporal.maxHistory = 20.0f;
+             s.temporal.permutation = true;
+             s.temporal.boilingFilterStrength = 0.2f;
+             s.spatial.enabled = true;
+             s.spatial.mis = MisFamily::kBalance;
+             s.spatial.bias = BiasCorrection::kBasic;
+             s.spatial.neighbours = 1;
+             s.spatial.disocclusionNeighbours = 8;
+             s.spatial.radius = 32.0f;
+             s.spatial.normalThreshold = 0.5f;
+             s.spatial.depthThreshold = 0.1f;
+             s.shade.reuseFinalVisibility = true;
+             s.shade.finalVisibilityMaxAge = 4;
+             s.shade.finalVisibilityMaxDistance = 16.0f;
+           }),
+  };
+  return presets;
+}
+
+const Preset* FindPreset(const std::string& name) {
+  for (const Preset& p : AllPresets())
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+std::string UnknownPresetMessage(const std::string& name) {
+  std::vector<std::string> names;
+  for (const Preset& p : AllPresets()) names.push_back(p.name);
+  return "unknown preset '" + name + "'" + Suggestion(name, names);
+}
+
+std::string DescribePresets() {
+  std::ostringstream o;
+  for (const Preset& p : AllPresets()) {
+    o << p.name << "\n  " << p.description << "\n  source: " << p.source << "\n ";
+    int col = 2;
+    for (const auto& [key, value] : SettingsToStrings(p.settings)) {
+      const std::string item = " " + key + "=" + value;
+      if (col + item.size() > 110) o << "\n ", col = 2;
+      o << item;
+      col += static_cast<int>(item.size());
+    }
+    o << "\n\n";
+  }
+  return o.str();
+}
+
+void CheckSequencePresets(const Sequence& seq) {
+  for (size_t i = 0; i < seq.defaults.presets.size(); ++i) {
+    if (FindPreset(seq.defaults.presets[i])) continue;
+    throw InputError(seq.path + ": error at /render/presets/" + std::to_string(i) + ": " +
+                     UnknownPresetMessage(seq.defaults.presets[i]));
+  }
+}
+
+}  // namespace restir

@@ -1,0 +1,208 @@
+#include "sim/estimator/settings.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+
+#include "core/gris.h"
+#include "sim/util/input_error.h"
+#include "sim/util/text.h"
+
+namespace restir {
+
+namespace {
+
+template <typename E>
+struct EnumNames {
+  std::vector<std::pair<E, const char*>> names;
+};
+
+const EnumNames<MisFamily> kMisNames{[] {
+  std::vector<std::pair<MisFamily, const char*>> v;
+  for (MisFamily f : {MisFamily::kUniform, MisFamily::kZ, MisFamily::kBalance, MisFamily::kPairwise,
+                      MisFamily::kStochasticPairwise})
+    v.emplace_back(f, MisFamilyName(f));  // core/mis.h spells them
+  return v;
+}()};
+const EnumNames<BiasCorrection> kBiasNames{
+    {{BiasCorrection::kNone, "none"}, {BiasCorrection::kBasic, "basic"}, {BiasCorrection::kRayTraced, "raytraced"}}};
+const EnumNames<VisibilityReuse> kVisNames{{{VisibilityReuse::kNone, "final-ray"},
+                                            {VisibilityReuse::kSelected, "reuse-selected"},
+                                            {VisibilityReuse::kWeighted, "wis-estimate"}}};
+const EnumNames<LightSelection> kSelNames{{{LightSelection::kPower, "power"}, {LightSelection::kUniform, "uniform"}}};
+
+std::string ToString(int v) { return std::to_string(v); }
+std::string ToString(bool v) { return v ? "true" : "false"; }
+std::string ToString(float v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+template <typename E>
+std::string ToString(E v, const EnumNames<E>& names) {
+  for (const auto& [e, n] : names.names)
+    if (e == v) return n;
+  return "?";
+}
+
+[[noreturn]] void BadValue(const std::string& key, const std::string& value, const std::string& expected) {
+  throw InputError("--set: error at " + key + ": '" + value + "' is not " + expected);
+}
+
+void Parse(const std::string& key, const std::string& text, int& out) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < 0 || v > 1000000) BadValue(key, text, "an integer in [0, 1000000]");
+  out = static_cast<int>(v);
+}
+void Parse(const std::string& key, const std::string& text, float& out) {
+  char* end = nullptr;
+  const float v = std::strtof(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v) || v < 0.0f) BadValue(key, text, "a finite number >= 0");
+  out = v;
+}
+void Parse(const std::string& key, const std::string& text, bool& out) {
+  if (text == "true" || text == "on" || text == "1") out = true;
+  else if (text == "false" || text == "off" || text == "0") out = false;
+  else BadValue(key, text, "true/false");
+}
+template <typename E>
+void Parse(const std::string& key, const std::string& text, E& out, const EnumNames<E>& names) {
+  std::string all;
+  for (const auto& [e, n] : names.names) {
+    if (text == n) {
+      out = e;
+      return;
+    }
+    all += (all.empty() ? "" : ", ") + std::string(n);
+  }
+  BadValue(key, text, "one of " + all);
+}
+
+// The one table: name -> (print, parse) for each field.
+struct Field {
+  std::string name;
+  std::function<std::string(const PipelineSettings&)> get;
+  std::function<void(PipelineSettings&, const std::string&, const std::string&)> set;
+};
+
+#define RESTIR_FIELD(NAME, MEMBER)                                                                    \
+  Field {                                                                                             \
+    NAME, [](const PipelineSettings& s) { return ToString(s.MEMBER); },                              \
+        [](PipelineSettings& s, const std::string& k, const std::string& v) { Parse(k, v, s.MEMBER); } \
+  }
+#define RESTIR_ENUM_FIELD(NAME, MEMBER, TABLE)                                                               \
+  Field {                                                                                                    \
+    NAME, [](const PipelineSettings& s) { return ToString(s.MEMBER, TABLE); },                              \
+        [](PipelineSettings& s, const std::string& k, const std::string& v) { Parse(k, v, s.MEMBER, TABLE); } \
+  }
+
+const std::vector<Field>& Fields() {
+  static const std::vector<Field> fields = {
+      RESTIR_FIELD("initial.candidates", initial.candidates),
+      RESTIR_ENUM_FIELD("initial.lightSelection", initial.lightSelection, kSelNames),
+      RESTIR_FIELD("initial.visibility", initial.visibility),
+      RESTIR_FIELD("initial.countCandidates", initial.countCandidates),
+      RESTIR_FIELD("initial.sunCandidates", initial.sunCandidates),
+      RESTIR_FIELD("initial.environmentCandidates", initial.environmentCandidates),
+      RESTIR_FIELD("initial.brdfCandidates", initial.brdfCandidates),
+      RESTIR_FIELD("initial.brdfCutoff", initial.brdfCutoff),
+      RESTIR_FIELD("temporal.enabled", temporal.enabled),
+      RESTIR_ENUM_FIELD("temporal.mis", temporal.mis, kMisNames),
+      RESTIR_ENUM_FIELD("temporal.bias", temporal.bias, kBiasNames),
+      RESTIR_FIELD("temporal.maxHistory", temporal.maxHistory),
+      RESTIR_FIELD("temporal.sampleChecks", temporal.sampleChecks),
+      RESTIR_FIELD("temporal.targetRatioClamp", temporal.targetRatioClamp),
+      RESTIR_FIELD("temporal.permutation", temporal.permutation),
+      RESTIR_FIELD("temporal.boilingFilterStrength", temporal.boilingFilterStrength),
+      RESTIR_FIELD("temporal.visibilityShortcut", temporal.visibilityShortcut),
+      RESTIR_FIELD("temporal.fusedNeighbours", temporal.fusedNeighbours),
+      RESTIR_FIELD("temporal.fusedRadius", temporal.fusedRadius),
+      RESTIR_FIELD("spatial.enabled", spatial.enabled),
+      RESTIR_ENUM_FIELD("spatial.mis", spatial.mis, kMisNames),
+      RESTIR_ENUM_FIELD("spatial.bias", spatial.bias, kBiasNames),
+      RESTIR_FIELD("spatial.neighbours", spatial.neighbours),
+      RESTIR_FIELD("spatial.disocclusionNeighbours", spatial.disocclusionNeighbours),
+      RESTIR_FIELD("spatial.radius", spatial.radius),
+      RESTIR_FIELD("spatial.iterations", spatial.iterations),
+      RESTIR_FIELD("spatial.normalThreshold", spatial.normalThreshold),
+      RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
+      RESTIR_FIELD("spatial.discountNaiveSamples", spatial.discountNaiveSamples),
+      RESTIR_FIELD("spatial.draws", spatial.stochastic.draws),
+      RESTIR_FIELD("spatial.canonicalDraws", spatial.stochastic.canonicalDraws),
+      RESTIR_FIELD("spatial.cellTile", spatial.stochastic.cellTile),
+      RESTIR_FIELD("spatial.normalBins", spatial.stochastic.normalBins),
+      RESTIR_FIELD("spatial.cellSearchIterations", spatial.stochastic.cellSearchIterations),
+      RESTIR_FIELD("spatial.cellSearchRadius", spatial.stochastic.cellSearchRadius),
+      RESTIR_FIELD("spatial.cellSearchGrowth", spatial.stochastic.cellSearchGrowth),
+      RESTIR_FIELD("spatial.confidenceScaling", spatial.stochastic.confidenceScaling),
+      RESTIR_ENUM_FIELD("shade.visibility", shade.visibility, kVisNames),
+      RESTIR_FIELD("shade.reuseFinalVisibility", shade.reuseFinalVisibility),
+      RESTIR_FIELD("shade.finalVisibilityMaxAge", shade.finalVisibilityMaxAge),
+      RESTIR_FIELD("shade.finalVisibilityMaxDistance", shade.finalVisibilityMaxDistance),
+      RESTIR_FIELD("shade.discardInvisibleSamples", shade.discardInvisibleSamples),
+  };
+  return fields;
+}
+
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> SettingsToStrings(const PipelineSettings& settings) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Field& f : Fields()) out.emplace_back(f.name, f.get(settings));
+  return out;
+}
+
+void ApplySetting(PipelineSettings& settings, const std::string& key, const std::string& value) {
+  for (const Field& f : Fields()) {
+    if (f.name == key) {
+      f.set(settings, key, value);
+      if (settings.spatial.neighbours > kMaxGrisInputs - 1 || settings.spatial.disocclusionNeighbours > kMaxGrisInputs - 1)
+        throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
+                         " spatial neighbours");
+      if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
+      const InitialSamplingParams& in = settings.initial;
+      for (int count : {in.candidates, in.sunCandidates, in.environmentCandidates, in.brdfCandidates})
+        if (count < 0 || count > kMaxCandidatesPerSource)
+          throw InputError("--set: error at " + key + ": candidate counts must be in [0, " +
+                           std::to_string(kMaxCandidatesPerSource) + "]");
+      if (!(settings.temporal.boilingFilterStrength >= 0.0f && settings.temporal.boilingFilterStrength <= 1.0f))
+        throw InputError("--set: error at " + key + ": boilingFilterStrength must be in [0, 1] (0: off)");
+      if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2 ||
+          !(settings.temporal.fusedRadius >= 0.0f && settings.temporal.fusedRadius <= 1e4f))
+        throw InputError("--set: error at " + key + ": fusedNeighbours must be in [0, " +
+                         std::to_string(kMaxGrisInputs - 2) + "] and fusedRadius in [0, 1e4]");
+      if (settings.shade.finalVisibilityMaxAge < 0 || settings.shade.finalVisibilityMaxAge > 255 ||
+          !(settings.shade.finalVisibilityMaxDistance >= 0.0f && settings.shade.finalVisibilityMaxDistance <= 1e6f))
+        throw InputError("--set: error at " + key +
+                         ": finalVisibilityMaxAge must be in [0, 255] and finalVisibilityMaxDistance in [0, 1e6]");
+      if (!(in.brdfCutoff >= 0.0f && in.brdfCutoff < 1.0f))
+        throw InputError("--set: error at " + key + ": brdfCutoff must be in [0, 1)");
+      const StochasticPairwiseParams& sp = settings.spatial.stochastic;
+      if (sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
+          sp.canonicalDraws > kMaxGrisInputs - 1)
+        throw InputError("--set: error at " + key + ": draws and canonicalDraws must be in [1, " +
+                         std::to_string(kMaxGrisInputs - 1) + "]");
+      if (sp.cellTile < 1 || sp.cellTile > kMaxCellTile || sp.normalBins < 1 || sp.normalBins > 64 ||
+          sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations)
+        throw InputError("--set: error at " + key + ": cellTile must be in [1, " + std::to_string(kMaxCellTile) +
+                         "], normalBins in [1, 64] and cellSearchIterations in [1, " +
+                         std::to_string(kMaxCellSearchIterations) + "]");
+      return;
+    }
+  }
+  std::vector<std::string> names;
+  for (const Field& f : Fields()) names.push_back(f.name);
+  throw InputError("--set: error: unknown setting '" + key + "'" + Suggestion(key, names));
+}
+
+void ApplySettingAssignment(PipelineSettings& settings, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError("--set: error: '" + assignment + "' is not KEY=VALUE");
+  ApplySetting(settings, assignment.substr(0, eq), assignment.substr(eq + 1));
+}
+
+}  // namespace restir

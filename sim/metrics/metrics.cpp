@@ -1,0 +1,247 @@
+#include "sim/metrics/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace restir {
+
+AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
+                                const std::vector<uint8_t>* mask, const ReferenceNoise* noise) {
+  AccuracyMetrics m;
+  double se = 0.0, seLuma = 0.0, rel = 0.0, sumY = 0.0, sumYRef = 0.0, spe = 0.0;
+  double noiseVar = 0.0, noiseVarLuma = 0.0, noiseRel = 0.0;  // Σ se², Σ se_Y², Σ se² / (R² + 0.01)
+  const bool corrected = noise && noise->standardError && noise->lumaStandardError;
+  size_t count = 0, litCount = 0;
+  for (size_t i = 0; i < estimate.Size(); ++i) {
+    if (mask && !(*mask)[i]) continue;
+    const Vec3& a = estimate.pixels[i];
+    const Vec3& r = reference.pixels[i];
+    for (int c = 0; c < 3; ++c) {
+      const double d = double(a[c]) - double(r[c]);
+      se += d * d;
+      rel += d * d / RelmseDenominator(r[c]);
+      if (corrected) {
+        const double v = double(noise->standardError->pixels[i][c]) * double(noise->standardError->pixels[i][c]);
+        noiseVar += v;
+        // Only the numerator's share: the terms from the denominator's own noise (−2 d g' v + d² g'' v / 2 with
+        // g = 1 / (R² + 0.01)) would need derivatives of 1/R̂², which explode where R̂ is noisy and near 0.
+        noiseRel += v / RelmseDenominator(r[c]);
+      }
+    }
+    const double ya = Luminance(a), yr = Luminance(r);
+    seLuma += (ya - yr) * (ya - yr);
+    if (corrected) noiseVarLuma += double((*noise->lumaStandardError)[i]) * double((*noise->lumaStandardError)[i]);
+    if (yr > 1e-4) {
+      spe += ((ya - yr) / yr) * ((ya - yr) / yr);
+      ++litCount;
+    }
+    sumY += ya;
+    sumYRef += yr;
+    ++count;
+  }
+  m.pixels = count;
+  if (count == 0) return m;
+  m.rmse = std::sqrt(se / (3.0 * count));
+  m.lumaRmse = std::sqrt(seLuma / count);
+  m.relmse = rel / (3.0 * count);
+  m.lumaRatio = sumYRef > 0.0 ? sumY / sumYRef : (sumY > 0.0 ? INFINITY : 1.0);
+  m.rmspe = litCount ? std::sqrt(spe / double(litCount)) : 0.0;
+  m.lumaSum = sumY;
+  m.referenceLumaSum = sumYRef;
+  m.mseCorrected = (se - noiseVar) / (3.0 * count);
+  m.lumaMseCorrected = (seLuma - noiseVarLuma) / count;
+  m.rmseCorrected = std::sqrt(std::max(0.0, m.mseCorrected));
+  m.lumaRmseCorrected = std::sqrt(std::max(0.0, m.lumaMseCorrected));
+  m.relmseCorrected = (rel - noiseRel) / (3.0 * count);
+  return m;
+}
+
+double StabilityLumaRmse(const ImageRgb& current, const ImageRgb& previous) {
+  double sum = 0.0;
+  for (size_t i = 0; i < current.Size(); ++i) {
+    const double d = double(Luminance(current.pixels[i])) - double(Luminance(previous.pixels[i]));
+    sum += d * d;
+  }
+  return current.Size() ? std::sqrt(sum / double(current.Size())) : 0.0;
+}
+
+double Flicker(const ImageRgb& current, const ImageRgb& previous, const ImageRgb& reference,
+               const ImageRgb& previousReference) {
+  double sum = 0.0;
+  for (size_t i = 0; i < current.Size(); ++i) {
+    const double d = (double(Luminance(current.pixels[i])) - double(Luminance(previous.pixels[i]))) -
+                     (double(Luminance(reference.pixels[i])) - double(Luminance(previousReference.pixels[i])));
+    sum += d * d;
+  }
+  return current.Size() ? std::sqrt(sum / double(current.Size())) : 0.0;
+}
+
+double MaskFraction(const std::vector<uint8_t>& mask) {
+  if (mask.empty()) return 0.0;
+  size_t n = 0;
+  for (uint8_t v : mask) n += v != 0;
+  return double(n) / double(mask.size());
+}
+
+}  // namespace restir
+
+namespace restir {
+
+EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRgb& reference,
+                              const ImageRgb& referenceStdError, ImageRgb& bias, ImageRgb& variance) {
+  EnsembleStats s;
+  const size_t k = images.size(), n = reference.Size();
+  if (k < 2 || n == 0) return s;
+  bias = ImageRgb(reference.width, reference.height);
+  variance = ImageRgb(reference.width, reference.height);
+  std::vector<double> memberLuma(k, 0.0);
+  double refLuma = 0.0, refLumaVar = 0.0, meanLuma = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 r = reference.pixels[i];
+    const Vec3 se = referenceStdError.pixels[i];
+    for (int c = 0; c < 3; ++c) {
+      double mean = 0.0, mse = 0.0;
+      for (size_t m = 0; m < k; ++m) {
+        const double v = images[m].pixels[i][c];
+        mean += v;
+        mse += (v - r[c]) * (v - r[c]);
+      }
+      mean /= static_cast<double>(k);
+      double var = 0.0;
+      for (size_t m = 0; m < k; ++m) {
+        const double d = images[m].pixels[i][c] - mean;
+        var += d * d;
+      }
+      var /= static_cast<double>(k);
+      s.mse += mse / static_cast<double>(k);
+      s.bias2 += (mean - r[c]) * (mean - r[c]);
+      s.variance += var;
+      s.bias2Noise += var / static_cast<double>(k - 1) + double(se[c]) * se[c];
+      bias.pixels[i][c] = static_cast<float>(mean - r[c]);
+      variance.pixels[i][c] = static_cast<float>(var);
+    }
+    for (size_t m = 0; m < k; ++m) memberLuma[m] += Luminance(images[m].pixels[i]);
+    refLuma += Luminance(r);
+    const double seY = Luminance(se);  // >= the standard error of Y(R): conservative
+    refLumaVar += seY * seY;
+  }
+  const double samples = 3.0 * static_cast<double>(n);
+  s.mse /= samples, s.bias2 /= samples, s.variance /= samples, s.bias2Noise /= samples;
+  for (double l : memberLuma) meanLuma += l / static_cast<double>(k);
+  double spread = 0.0;
+  for (double l : memberLuma) spread += (l - meanLuma) * (l - meanLuma);
+  spread /= static_cast<double>(k - 1);
+  if (refLuma > 0.0) {
+    s.lumaRatio = meanLuma / refLuma;
+    const double seMean = std::sqrt(spread / static_cast<double>(k)) / refLuma;
+    const double seRef = s.lumaRatio * std::sqrt(refLumaVar) / refLuma;
+    s.lumaRatioStdError = std::sqrt(seMean * seMean + seRef * seRef);
+  } else {
+    s.lumaRatio = meanLuma == 0.0 ? 1.0 : INFINITY;
+  }
+  return s;
+}
+
+FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
+  FrameMetricsRow row;
+  row.frame = m.frame;
+  row.preset = m.preset;
+  auto& v = row.values;
+  const size_t pixels = m.image->Size();
+  auto findPass = [&](const char* name) -> const PassStats* {
+    for (const PassStats& ps : *m.passes)
+      if (ps.name == name) return &ps;
+    return nullptr;
+  };
+  double msPasses = 0.0;
+  uint64_t rays = static_cast<uint64_t>(pixels);  // primary rays
+  v.emplace_back("ms_scene_update", m.msSceneUpdate);
+  v.emplace_back("ms_primary", m.msPrimary);
+  v.emplace_back("ms_reproject", m.msReproject);
+  // Fixed columns for every preset: a pass the preset does not run reports 0.
+  for (const char* name : kPassNames) {
+    const PassStats* ps = findPass(name);
+    v.emplace_back(std::string("ms_") + name, ps ? ps->ms : 0.0);
+    msPasses += ps ? ps->ms : 0.0;
+    rays += ps ? ps->rays : 0;
+  }
+  v.emplace_back("ms_frame", m.msSceneUpdate + m.msPrimary + m.msReproject + msPasses);
+  v.emplace_back("ms_reference", m.reference ? m.msReference : 0.0);
+  v.emplace_back("reference_cached", m.referenceCached ? 1.0 : 0.0);
+  v.emplace_back("rays", static_cast<double>(rays));
+  for (const char* name : kPassNames) {
+    const PassStats* ps = findPass(name);
+    v.emplace_back(std::string("rays_per_pixel_") + name, ps ? double(ps->rays) / double(pixels) : 0.0);
+  }
+  if (m.reference) {
+    const ImageRgb& ref = *m.reference;
+    const ReferenceNoise* noise = m.referenceNoise.standardError ? &m.referenceNoise : nullptr;
+    // The corrected forms sit after the raw group so the raw columns keep their places.
+    auto corrected = [&](const AccuracyMetrics& x, const std::string& suffix) {
+      if (!noise) return;
+      v.emplace_back("rmse_corrected" + suffix, x.rmseCorrected);
+      v.emplace_back("luma_rmse_corrected" + suffix, x.lumaRmseCorrected);
+      v.emplace_back("relmse_corrected" + suffix, x.relmseCorrected);
+    };
+    const AccuracyMetrics a = MeasureAccuracy(*m.image, ref, nullptr, noise);
+    v.emplace_back("rmse", a.rmse);
+    v.emplace_back("luma_rmse", a.lumaRmse);
+    v.emplace_back("relmse", a.relmse);
+    v.emplace_back("luma_ratio", a.lumaRatio);
+    v.emplace_back("rmspe", a.rmspe);
+    v.emplace_back("flip", MeanFlip(*m.flip));
+    v.emplace_back("luma_sum", a.lumaSum);
+    v.emplace_back("reference_luma_sum", a.referenceLumaSum);
+    v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
+    corrected(a, "");
+    // The same errors over the recently revealed pixels and over the others.
+    for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {
+      const std::string sfx = suffix;
+      const AccuracyMetrics x = MeasureAccuracy(*m.image, ref, mask, noise);
+      v.emplace_back("rmse" + sfx, x.rmse);
+      v.emplace_back("luma_rmse" + sfx, x.lumaRmse);
+      v.emplace_back("relmse" + sfx, x.relmse);
+      v.emplace_back("rmspe" + sfx, x.rmspe);
+      v.emplace_back("luma_ratio" + sfx, x.pixels ? x.lumaRatio : 1.0);
+      v.emplace_back("flip" + sfx, MeanFlip(*m.flip, mask));
+      corrected(x, sfx);
+    }
+    const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref, nullptr, noise);
+    v.emplace_back("accum_frames", m.accumFrames);
+    v.emplace_back("accum_rmse", acc.rmse);
+    v.emplace_back("accum_luma_ratio", acc.lumaRatio);
+    v.emplace_back("accum_rmspe", acc.rmspe);
+    if (noise) v.emplace_back("accum_rmse_corrected", acc.rmseCorrected);
+    if (m.ensemble) {
+      v.emplace_back("ensemble_mse", m.ensemble->mse);
+      v.emplace_back("ensemble_bias2", m.ensemble->bias2);
+      v.emplace_back("ensemble_variance", m.ensemble->variance);
+      v.emplace_back("ensemble_bias2_noise", m.ensemble->bias2Noise);
+      v.emplace_back("ensemble_luma_ratio", m.ensemble->lumaRatio);
+      v.emplace_back("ensemble_luma_ratio_stderr", m.ensemble->lumaRatioStdError);
+    }
+    v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
+  }
+  v.emplace_back("stability_luma_rmse", m.previousImage ? StabilityLumaRmse(*m.image, *m.previousImage) : 0.0);
+  v.emplace_back("disocc_fraction", m.disoccFraction);
+  v.emplace_back("disocc_recent_fraction", m.recentFraction);
+  v.emplace_back("temporal_acceptance", m.temporalAcceptance);
+  const ReservoirDiagnostics& d = m.diagnostics;
+  v.emplace_back("mean_confidence", d.confidenceMean);
+  v.emplace_back("confidence_sd", d.confidenceSd);
+  v.emplace_back("contrib_initial", d.contributingInitial);
+  v.emplace_back("contrib_temporal", d.contributingTemporal);
+  v.emplace_back("contrib_spatial", d.contributingSpatial);
+  v.emplace_back("contrib_shaded", d.contributingShaded);
+  v.emplace_back("contrib_initial_disocc", d.contributingInitialRegion);
+  v.emplace_back("contrib_temporal_disocc", d.contributingTemporalRegion);
+  v.emplace_back("contrib_spatial_disocc", d.contributingSpatialRegion);
+  v.emplace_back("sample_age", d.ageMean);
+  v.emplace_back("duplicate_fraction", d.duplicateFraction);
+  v.emplace_back("cross_object_reuse", static_cast<double>(m.crossObjectReuse));
+  v.emplace_back("guarded", static_cast<double>(m.guarded));
+  row.imageHash = HexHash(HashImage(*m.image));
+  return row;
+}
+
+}  // namespace restir

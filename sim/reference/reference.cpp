@@ -1,0 +1,601 @@
+#include "sim/reference/reference.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <sys/mman.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <filesystem>
+
+#include "core/light_sampler.h"
+#include "core/light_selection_kernel.h"
+#include "core/qmc_kernel.h"
+#include "core/rng.h"
+#include "core/sampling.h"
+#include "sim/util/atomic_file.h"
+#include "sim/util/clock.h"
+#include "sim/util/hash.h"
+#include "sim/util/input_file.h"
+#include "sim/reference/reference_cache.h"
+#include "sim/reference/reference_samples.h"
+#include "sim/reference/reference_sky.h"
+#include "sim/scene/shading_point.h"
+#include "sim/scene/sky_frame.h"
+
+namespace restir {
+
+namespace {
+
+// Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
+// light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
+// the triangle in double, not Embree's vendor-dependent reciprocal).
+constexpr uint32_t kReferenceVersion = 9;
+// The reference has its own seed so that runs with different --seed share one reference.
+constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
+
+// Light selection for one receiver (core/light_selection_kernel.h): power alone spends most samples on lights
+// that barely reach the pixel (the flagship's facade is lit through a window by a few of 72 lights), so the
+// reference mixes, per pixel, selection proportional to each light's unshadowed contribution there with a
+// defensive share by power. Every light with power keeps P > 0, so the estimator stays unbiased; only visibility
+// and the variation across a light remain as noise. The distributions of a block of receivers are built at once,
+// one receiver per SIMD lane. Above kMaxPerPixelLights, selection by power alone (per-pixel tables would cost more
+// than the rays they save).
+constexpr size_t kMaxPerPixelLights = 4096;
+// Memory the pilot's per-pixel light distributions may take to be kept for the main pass (beyond it, the main pass
+// builds them again: the same bits).
+constexpr size_t kKeptDistributionBytes = size_t{512} << 20;
+
+
+// An uninitialised float array in transparent huge pages where the system offers them (Linux, THP in "madvise"
+// mode as Debian ships it): a large array first touched page by page otherwise takes a page fault per 4 KiB.
+class HugePageFloats {
+ public:
+  explicit HugePageFloats(size_t count) {
+    if (count == 0) return;
+    constexpr size_t kHuge = size_t{2} << 20;
+    const size_t bytes = (count * sizeof(float) + kHuge - 1) / kHuge * kHuge;
+    data_ = static_cast<float*>(std::aligned_alloc(kHuge, bytes));
+    if (!data_) throw std::bad_alloc();
+#ifdef MADV_HUGEPAGE
+    madvise(data_, bytes, MADV_HUGEPAGE);  // advice only: where it is refused, 4 KiB pages
+#endif
+  }
+  ~HugePageFloats() { std::free(data_); }
+  HugePageFloats(const HugePageFloats&) = delete;
+  HugePageFloats& operator=(const HugePageFloats&) = delete;
+  float* get() const { return data_; }
+
+ private:
+  float* data_ = nullptr;
+};
+
+
+
+
+
+
+
+
+// The pilot's kept distributions: one buffer per process, lent to one render at a time and kept between frames (a
+// frame of fresh pages paid about 3% of its render in the kernel's zeroing of them at the first touches, measured
+// at 640x360); a render that finds it lent or too small allocates its own, and the larger of the two stays.
+class KeptDistributions {
+ public:
+  explicit KeptDistributions(size_t floats) {
+    if (floats == 0) return;
+    {
+      std::lock_guard<std::mutex> lock(Mutex());
+      if (Spare().buffer && Spare().floats >= floats) {
+        held_ = std::move(Spare());
+        Spare() = Held{};
+        return;
+      }
+    }
+    held_.buffer = std::make_unique<HugePageFloats>(floats);
+    held_.floats = floats;
+  }
+  ~KeptDistributions() {
+    if (!held_.buffer) return;
+    std::lock_guard<std::mutex> lock(Mutex());
+    if (held_.floats >= Spare().floats) Spare() = std::move(held_);
+  }
+  KeptDistributions(const KeptDistributions&) = delete;
+  KeptDistributions& operator=(const KeptDistributions&) = delete;
+  float* get() const { return held_.buffer ? held_.buffer->get() : nullptr; }
+
+ private:
+  struct Held {
+    std::unique_ptr<HugePageFloats> buffer;
+    size_t floats = 0;
+  };
+  static std::mutex& Mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static Held& Spare() {
+    static Held spare;
+    return spare;
+  }
+  Held held_;
+};
+
+
+
+// Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples points per pixel,
+// one randomly shifted copy of the Roberts sequence, estimate the per-sample relative variance v = Var[f] / E[f]²
+// (each point is uniform; stratification only lowers the spread of their mean, so their sample variance errs high
+// by at most n / (n - 1)); the main pass then spends samples in proportion to v (every pixel reaching about the
+// same relative standard error), with samples independent of the pilot's. The pilot's samples are not part of the
+// estimate: the allocation is then a function of independent randomness only, so each pixel's estimate and its
+// replicate standard error stay unbiased given its sample count (no stopping on the sample's own values).
+constexpr int kPilotSamples = 16;
+// In budget mode, this share of the main budget goes to every pixel uniformly: the pilot's 16 samples can miss
+// a rare light (v estimated 0), and a floor keeps such pixels from being starved.
+constexpr double kUniformShare = 0.25;
+// No pixel gets more than this multiple of the mean per-replicate count (budget mode), or more than
+// kMaxSamplesPerPixel (error mode).
+constexpr int kMaxAllocationScale = 16;
+constexpr int kMaxSamplesPerPixel = 1 << 16;
+
+// Budget mode's mean per-replicate count of the main pass: the budget after the pilot's samples, in replicates.
+double MeanPerReplicate(const ReferenceParams& params) {
+  return std::max(1.0, std::ceil(double(std::max(1, params.samplesPerPixel) - kPilotSamples) / kReplicates));
+}
+
+// Per-replicate sample counts from the pilot's relative variances (negative: the pilot saw no light).
+std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
+                                      const ReferenceParams& params) {
+  std::vector<uint32_t> m(relVar.size(), 0);
+  if (params.targetRelativeError > 0.0) {
+    // Relative standard error of a mean of n samples: sqrt(v / n) = E  =>  n = v / E².
+    const double e2 = params.targetRelativeError * params.targetRelativeError;
+    for (size_t i = 0; i < relVar.size(); ++i) {
+      if (!active[i]) continue;
+      const double n = relVar[i] > 0.0f ? std::ceil(double(relVar[i]) / e2) : 0.0;
+      const double perReplicate = std::ceil(std::min(n, double(kMaxSamplesPerPixel)) / kReplicates);
+      m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
+    }
+    return m;
+  }
+  const double meanPerReplicate = MeanPerReplicate(params);
+  double sum = 0.0;
+  for (size_t i = 0; i < relVar.size(); ++i)
+    if (active[i] && relVar[i] > 0.0f) sum += relVar[i];
+  // Mean over every active pixel (those with v = 0 included), so the allocation averages meanPerReplicate.
+  size_t activeCount = 0;
+  for (uint8_t a : active) activeCount += a;
+  const double meanV = activeCount ? sum / double(activeCount) : 0.0;
+  for (size_t i = 0; i < relVar.size(); ++i) {
+    if (!active[i]) continue;
+    const double share = meanV > 0.0 ? kUniformShare + (1.0 - kUniformShare) * std::max(0.0f, relVar[i]) / meanV
+                                     : 1.0;
+    const double perReplicate = std::min(std::round(meanPerReplicate * share), meanPerReplicate * kMaxAllocationScale);
+    m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
+  }
+  return m;
+}
+
+// A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
+// (damaged, truncated, another frame's, not a regular file) is reported in one line and rendered again; the new
+// entry then replaces it.
+bool ReadCache(const std::string& path, const std::string& key, int w, int h, ReferenceImage& out,
+               bool quiet = false) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, ReferenceCacheEntrySize(key, w, h), bytes, problem)) {
+    if (problem == "no such file") return false;
+  } else if (DecodeReferenceCacheEntry(bytes, key, w, h, out.mean, out.standardError, out.lumaStandardError,
+                                       problem)) {
+    return true;
+  }
+  if (quiet) return false;  // read again under the lock: the first reading already said what is wrong with it
+  std::fprintf(stderr, "restir-sim: warning: %s: unusable reference cache entry (%s); rendering it again\n",
+               path.c_str(), problem.c_str());
+  return false;
+}
+
+}  // namespace
+
+uint64_t HashFrameState(const FrameState& state) {
+  const Camera& c = state.camera;
+  const float camera[13] = {c.position.x, c.position.y, c.position.z, c.forward.x, c.forward.y, c.forward.z,
+                            c.up.x,       c.up.y,       c.up.z,       c.right.x,   c.right.y,   c.right.z,
+                            c.vfovDegrees};
+  const int32_t size[2] = {c.width, c.height};
+  uint64_t h = Fnv1a(camera, sizeof(camera));
+  h = Fnv1a(size, sizeof(size), h);
+  for (const Mat4& m : state.objectToWorld) h = Fnv1a(&m, sizeof(Mat4), h);
+  h = Fnv1a(state.lightOn.data(), state.lightOn.size(), h);
+  // The sky's state only where the frame has a sky: a skyless frame's hash, hence its reference's random numbers
+  // and cache key, stay what they were before the sky existed.
+  if (state.environmentIntensity > 0.0f || state.sunIntensity > 0.0f) {
+    const float sky[6] = {state.environmentIntensity, state.environmentRotationDegrees, state.sunDirection.x,
+                          state.sunDirection.y,       state.sunDirection.z,             state.sunIntensity};
+    h = Fnv1a(sky, sizeof(sky), h);
+  }
+  return h;
+}
+
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params) {
+  // The error target, when set, replaces the budget: two runs with different spp share its entry.
+  const bool target = params.targetRelativeError > 0.0;
+  const int32_t fields[3] = {target ? 0 : params.samplesPerPixel, static_cast<int32_t>(kReferenceVersion),
+                             static_cast<int32_t>(kReferenceSeed)};
+  const double error = target ? params.targetRelativeError : 0.0;
+  uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
+  h = Fnv1a(fields, sizeof(fields), h);
+  h = Fnv1a(&error, sizeof(error), h);
+  const uint64_t s = HashFrameState(state);
+  return HexHash(Fnv1a(&s, sizeof(s), h));
+}
+
+ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                               const GBuffer& g, const ReferenceParams& params) {
+  const auto t0 = Clock::now();
+  const int w = g.width, h = g.height;
+  std::string cachePath, cacheKey;
+  std::optional<FileLock> lock;  // held until the entry is written
+  if (!params.cacheDir.empty()) {
+    cacheKey = ReferenceCacheKey(sequence, state, params);
+    cachePath = (std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".bin")).string();
+    ReferenceImage cached;
+    if (ReadCache(cachePath, cacheKey, w, h, cached)) {
+      cached.fromCache = true;
+      cached.ms = MsSince(t0);
+      return cached;
+    }
+    // Many processes (a sweep's jobs, on one machine or a cluster's shared file system) may want this entry at
+    // once: the first to lock it renders it, the others wait and read its entry instead of rendering it again.
+    // Without the lock (a file system that cannot lock) they render concurrently; each entry's bytes are the same
+    // and reach the file by an atomic rename, so any one of them is whole.
+    lock.emplace((std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".lock")).string());
+    if (lock->Held() && ReadCache(cachePath, cacheKey, w, h, cached, /*quiet=*/true)) {
+      cached.fromCache = true;
+      cached.ms = MsSince(t0);
+      return cached;
+    }
+  }
+
+  ReferenceImage ref;
+  ref.mean = ImageRgb(w, h);
+  ref.standardError = ImageRgb(w, h);
+  ref.lumaStandardError.assign(static_cast<size_t>(w) * h, 0.0f);
+  const std::vector<LightTriangle>& lightList = scene.LightTriangles();
+  const LightSampler lights(lightList, LightSelection::kPower);
+  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
+  static const RobertsSequence<kSampleDims> rd;
+  static const RobertsSequence<kSkySampleDims> rdSky;
+  // The sky (issue 18): light sampling becomes a per-pixel mixture of the local lights, the sun and the
+  // environment (sim/reference/reference_sky.h), and every surface gets BSDF sampling. A skyless frame takes none of
+  // it.
+  const Sky sky = MakeSky(sequence, state);
+  const bool hasSky = !sky.Empty();
+  const SkySummary skySummary = hasSky ? SummarizeSky(sky) : SkySummary{};
+  const int dims = hasSky ? kSkySampleDims : kSampleDims;
+  const bool hasLocal = !lights.Empty();
+  // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
+  // get the same reference, bit for bit, and share one cache entry.
+  const uint64_t stateHash = HashFrameState(state);
+  const uint32_t stateKey = static_cast<uint32_t>(stateHash ^ (stateHash >> 32));
+  const size_t pixels = static_cast<size_t>(w) * h;
+  std::vector<uint8_t> active(pixels, 0);
+  for (size_t i = 0; i < pixels; ++i) {
+    // Where the primary ray escaped, the sky it sees (zero in a skyless frame).
+    ref.mean.pixels[i] = DirectEmission(g, i, lightList, sky, state.camera);
+    active[i] = g.IsSurface(i) && (hasLocal || hasSky);
+  }
+  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> samples([] { return uint64_t{0}; });
+  const size_t nLights = lightList.size();
+  const LightGroups groups = MakeLightGroups(lightList);
+  const size_t nGroups = groups.first.size();
+  const LightDrawSoa drawLights(lightList, groups);
+  // Per-pixel distributions (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, every pixel's is
+  // the same (power alone): built once, viewed by all. Without local lights (none, or all switched off) under a
+  // sky, no pixel has a light distribution.
+  const bool perPixelLights = hasLocal && nLights <= kMaxPerPixelLights;
+  std::vector<float> powerPmf;
+  for (uint32_t l = 0; hasLocal && l < nLights; ++l) powerPmf.push_back(lights.SelectionPmf(l));
+  std::vector<SelectionLight> selectionLights;
+  if (perPixelLights) selectionLights = MakeSelectionLights(lightList, groups, powerPmf);
+  const SelectionLights selection{selectionLights.data(), selectionLights.size()};
+  std::vector<float> shared;
+  if (hasLocal && !perPixelLights) {
+    float running = 0.0f;
+    for (size_t g = 0; g < nGroups; ++g) {
+      const uint32_t t = groups.first[g];
+      shared.push_back(running += groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
+    }
+  }
+  // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
+  std::vector<LightMixture> mixtures(hasSky ? pixels : 0);
+  // The pilot's distributions, kept for the main pass where they fit in kKeptDistributionBytes: each row's blocks
+  // in order (both passes form the same blocks), row y's from keptRow[y] on, kSelectionBlock × nGroups floats a
+  // block, light-major as the selection kernel writes them (whole cache lines); each pass copies a block's to rows
+  // in its own scratch to draw from. Not value-initialised: the pilot writes every entry the main pass reads. In
+  // huge pages: first touches of 4 KiB pages would cost a page fault each.
+  std::vector<size_t> keptRow(static_cast<size_t>(h) + 1, 0);
+  if (perPixelLights)
+    for (int y = 0; y < h; ++y) {
+      size_t rowActive = 0;
+      for (int x = 0; x < w; ++x) rowActive += active[static_cast<size_t>(y) * w + x];
+      const size_t blocks = (rowActive + kSelectionBlock - 1) / kSelectionBlock;
+      keptRow[y + 1] = keptRow[y] + blocks * kSelectionBlock * nGroups;
+    }
+  const bool keep = perPixelLights && keptRow[h] * sizeof(float) <= kKeptDistributionBytes;
+  const KeptDistributions kept(keep ? keptRow[h] : 0);
+  // Runs sampleBlock on every active pixel, rows in parallel, each row's active pixels in blocks of
+  // kSelectionBlock whose light distributions are built together by the pilot (and again by the main pass where
+  // they are not kept).
+  auto forEachBlock = [&](bool pilot, auto&& sampleBlock) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
+      std::vector<float> columns(perPixelLights && !keep ? nGroups * kSelectionBlock : 0);
+      std::vector<float> cdfs(perPixelLights ? nGroups * kSelectionBlock : 0);
+      std::vector<float> work(perPixelLights && (pilot || !keep) ? nGroups * kSelectionBlock : 0);
+      float estimates[kSelectionBlock] = {};
+      SelectionReceivers receivers{};
+      ReceiverBlock block;
+      BlockScratch scratch;
+      std::vector<size_t> rowPixels;
+      uint64_t threadRays = 0, threadSamples = 0;
+      for (int y = range.begin(); y < range.end(); ++y) {
+        // The row's active pixels, diffuse receivers first: a block of one kind skips the other's work (the
+        // BSDF towards every light's centroid, BSDF sampling).
+        rowPixels.clear();
+        for (int pass = 0; pass < 2; ++pass)
+          for (int x = 0; x < w; ++x) {
+            const size_t i = static_cast<size_t>(y) * w + x;
+            // An inactive pixel (background, emitter) has no material: bsdfId is -1 there.
+            if (!active[i]) continue;
+            const bool diffuse = bsdfs.type[static_cast<size_t>(g.bsdfId[i])] == static_cast<int32_t>(BsdfType::kDiffuse);
+            if (diffuse == (pass == 0)) rowPixels.push_back(i);
+          }
+        for (size_t firstPixel = 0; firstPixel < rowPixels.size(); firstPixel += kSelectionBlock) {
+          const size_t count = std::min(kSelectionBlock, rowPixels.size() - firstPixel);
+          block.count = count;
+          for (size_t r = 0; r < count; ++r) {
+            const size_t i = rowPixels[firstPixel + r];
+            block.index[r] = i;
+            block.materialId[r] = g.bsdfId[i];
+            const ShadingPoint& sp = block.points[r] = ShadingPointAt(g, i, state.camera.position, bsdfs);
+            for (int c = 0; c < 3; ++c) {
+              receivers.x[c][r] = sp.position[c];
+              receivers.ng[c][r] = sp.geometricNormal[c];
+              receivers.n[c][r] = sp.shadingNormal[c];
+              receivers.wo[c][r] = sp.wo[c];
+            }
+            receivers.materialId[r] = g.bsdfId[i];
+          }
+          receivers.count = count;
+          float* const blockColumns = keep ? kept.get() + keptRow[y] + firstPixel * nGroups : columns.data();
+          float* const blockCdfs = cdfs.data();
+          // (The main pass reads no estimate: the pilot set the sky's light mixtures from them.)
+          if (perPixelLights && (pilot || !keep))
+            BuildLightSelection(receivers, bsdfs, selection, work.data(), blockColumns, estimates);
+          if (perPixelLights) SelectionRows(blockColumns, nGroups, count, blockCdfs);
+          for (size_t r = 0; r < count; ++r) {
+            const size_t i = block.index[r];
+            const ShadingPoint& sp = block.points[r];
+            PixelLightDistribution& dist = block.dists[r];
+            if (perPixelLights)
+              dist = PixelLightDistribution(blockCdfs + r * nGroups, &groups, estimates[r]);
+            else if (hasLocal)
+              dist = PixelLightDistribution(shared.data(), &groups, -1.0f);
+            SkySampling& skySampling = block.sky[r];
+            if (hasSky) {
+              skySampling.sky = &sky;
+              if (pilot) {
+                // The local lights' estimate where the distribution has one; where it has none (above
+                // kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the draws.
+                const float sunEstimate = SunEstimate(sp, sky, skySummary);
+                const float environmentEstimate = EnvironmentEstimate(sp, sky, skySummary);
+                const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
+                const float localEstimate = !hasLocal                ? -1.0f
+                                            : dist.Estimate() >= 0.0f ? dist.Estimate()
+                                                                      : skyEstimate;
+                mixtures[i] = MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+              }
+              skySampling.mixture = mixtures[i];
+            }
+          }
+          sampleBlock(block, scratch, threadRays, threadSamples);
+        }
+      }
+      rays.local() += threadRays;
+      samples.local() += threadSamples;
+    });
+  };
+  // The coordinates a receiver's samples read: three at a diffuse receiver without a sky, else every one.
+  const auto usedDims = [&](const ShadingPoint& sp) {
+    return !hasSky && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
+  };
+  const auto alphaOf = [&](int j) { return hasSky ? rdSky.alpha[j] : rd.alpha[j]; };
+  // A block's samples, once its points are in scratch.u: every receiver's at once without a sky (one batch of
+  // shadow rays), one receiver at a time with one.
+  const auto sampleAll = [&](const ReceiverBlock& block, const size_t* counts, const size_t* uFirst,
+                             const size_t* first, BlockScratch& scratch, uint64_t& rayCount) {
+    const size_t total = first[block.count - 1] + counts[block.count - 1];
+    for (std::vector<float>& v : scratch.values) v.resize(total);
+    float* const values[3] = {scratch.values[0].data(), scratch.values[1].data(), scratch.values[2].data()};
+    if (!hasSky) {
+      SkylessBlockSamples(block, counts, uFirst, first, scene, bsdfs, lightList, drawLights.view, scratch, values,
+                          rayCount);
+      return;
+    }
+    for (size_t p = 0; p < block.count; ++p) {
+      float* const out[3] = {values[0] + first[p], values[1] + first[p], values[2] + first[p]};
+      SkySamples(block.points[p], scene, lightList, block.dists[p], block.sky[p], scratch.u.data() + uFirst[p],
+                 counts[p], scratch.batch, out, rayCount);
+    }
+  };
+
+  // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass), only
+  // their relative variance is kept.
+  std::vector<float> relVar(pixels, -1.0f);
+  forEachBlock(true, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
+                         uint64_t& sampleCount) {
+    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
+    uint32_t ids[kSelectionBlock];
+    size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
+    for (size_t p = 0; p < block.count; ++p) {
+      ids[p] = static_cast<uint32_t>(block.index[p]);
+      counts[p] = kPilotSamples;
+      uFirst[p] = p * kPilotSamples * dims;
+      first[p] = p * kPilotSamples;
+    }
+    // Word j of a pixel (core/rng.h RandomWords4's stream) shifts its coordinate j: at words[j × count + p].
+    scratch.words.resize(static_cast<size_t>(kSkySampleDims + 1) * block.count);
+    PixelRandomWords4(key, ids, block.count, 0, (static_cast<size_t>(dims) + 3) / 4, scratch.words.data());
+    scratch.u.resize(block.count * kPilotSamples * dims);
+    for (size_t p = 0; p < block.count; ++p)
+      for (int j = 0; j < usedDims(block.points[p]); ++j)
+        RobertsCoordinates(&scratch.words[static_cast<size_t>(j) * block.count + p], 1, kPilotSamples, alphaOf(j),
+                           scratch.u.data() + uFirst[p] + static_cast<size_t>(j) * kPilotSamples);
+    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    sampleCount += block.count * kPilotSamples;
+    for (size_t p = 0; p < block.count; ++p) {
+      double sum = 0.0, sumSq = 0.0;
+      for (size_t k = 0; k < kPilotSamples; ++k) {
+        const size_t e = first[p] + k;
+        const double yv = Luminance(Vec3(scratch.values[0][e], scratch.values[1][e], scratch.values[2][e]));
+        sum += yv;
+        sumSq += yv * yv;
+      }
+      const double mean = sum / kPilotSamples;
+      const double var = std::max(0.0, (sumSq - sum * mean) / (kPilotSamples - 1));
+      if (mean > 0.0) relVar[block.index[p]] = static_cast<float>(std::min(var / (mean * mean), 1e30));
+    }
+  });
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, active, params);
+  ref.pixelSamples.assign(pixels, 0);
+  for (size_t i = 0; i < pixels; ++i)
+    if (active[i]) ref.pixelSamples[i] = kPilotSamples + perReplicate[i] * kReplicates;
+
+  // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
+  // points each.
+  forEachBlock(false, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
+                          uint64_t& sampleCount) {
+    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
+    uint32_t ids[kSelectionBlock];
+    size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
+    size_t uTotal = 0, total = 0;
+    for (size_t p = 0; p < block.count; ++p) {
+      ids[p] = static_cast<uint32_t>(block.index[p]);
+      counts[p] = static_cast<size_t>(perReplicate[block.index[p]]) * kReplicates;
+      uFirst[p] = uTotal;
+      first[p] = total;
+      uTotal += counts[p] * dims;
+      total += counts[p];
+    }
+    // Replicate rep's shift of coordinate j is the pixel's word j × kReplicates + rep (core/rng.h RandomWords4's
+    // stream): at words[(j × kReplicates + rep) × count + p], for the coordinates the block reads.
+    int used = 0;
+    for (size_t p = 0; p < block.count; ++p) used = std::max(used, usedDims(block.points[p]));
+    const size_t wordRow = kReplicates * block.count;
+    scratch.words.resize(static_cast<size_t>(used) * wordRow);
+    PixelRandomWords4(key, ids, block.count, 0, static_cast<size_t>(used) * kReplicates / 4, scratch.words.data());
+    // Coordinate j of point k of replicate rep is u[uFirst + j × n + k × kReplicates + rep] (sample
+    // k × kReplicates + rep).
+    scratch.u.resize(uTotal);
+    for (size_t p = 0; p < block.count; ++p) {
+      const size_t m = counts[p] / kReplicates;
+      for (int j = 0; j < usedDims(block.points[p]); ++j) {
+        uint32_t shifts[kReplicates];
+        for (int rep = 0; rep < kReplicates; ++rep)
+          shifts[rep] = scratch.words[j * wordRow + static_cast<size_t>(rep) * block.count + p];
+        RobertsCoordinates(shifts, kReplicates, m, alphaOf(j), scratch.u.data() + uFirst[p] + j * counts[p]);
+      }
+    }
+    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    sampleCount += total;
+    for (size_t p = 0; p < block.count; ++p) {
+      const size_t i = block.index[p];
+      const size_t m = counts[p] / kReplicates;
+      // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
+      // sum of glm::dvec3).
+      double sums[3][kReplicates] = {};
+      for (int c = 0; c < 3; ++c) {
+        const float* v = scratch.values[c].data() + first[p];
+        for (size_t k = 0; k < m; ++k)
+          for (int rep = 0; rep < kReplicates; ++rep) sums[c][rep] += double(v[k * kReplicates + rep]);
+      }
+      glm::dvec3 replicateMean[kReplicates];
+      const double perPoint = 1.0 / double(m);  // one division, not one per replicate and channel
+      for (int rep = 0; rep < kReplicates; ++rep)
+        replicateMean[rep] = glm::dvec3(sums[0][rep], sums[1][rep], sums[2][rep]) * perPoint;
+      glm::dvec3 mean(0.0), var(0.0);
+      for (const glm::dvec3& r : replicateMean) mean += r;
+      mean /= double(kReplicates);
+      for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
+      var /= double(kReplicates - 1);
+      const double meanY = Luminance(mean);
+      double varY = 0.0;
+      for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
+      varY /= double(kReplicates - 1);
+      ref.mean.pixels[i] += Vec3(mean);
+      ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
+      ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
+    }
+  });
+  ref.rays = rays.combine(std::plus<uint64_t>());
+  ref.samples = samples.combine(std::plus<uint64_t>());
+  if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError,
+                                                                    ref.lumaStandardError));
+  ref.ms = MsSince(t0);
+  return ref;
+}
+
+double ReferenceMaxSamplesPerPixel(const ReferenceParams& params) {
+  if (params.targetRelativeError > 0.0) return double(kMaxSamplesPerPixel);
+  return std::max(double(kPilotSamples), MeanPerReplicate(params) * kMaxAllocationScale * kReplicates);
+}
+
+double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky) {
+  // Per worker thread (as many as TBB runs here), a block's light distributions (rows and columns), its selection
+  // weights and its samples: BlockScratch holds every sample of a block at once (its points, values, the two draw
+  // kernels' rays and their answers; under a sky SampleBatch's per-sample terms too), in vectors that may reserve
+  // up to twice what the largest block asked for.
+  const double threads = double(tbb::this_task_arena::max_concurrency());
+  const double perFrame = groups * sizeof(SelectionLight) + lights * (kLightDrawRecordFloats + 4.0) * sizeof(float);
+  const double perSample = (kSkySampleDims + 3.0 + 7.0 + 10.0) * sizeof(float) + 2.0 * sizeof(uint32_t) + 1.0 +
+                           (sky ? 2.0 * sizeof(Vec3) + sizeof(ShadowRay) + sizeof(uint32_t) + 1.0 : 0.0);
+  const double blockSamples = double(kSelectionBlock) * std::max(maxSamplesPerPixel, double(kPilotSamples));
+  const double perThread = 3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample;
+  // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture
+  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) : 0.0);
+  return perFrame + threads * perThread + pixels * perPixel;
+}
+
+double ReferenceKeptBytes(double width, double height, double groups) {
+  // Each row's active pixels in whole blocks; in whole 2 MiB pages.
+  const double floats = std::ceil(width / kSelectionBlock) * kSelectionBlock * height * groups;
+  if (floats * sizeof(float) > double(kKeptDistributionBytes)) return 0.0;
+  const double huge = double(size_t{2} << 20);
+  return std::ceil(floats * sizeof(float) / huge) * huge;
+}
+
+double MeanRelativeStandardError(const ReferenceImage& ref) {
+  double sum = 0.0;
+  size_t count = 0;
+  for (size_t i = 0; i < ref.mean.Size(); ++i) {
+    const double y = Luminance(ref.mean.pixels[i]);
+    if (y > 1e-4) {
+      sum += ref.lumaStandardError[i] / y;
+      ++count;
+    }
+  }
+  return count ? sum / double(count) : 0.0;
+}
+
+}  // namespace restir

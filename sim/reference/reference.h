@@ -1,0 +1,84 @@
+// The converged reference (DESIGN §7): unbiased direct lighting at each G-buffer pixel with per-pixel light
+// selection (core/light_selection_kernel.h: each light group's unshadowed contribution there, Lambert's formula on
+// its polygon or a point estimate, beside a defensive share by power; a quad light's two triangles are one group),
+// uniform area sampling and one shadow ray per sample, combined by MIS with BSDF sampling on glossy surfaces. The
+// pixels of a row are taken in blocks of 16 (core/light_selection_kernel.h kSelectionBlock): their distributions
+// are built together, one pixel per SIMD lane, and their samples drawn by the light-draw and BSDF-draw kernels,
+// their shadow rays traced as one batch of packets (sim/reference/reference_samples.h). Under a sky (an environment,
+// a sun: issue 18) light sampling is a per-pixel mixture of the local lights, the sun and the environment
+// (sim/reference/reference_sky.h), BSDF sampling runs on every surface, and pixels whose primary ray escaped show the
+// sky. A pilot pass estimates each pixel's relative variance; the main pass spends the samples in proportion to it.
+// Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also reports an honest
+// per-pixel standard error. Cached on disk.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "sim/scene/embree_scene.h"
+#include "sim/scene/gbuffer.h"
+#include "sim/util/image.h"
+#include "sim/scene/sequence.h"
+
+namespace restir {
+
+struct ReferenceParams {
+  // Mean direct-lighting samples per pixel, the pilot's 16 included; the main pass's per-pixel counts are
+  // multiples of 16 (replicates) in proportion to the pilot's relative variance. Ignored when
+  // targetRelativeError > 0.
+  int samplesPerPixel = 1024;
+  // When > 0 (--reference-error): each pixel gets the samples its pilot says it needs for this relative standard
+  // error (between 16 and 65536), instead of a share of a fixed budget.
+  double targetRelativeError = 0.0;
+  std::string cacheDir;  // where converged frames are kept; empty: no cache
+};
+
+struct ReferenceImage {
+  ImageRgb mean;            // the reference radiance
+  ImageRgb standardError;   // per pixel and channel: spread of 16 independent replicate means / sqrt(16)
+  // Per pixel, the same for the luminance Y of the replicate means. Not Y(standardError): the channels' errors are
+  // correlated (one light sample feeds all three), so only the replicates know Y's variance.
+  std::vector<float> lumaStandardError;
+  bool fromCache = false;   // read from the cache rather than rendered
+  double ms = 0.0;          // wall time (render or cache read)
+  uint64_t rays = 0;        // rays traced (0 when cached)
+  uint64_t samples = 0;     // direct-lighting samples taken, the pilot's included (0 when cached)
+  std::vector<uint32_t> pixelSamples;  // per pixel, the samples it took, pilot included (empty when cached)
+};
+
+// Renders (or reads from the cache) the reference of the scene's current frame, at the G-buffer's pixels.
+ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                               const GBuffer& gbuffer, const ReferenceParams& params);
+
+// A hash of everything in a frame state that changes the image: camera (with resolution), object transforms,
+// light states, and the sky's intensities, rotation and sun direction when the frame has a sky (a skyless frame
+// hashes as it did before the sky existed).
+uint64_t HashFrameState(const FrameState& state);
+
+// The cache key: a hash of everything that changes the reference image (sequence content, frame state, samples,
+// renderer version). Not the frame index: identical states share one reference.
+std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params);
+
+// The most samples one pixel's main pass can take with these parameters (the pilot's 16 are drawn in a pass of their
+// own): the allocation's cap, 16 times the mean in budget mode, 65536 with a target error.
+double ReferenceMaxSamplesPerPixel(const ReferenceParams& params);
+
+// The most RenderReference allocates while it runs beyond its result and its kept distributions, for a frame of
+// `pixels` pixels and `lights` light triangles in `groups` light groups, no pixel taking more than
+// `maxSamplesPerPixel` samples (the workers' scratch, a block's samples at once among it, and the pilot's per-pixel
+// state, with each pixel's light mixture when the frame has a sky); for the run's memory estimate
+// (sim/run/memory_estimate.h).
+double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel,
+                             bool sky = false);
+
+// The pilot's per-pixel light distributions kept for the main pass, for a frame of width × height pixels and
+// `groups` light groups: 0 where they would pass kKeptDistributionBytes (then the main pass builds them again).
+// They stay with the process between frames (a later frame of the same size reuses them instead of faulting in
+// fresh pages), so the run's memory estimate counts them as long-lived.
+double ReferenceKeptBytes(double width, double height, double groups);
+
+// Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
+// reference's own relative noise.
+double MeanRelativeStandardError(const ReferenceImage& ref);
+
+}  // namespace restir

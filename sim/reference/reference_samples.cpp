@@ -1,0 +1,215 @@
+#include "sim/reference/reference_samples.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "core/bsdf_draw_kernel.h"
+#include "core/light_draw_kernel.h"
+#include "core/shading.h"
+#include "core/shadow_ray.h"
+
+namespace restir {
+
+namespace {
+
+// The receiver as the light-draw kernels take it: sp, whose material is materialId in the frame's BsdfSoa.
+LightDrawReceiver ReceiverOf(const ShadingPoint& sp, int32_t materialId, bool bsdfMis) {
+  LightDrawReceiver r;
+  r.position = sp.position;
+  r.geometricNormal = sp.geometricNormal;
+  r.shadingNormal = sp.shadingNormal;
+  r.wo = sp.wo;
+  r.errorScale = sp.errorScale;
+  r.materialId = materialId;
+  r.bsdfMis = bsdfMis;
+  return r;
+}
+
+// The BSDF-sampling term of one sample (a direction from the BSDF at (u0, u1), weighted by the power heuristic
+// against the light strategies' density where its ray lands), 0 where the ray finds no light; counts the ray.
+Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+              const PixelLightDistribution& dist, const SkySampling& sky, float u0, float u1, uint64_t& rays) {
+  const LightMixture& mix = sky.mixture;
+  const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, u0, u1);
+  if (!(bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f)) return Vec3(0.0f);
+  ++rays;
+  const Vec3 org = OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi);
+  const SurfaceHit hit = scene.IntersectEmitter(org, bs.wi, std::numeric_limits<float>::infinity());
+  const float cosX = glm::dot(sp.shadingNormal, bs.wi);
+  if (hit.hit && hit.lightId >= 0 && hit.frontFace && mix.local > 0.0f) {
+    // An emitter: the light technique's density of this point, converted to solid angle.
+    const LightTriangle& t = lights[static_cast<size_t>(hit.lightId)];
+    const float cosY = -glm::dot(t.normal, bs.wi);
+    const float pLight = dist.AreaDensity(static_cast<uint32_t>(hit.lightId)) * mix.local * hit.t * hit.t / cosY;
+    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+    if (cosY > 0.0f) return t.radiance * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+  } else if (!hit.hit && sky.sky != nullptr) {
+    // Escaped: the sky, at the density with which the light mixture draws this direction.
+    const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
+    const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
+    return sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+  }
+  return Vec3(0.0f);
+}
+
+}  // namespace
+
+// `count` direct-lighting samples at a receiver in a frame with a sky, from the points whose coordinate j is
+// u[j * count + k] (kSkySampleDims coordinates): light sampling (a strategy from the receiver's mixture, then a
+// light point or a sky direction from it) plus BSDF sampling, combined by the power heuristic (pbrt-v4
+// PathIntegrator::SampleLd style, restricted to direct light); BSDF sampling on every surface, as a BSDF ray that
+// escapes is the only way to reach the sky's directions the light mixture samples rarely. Sample k's value is
+// (out[0][k], out[1][k], out[2][k]). Frames without a sky take SkylessBlockSamples.
+void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
+                const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
+                SampleBatch& b, float* const (&out)[3], uint64_t& rays) {
+  const LightMixture& mix = sky.mixture;
+  b.lightTerm.assign(count, Vec3(0.0f));
+  b.bsdfTerm.assign(count, Vec3(0.0f));
+  b.rays.clear();
+  b.rayOf.clear();
+  for (size_t k = 0; k < count; ++k) {
+    const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
+    const LightStrategy strategy = ChooseLightStrategy(mix, uk(kStrategyDim));
+    if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
+      LightSample y;
+      y.lightId = dist.Sample(uk(0));
+      const LightTriangle& lt = lights[y.lightId];
+      y.position = SampleTrianglePoint(lt, uk(1), uk(2));
+      y.normal = lt.normal;
+      y.radiance = lt.radiance;
+      y.pdfArea = dist.AreaDensity(y.lightId) * mix.local;
+      const Vec3 f = UnshadowedContribution(sp, y);
+      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
+        const LightPath path = ConnectToLight(sp, y.position, y.normal);
+        const float cosY = -glm::dot(y.normal, path.wi);
+        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
+        b.lightTerm[k] = f * (weight / y.pdfArea);
+        const ShadowRaySegment s =
+            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, lt.errorScale);
+        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+        b.rayOf.push_back(static_cast<uint32_t>(k));
+      }
+    } else if (strategy != LightStrategy::kLocal) {
+      // A sky direction: the integrand is Sky::Radiance(ω) f_r cos θ, evaluated through the far point that stands
+      // for ω (core/sky.h SkyPointFor), its density the mixture's over every sky strategy
+      // (sim/reference/reference_sky.h).
+      const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk(0), uk(kCoinDim), uk(1), uk(2));
+      const float pLight = SkyLightPdf(mix, *sky.sky, w);
+      const LightSample y = SkyPointFor(sp.position, w, sky.sky->Radiance(w));
+      const Vec3 f = UnshadowedContribution(sp, y);
+      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && pLight > 0.0f) {
+        const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, w));
+        b.lightTerm[k] = f * (weight / pLight);
+        // The far point's own error scale is its distance, which ShadowRaySetup adds already.
+        const ShadowRaySegment s =
+            ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, 0.0f);
+        b.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+        b.rayOf.push_back(static_cast<uint32_t>(k));
+      }
+    }
+    b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
+  }
+  b.occluded.resize(b.rays.size());
+  scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
+  rays += b.rays.size();
+  for (size_t k = 0; k < count; ++k)
+    for (int c = 0; c < 3; ++c) out[c][k] = b.bsdfTerm[k][c];
+  for (size_t r = 0; r < b.rays.size(); ++r)
+    if (!b.occluded[r]) {
+      const Vec3 v = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
+      for (int c = 0; c < 3; ++c) out[c][b.rayOf[r]] = v[c];
+    }
+}
+
+// The direct-lighting samples of a block of receivers in a frame without a sky: receiver p's counts[p] samples
+// from the points at u + uFirst[p] (SkySamples' layout, kSampleDims coordinates), into out + first[p]. Light
+// sampling from each receiver's distribution, plus, at a receiver that is not diffuse, BSDF sampling with the power
+// heuristic. The light half is the light-draw kernel (a packet of draws per register, its MIS weight included),
+// every receiver's shadow rays then traced as one batch; the BSDF half the BSDF-draw kernel, each of its rays asking
+// EmbreeScene::FirstEmitter. Reads coordinates 0-2 at a diffuse receiver, 0-4 at others; out[c] is the block's
+// samples' channel c.
+void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const size_t* uFirst, const size_t* first,
+                         const EmbreeScene& scene, const BsdfSoa& materials,
+                         const std::vector<LightTriangle>& lightList, const LightDrawLights& lights, BlockScratch& s,
+                         float* const (&out)[3], uint64_t& rays) {
+  const size_t total = first[block.count - 1] + counts[block.count - 1];
+  for (std::vector<float>& v : s.drawn) v.resize(total);
+  s.drawOf.resize(total);
+  size_t written = 0;
+  for (size_t p = 0; p < block.count; ++p) {
+    const ShadingPoint& sp = block.points[p];
+    const float* u = s.u.data() + uFirst[p];
+    const size_t n = counts[p];
+    LightDraws draws;
+    draws.uSelect = u;
+    draws.uPoint0 = u + n;
+    draws.uPoint1 = u + 2 * n;
+    draws.count = n;
+    LightDrawOutputs o;
+    for (int c = 0; c < 3; ++c) {
+      o.term[c] = out[c] + first[p];
+      o.org[c] = s.drawn[c].data() + written;
+      o.dir[c] = s.drawn[3 + c].data() + written;
+    }
+    o.tmax = s.drawn[6].data() + written;
+    o.draw = s.drawOf.data() + written;
+    o.firstDraw = static_cast<uint32_t>(first[p]);  // the block's sample index
+    // The kernel writes every draw's term, and packs the rays of the draws that can count.
+    written += DrawLightSamples(ReceiverOf(sp, block.materialId[p], sp.bsdf.type != BsdfType::kDiffuse), materials,
+                                lights, block.dists[p].Cdf(), draws, o);
+  }
+  ShadowRaysSoa shadowRays;
+  for (int c = 0; c < 3; ++c) {
+    shadowRays.org[c] = s.drawn[c].data();
+    shadowRays.dir[c] = s.drawn[3 + c].data();
+  }
+  shadowRays.tmax = s.drawn[6].data();
+  shadowRays.count = written;
+  s.occluded.resize(written);
+  scene.OccludedBatch(shadowRays, s.occluded.data());
+  rays += written;
+  // The light term stays where its ray is unoccluded.
+  for (size_t r = 0; r < written; ++r)
+    if (s.occluded[r])
+      for (int c = 0; c < 3; ++c) out[c][s.drawOf[r]] = 0.0f;
+  // Plus the BSDF term (a diffuse receiver has none): a sample from the BSDF-draw kernel whose ray meets an
+  // emitter's front, weighted by the power heuristic against the light strategy's density there (pbrt-v4
+  // PathIntegrator::SampleLd style, restricted to direct light).
+  for (size_t p = 0; p < block.count; ++p) {
+    const ShadingPoint& sp = block.points[p];
+    if (sp.bsdf.type == BsdfType::kDiffuse) continue;
+    const float* u = s.u.data() + uFirst[p];
+    const size_t n = counts[p];
+    for (std::vector<float>& v : s.bsdfDrawn) v.resize(n);
+    s.bsdfOf.resize(n);
+    BsdfDrawOutputs o;
+    for (int c = 0; c < 3; ++c) {
+      o.org[c] = s.bsdfDrawn[c].data();
+      o.dir[c] = s.bsdfDrawn[3 + c].data();
+      o.weight[c] = s.bsdfDrawn[6 + c].data();
+    }
+    o.pdf = s.bsdfDrawn[9].data();
+    o.draw = s.bsdfOf.data();
+    o.firstDraw = static_cast<uint32_t>(first[p]);
+    const size_t drawn = DrawBsdfSamples(ReceiverOf(sp, block.materialId[p], false), materials,
+                                         BsdfDraws{u + 3 * n, u + 4 * n, n}, o);
+    rays += drawn;
+    const PixelLightDistribution& dist = block.dists[p];
+    for (size_t e = 0; e < drawn; ++e) {
+      const Vec3 dir(o.dir[0][e], o.dir[1][e], o.dir[2][e]);
+      const EmitterHit hit = scene.FirstEmitter(Vec3(o.org[0][e], o.org[1][e], o.org[2][e]), dir);
+      if (hit.lightId < 0 || !hit.frontFace) continue;
+      const LightTriangle& t = lightList[static_cast<size_t>(hit.lightId)];
+      const float cosY = -glm::dot(t.normal, dir);
+      if (!(cosY > 0.0f)) continue;
+      // The light strategy's density of this point in solid angle: its area density, times d² / cos θy.
+      const float pLight = dist.AreaDensity(static_cast<uint32_t>(hit.lightId)) * hit.t * hit.t / cosY;
+      const float mis = PowerHeuristic(o.pdf[e], pLight);
+      for (int c = 0; c < 3; ++c) out[c][o.draw[e]] += t.radiance[c] * (o.weight[c][e] * mis);
+    }
+  }
+}
+
+}  // namespace restir

@@ -1,0 +1,60 @@
+// `restir-sim run`: replays a sequence through one or more presets on the same frames and references, and
+// writes frames, metrics.csv and run.json under the output directory.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/output/frame_writer.h"
+#include "sim/metrics/metrics.h"
+
+namespace restir {
+
+struct RunOptions {
+  std::string sequencePath;              // the sequence file
+  std::vector<std::string> presets;      // empty: the sequence's render.presets
+  int frameBegin = 0;                    // first frame
+  int frameEnd = -1;                     // one past the last frame; -1: the sequence's frame count
+  int width = 0;                         // 0: the sequence's resolution
+  int height = 0;
+  int threads = 0;                       // 0: every core
+  std::optional<uint32_t> seed;          // unset: the sequence's seed
+  int referenceSpp = 0;                  // 0: the sequence's render.referenceSpp
+  double referenceError = 0.0;           // > 0: reference sampled to this relative standard error per pixel
+  bool reference = true;                 // false: no reference, no error metrics
+  std::string outDir = "out";            // where frames, metrics.csv and run.json go
+  std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
+  bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
+  ExrCompression exrCompression = ExrCompression::kNone;  // how the EXRs store their channels (same pixels)
+  bool progress = true;                  // progress line on stderr when stderr is a terminal
+  bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
+  // Seconds of work between checkpoints (after the first frame's, which is always written); 0: every frame. A
+  // checkpoint of the flagship at 640x360 with every preset is ~140 MB, so writing it every frame cost ~10% of
+  // README command 1; a resumed run redoes at most this much.
+  double checkpointSeconds = 60.0;
+  bool report = true;                    // summary.json and report.html when the run completes
+  int ensemble = 1;                      // K runs per preset with seeds seed..seed+K-1: bias²/variance split
+  std::vector<std::string> settings;     // KEY=VALUE overrides applied to every preset (--set)
+  // The memory the run may take (--max-memory): 0, the machine's (sim/run/memory_estimate.h); < 0, no check.
+  double maxMemoryBytes = 0.0;
+  std::string commandLine;               // recorded in run.json
+  // Where to write each frame's relative error (I − R) / sqrt(R² + 0.01) (sim/metrics/seed_ensemble.h), for a sweep's
+  // seed-ensemble split; empty: not written. Needs one preset and a reference, and no --resume (the frames before
+  // a checkpoint would be missing).
+  std::string relativeErrorPath;
+};
+
+struct RunResult {
+  std::vector<FrameMetricsRow> rows;
+  double wallSeconds = 0.0;
+  int resumedAtFrame = -1;  // the first frame rendered after resuming from a checkpoint; -1: not resumed
+  bool alreadyComplete = false;  // --resume found this configuration complete in the output directory: nothing done
+};
+
+// Throws InputError for bad input (unknown or repeated preset, frame range, unreadable sequence, unwritable output,
+// a run larger than the memory it may take).
+RunResult Run(const RunOptions& options);
+
+}  // namespace restir
