@@ -534,9 +534,8 @@ svg .grid{stroke:#e6e6e6}svg .axis{stroke:#555}
 .bar{display:inline-block;width:160px;height:10px;vertical-align:middle;border:1px solid #999}
 .note{font-size:13px;color:#444})";
 
-std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, const RunInfo& run,
-                 const std::string& outDir, bool writeImages) {
-  std::ostringstream o;
+// The page's head, title and first line.
+void HtmlHead(std::ostream& o, const MetricsTable& t, const RunInfo& run) {
   const std::string seqName = run.present && run.json.contains("sequence") && run.json["sequence"].is_object() &&
                                       run.json["sequence"].contains("name")
                                   ? JsonText(run.json["sequence"]["name"])
@@ -546,8 +545,10 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   o << "<h1>ReSTIR Sim report: " << XmlEscape(seqName) << "</h1>\n";
   o << "<p class=\"note\">" << t.presets.size() << " preset(s); metrics from <code>metrics.csv</code>, summary in "
     << "<code>summary.json</code>; every column is defined in the project's <code>docs/metrics.md</code>.</p>\n";
+}
 
-  // Configuration.
+// Configuration.
+void HtmlConfiguration(std::ostream& o, const RunInfo& run) {
   o << "<h2 id=\"configuration\">Configuration</h2>\n";
   if (run.present) {
     const Json& j = run.json;
@@ -580,8 +581,82 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   } else {
     o << "<p class=\"note\">No <code>run.json</code> beside <code>metrics.csv</code>: configuration unknown.</p>\n";
   }
+}
 
-  // Summary table.
+// The summary table's recovery cell.
+std::string RecoveryText(const PresetSummary& s) {
+  std::string rec = "n/a";
+  if (s.hasRecovery) {
+    int recovered = 0;
+    const double m = RecoveryMean(s.recovery, recovered);
+    const size_t n = s.recovery.windows.size();
+    if (n == 0)
+      rec = "no reveal";
+    else if (recovered == 0)
+      rec = "not within window (" + std::to_string(n) + (n == 1 ? " reveal)" : " reveals)");
+    else
+      rec = Fmt(m, "%.3g") + " (" + std::to_string(recovered) + " of " + std::to_string(n) +
+            (n == 1 ? " reveal)" : " reveals)");
+  }
+  return rec;
+}
+
+// One preset's row of the summary table.
+void HtmlSummaryRow(std::ostream& o, const MetricsTable& t, const PresetSummary& s, bool hasFlip,
+                    bool hasCorrected) {
+  auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
+  o << "<tr class=\"summary-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name) << "</td>";
+  o << "<td class=\"num\">" << s.rows << "</td>";
+  cell(SummaryMean(t, s, "relmse"));
+  cell(SummaryMean(t, s, "luma_rmse"));
+  cell(SummaryMean(t, s, "rmspe"));
+  if (hasFlip) cell(SummaryMean(t, s, "flip"));
+  cell(s.lumaRatioAccumulated);
+  cell(SummaryMean(t, s, "flicker"));
+  cell(SummaryMean(t, s, "stability_luma_rmse"));
+  cell(SummaryMean(t, s, "accum_rmse"));
+  double postDisocc = NAN;
+  for (const auto& [n, v] : s.postReveal)
+    if (n == "relmse_disocc") postDisocc = v;
+  cell(postDisocc);
+  o << "<td class=\"num\">" << XmlEscape(RecoveryText(s)) << "</td>";
+  cell(SummaryMean(t, s, "ms_frame"));
+  cell(s.efficiency);
+  if (hasCorrected) {
+    // The share of each mean square that the reference's own variance accounts for (docs/metrics.md).
+    auto share = [&](const char* raw, const char* corrected, bool squared) {
+      double a = SummaryMean(t, s, raw), b = SummaryMean(t, s, corrected);
+      if (squared) a *= a, b *= b;
+      return a > 0.0 ? Fmt(100.0 * (a - b) / a, "%.2g") + "%" : std::string("n/a");
+    };
+    o << "<td class=\"num\">" << share("relmse", "relmse_corrected", false) << " / "
+      << share("luma_rmse", "luma_rmse_corrected", true) << " / " << share("rmse", "rmse_corrected", true)
+      << "</td>";
+  }
+  o << "</tr>\n";
+}
+
+// The note under the summary table: what its columns mean, and the reference's own noise.
+void HtmlSummaryNote(std::ostream& o, const MetricsTable& t, const std::vector<PresetSummary>& sums,
+                     bool hasCorrected) {
+  o << "<p class=\"note\">luma ratio Σ = Σ luma_sum / Σ reference_luma_sum over the frames; relmse_disocc "
+       "(post-reveal) is its mean over frames with disocc_recent_fraction &gt; 0; recovery: mean over reveals of the "
+       "frames from a reveal until relmse_disocc ≤ 2 × the steady relmse (median relmse over frames without recent "
+       "disocclusion, the first frame left out), counting only reveals that recover within their window; "
+       "efficiency = 1 / (mean relmse · mean ms_frame / 1000).";
+  if (const int refc = t.Column("reference_rel_stderr"); refc >= 0 && !sums.empty()) {
+    const double rs = sums.front().means[refc];
+    o << " The reference's own mean relative standard error is " << Fmt(rs)
+      << ": a relmse below about its square (" << Fmt(rs * rs) << ") is within the reference's noise.";
+    if (hasCorrected)
+      o << " The noise share is how much of each mean (over frames) the reference's own variance explains: "
+           "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";
+  }
+  o << "</p>\n";
+}
+
+// Summary table.
+void HtmlSummary(std::ostream& o, const MetricsTable& t, const std::vector<PresetSummary>& sums) {
   const bool hasFlip = t.Column("flip") >= 0;
   o << "<h2 id=\"summary\">Summary (means over frames)</h2>\n<table class=\"summary\">\n<tr><th>preset</th>"
        "<th>frames</th><th>relmse</th><th>luma_rmse</th><th>rmspe</th>";
@@ -592,138 +667,101 @@ std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   const bool hasCorrected = t.Column("relmse_corrected") >= 0;
   if (hasCorrected) o << "<th>reference noise share of relmse / luma_rmse² / rmse²</th>";
   o << "</tr>\n";
-  for (const PresetSummary& s : sums) {
-    auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
-    o << "<tr class=\"summary-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name) << "</td>";
-    o << "<td class=\"num\">" << s.rows << "</td>";
-    cell(SummaryMean(t, s, "relmse"));
-    cell(SummaryMean(t, s, "luma_rmse"));
-    cell(SummaryMean(t, s, "rmspe"));
-    if (hasFlip) cell(SummaryMean(t, s, "flip"));
-    cell(s.lumaRatioAccumulated);
-    cell(SummaryMean(t, s, "flicker"));
-    cell(SummaryMean(t, s, "stability_luma_rmse"));
-    cell(SummaryMean(t, s, "accum_rmse"));
-    double postDisocc = NAN;
-    for (const auto& [n, v] : s.postReveal)
-      if (n == "relmse_disocc") postDisocc = v;
-    cell(postDisocc);
-    std::string rec = "n/a";
-    if (s.hasRecovery) {
-      int recovered = 0;
-      const double m = RecoveryMean(s.recovery, recovered);
-      const size_t n = s.recovery.windows.size();
-      if (n == 0)
-        rec = "no reveal";
-      else if (recovered == 0)
-        rec = "not within window (" + std::to_string(n) + (n == 1 ? " reveal)" : " reveals)");
-      else
-        rec = Fmt(m, "%.3g") + " (" + std::to_string(recovered) + " of " + std::to_string(n) +
-              (n == 1 ? " reveal)" : " reveals)");
-    }
-    o << "<td class=\"num\">" << XmlEscape(rec) << "</td>";
-    cell(SummaryMean(t, s, "ms_frame"));
-    cell(s.efficiency);
-    if (hasCorrected) {
-      // The share of each mean square that the reference's own variance accounts for (docs/metrics.md).
-      auto share = [&](const char* raw, const char* corrected, bool squared) {
-        double a = SummaryMean(t, s, raw), b = SummaryMean(t, s, corrected);
-        if (squared) a *= a, b *= b;
-        return a > 0.0 ? Fmt(100.0 * (a - b) / a, "%.2g") + "%" : std::string("n/a");
-      };
-      o << "<td class=\"num\">" << share("relmse", "relmse_corrected", false) << " / "
-        << share("luma_rmse", "luma_rmse_corrected", true) << " / " << share("rmse", "rmse_corrected", true)
-        << "</td>";
-    }
-    o << "</tr>\n";
-  }
+  for (const PresetSummary& s : sums) HtmlSummaryRow(o, t, s, hasFlip, hasCorrected);
   o << "</table>\n";
-  o << "<p class=\"note\">luma ratio Σ = Σ luma_sum / Σ reference_luma_sum over the frames; relmse_disocc "
-       "(post-reveal) is its mean over frames with disocc_recent_fraction &gt; 0; recovery: mean over reveals of the "
-       "frames from a reveal until relmse_disocc ≤ 2 × the steady relmse (median relmse over frames without recent "
-       "disocclusion, the first frame left out), counting only reveals that recover within their window; efficiency = 1 / (mean relmse · mean "
-       "ms_frame / 1000).";
-  if (const int refc = t.Column("reference_rel_stderr"); refc >= 0 && !sums.empty()) {
-    const double rs = sums.front().means[refc];
-    o << " The reference's own mean relative standard error is " << Fmt(rs)
-      << ": a relmse below about its square (" << Fmt(rs * rs) << ") is within the reference's noise.";
-    if (hasCorrected)
-      o << " The noise share is how much of each mean (over frames) the reference's own variance explains: "
-           "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";
-  }
-  o << "</p>\n";
+  HtmlSummaryNote(o, t, sums, hasCorrected);
+}
 
-  // What the reservoirs held (issue 20): the regime a sequence puts the estimators in.
-  if (t.Column("contrib_initial") >= 0) {
-    const char* columns[] = {"contrib_initial", "contrib_temporal", "contrib_spatial", "contrib_shaded",
-                             "mean_confidence", "confidence_sd", "sample_age", "duplicate_fraction"};
-    o << "<h2 id=\"reservoirs\">Reservoirs (means over frames)</h2>\n<table class=\"reservoirs\">\n<tr><th>preset</th>";
-    for (const char* c : columns) o << "<th>" << c << "</th>";
-    o << "<th>contrib_initial_disocc / contrib_spatial_disocc (post-reveal)</th></tr>\n";
-    for (const PresetSummary& s : sums) {
-      o << "<tr class=\"reservoir-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name)
-        << "</td>";
-      for (const char* c : columns) o << "<td class=\"num\">" << Fmt(SummaryMean(t, s, c)) << "</td>";
-      double initial = NAN, spatial = NAN;
-      for (const auto& [n, v] : s.postReveal) {
-        if (n == "contrib_initial_disocc") initial = v;
-        if (n == "contrib_spatial_disocc") spatial = v;
-      }
-      o << "<td class=\"num\">" << Fmt(initial) << " / " << Fmt(spatial) << "</td></tr>\n";
+// What the reservoirs held (issue 20): the regime a sequence puts the estimators in.
+void HtmlReservoirs(std::ostream& o, const MetricsTable& t, const std::vector<PresetSummary>& sums) {
+  if (t.Column("contrib_initial") < 0) return;
+  const char* columns[] = {"contrib_initial", "contrib_temporal", "contrib_spatial", "contrib_shaded",
+                           "mean_confidence", "confidence_sd", "sample_age", "duplicate_fraction"};
+  o << "<h2 id=\"reservoirs\">Reservoirs (means over frames)</h2>\n<table class=\"reservoirs\">\n<tr><th>preset</th>";
+  for (const char* c : columns) o << "<th>" << c << "</th>";
+  o << "<th>contrib_initial_disocc / contrib_spatial_disocc (post-reveal)</th></tr>\n";
+  for (const PresetSummary& s : sums) {
+    o << "<tr class=\"reservoir-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name)
+      << "</td>";
+    for (const char* c : columns) o << "<td class=\"num\">" << Fmt(SummaryMean(t, s, c)) << "</td>";
+    double initial = NAN, spatial = NAN;
+    for (const auto& [n, v] : s.postReveal) {
+      if (n == "contrib_initial_disocc") initial = v;
+      if (n == "contrib_spatial_disocc") spatial = v;
     }
-    o << "</table>\n<p class=\"note\">contrib_*: the fraction of surface pixels whose reservoir holds a sample with "
-         "p̂ W &gt; 0 after each pass, and (contrib_shaded) whose shaded sample reaches the image, visibility "
-         "included; *_disocc: the same among pixels revealed in the last 4 frames. sample_age: frames since the "
-         "sample was drawn; duplicate_fraction: how often the pixels of a 5×5 window hold the very same sample "
-         "(docs/metrics.md, \"Reservoir diagnostics\").</p>\n";
+    o << "<td class=\"num\">" << Fmt(initial) << " / " << Fmt(spatial) << "</td></tr>\n";
   }
+  o << "</table>\n<p class=\"note\">contrib_*: the fraction of surface pixels whose reservoir holds a sample with "
+       "p̂ W &gt; 0 after each pass, and (contrib_shaded) whose shaded sample reaches the image, visibility "
+       "included; *_disocc: the same among pixels revealed in the last 4 frames. sample_age: frames since the "
+       "sample was drawn; duplicate_fraction: how often the pixels of a 5×5 window hold the very same sample "
+       "(docs/metrics.md, \"Reservoir diagnostics\").</p>\n";
+}
 
-  // Plots.
+// Plots.
+void HtmlPlots(std::ostream& o, const MetricsTable& t) {
   o << "<h2 id=\"plots\">Per-frame metrics</h2>\n<div class=\"plots\">\n";
   for (const std::string& m : ReportPlotMetrics())
     if (t.Column(m) >= 0) o << SvgPlot(t, m);
   o << "</div>\n";
+}
 
-  // Image strips.
+// One frame's strip: each preset's preview, error map and FLIP map (written here, from its EXR).
+void HtmlImageStrip(std::ostream& o, const MetricsTable& t, int frame, const std::string& outDir,
+                    const FrameExpectation& expect) {
+  o << "<h3>Frame " << frame << "</h3>\n<table class=\"strip\">\n<tr><th>preset</th><th>preview</th>"
+       "<th>error</th><th>FLIP</th></tr>\n";
+  for (const PresetSeries& p : t.presets) {
+    if (std::find(p.frames.begin(), p.frames.end(), frame) == p.frames.end()) continue;
+    const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
+    const std::string previewPath = (fs::path(outDir) / preview).string();
+    const bool hasPreview = FrameFileUsable(previewPath);
+    if (hasPreview) CheckPngStructure(previewPath, expect);
+    const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame, expect);
+    auto img = [&](const std::string& rel, const std::string& alt) {
+      if (rel.empty()) {
+        o << "<td class=\"note\">—</td>";
+        return;
+      }
+      o << "<td><img src=\"" << XmlEscape(UrlPath(rel)) << "\" alt=\"" << XmlEscape(alt) << "\" width=\"360\"></td>";
+    };
+    o << "<tr><td>" << XmlEscape(p.name) << "</td>";
+    img(hasPreview ? preview : "", p.name + " frame " + std::to_string(frame) + " estimate and reference");
+    img(maps.error, p.name + " frame " + std::to_string(frame) + " error heat map");
+    img(maps.flip, p.name + " frame " + std::to_string(frame) + " FLIP map");
+    o << "</tr>\n";
+  }
+  o << "</table>\n";
+}
+
+// Image strips.
+void HtmlImages(std::ostream& o, const MetricsTable& t, const RunInfo& run, const std::string& outDir,
+                bool writeImages) {
   o << "<h2 id=\"images\">Images</h2>\n";
   if (!writeImages) {
     o << "<p class=\"note\">No frames were written (<code>--no-images</code>): no image strips.</p>\n";
-  } else {
-    o << "<p class=\"note\">Preview: estimate (left) beside reference (right), one exposure. Error: per pixel "
-         "sqrt(mean over RGB of (I − R)² / (R² + 0.01)), 0 <span class=\"bar\" style=\"background:"
-      << CssGradient(kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
-      << CssGradient(kMagma) << "\"></span> 1.</p>\n";
-    const FrameExpectation expect = ExpectedFrames(run);
-    for (int frame : ChosenFrames(t)) {
-      o << "<h3>Frame " << frame << "</h3>\n<table class=\"strip\">\n<tr><th>preset</th><th>preview</th>"
-           "<th>error</th><th>FLIP</th></tr>\n";
-      for (const PresetSeries& p : t.presets) {
-        if (std::find(p.frames.begin(), p.frames.end(), frame) == p.frames.end()) continue;
-        const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
-        const std::string previewPath = (fs::path(outDir) / preview).string();
-        const bool hasPreview = FrameFileUsable(previewPath);
-        if (hasPreview) CheckPngStructure(previewPath, expect);
-        const FrameMaps maps = WriteFrameMaps(outDir, p.name, frame, expect);
-        auto img = [&](const std::string& rel, const std::string& alt) {
-          if (rel.empty()) {
-            o << "<td class=\"note\">—</td>";
-            return;
-          }
-          o << "<td><img src=\"" << XmlEscape(UrlPath(rel)) << "\" alt=\"" << XmlEscape(alt) << "\" width=\"360\"></td>";
-        };
-        o << "<tr><td>" << XmlEscape(p.name) << "</td>";
-        img(hasPreview ? preview : "", p.name + " frame " + std::to_string(frame) + " estimate and reference");
-        img(maps.error, p.name + " frame " + std::to_string(frame) + " error heat map");
-        img(maps.flip, p.name + " frame " + std::to_string(frame) + " FLIP map");
-        o << "</tr>\n";
-      }
-      o << "</table>\n";
-    }
+    return;
   }
+  o << "<p class=\"note\">Preview: estimate (left) beside reference (right), one exposure. Error: per pixel "
+       "sqrt(mean over RGB of (I − R)² / (R² + 0.01)), 0 <span class=\"bar\" style=\"background:"
+    << CssGradient(kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
+    << CssGradient(kMagma) << "\"></span> 1.</p>\n";
+  const FrameExpectation expect = ExpectedFrames(run);
+  for (int frame : ChosenFrames(t)) HtmlImageStrip(o, t, frame, outDir, expect);
+}
+
+std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, const RunInfo& run,
+                 const std::string& outDir, bool writeImages) {
+  std::ostringstream o;
+  HtmlHead(o, t, run);
+  HtmlConfiguration(o, run);
+  HtmlSummary(o, t, sums);
+  HtmlReservoirs(o, t, sums);
+  HtmlPlots(o, t);
+  HtmlImages(o, t, run, outDir, writeImages);
   o << "</body>\n</html>\n";
   return o.str();
 }
-
 }  // namespace
 
 void WriteReport(const std::string& outDir) {
