@@ -57,7 +57,6 @@ constexpr size_t kMaxPerPixelLights = 4096;
 // builds them again: the same bits).
 constexpr size_t kKeptDistributionBytes = size_t{512} << 20;
 
-
 // An uninitialised float array in transparent huge pages where the system offers them (Linux, THP in "madvise"
 // mode as Debian ships it): a large array first touched page by page otherwise takes a page fault per 4 KiB.
 class HugePageFloats {
@@ -80,13 +79,6 @@ class HugePageFloats {
  private:
   float* data_ = nullptr;
 };
-
-
-
-
-
-
-
 
 // The pilot's kept distributions: one buffer per process, lent to one render at a time and kept between frames (a
 // frame of fresh pages paid about 3% of its render in the kernel's zeroing of them at the first touches, measured
@@ -130,8 +122,6 @@ class KeptDistributions {
   }
   Held held_;
 };
-
-
 
 // Two-stage allocation (issue 16; docs/metrics.md, "How the reference is sampled"): kPilotSamples points per pixel,
 // one randomly shifted copy of the Roberts sequence, estimate the per-sample relative variance v = Var[f] / E[f]²
@@ -240,212 +230,339 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   return HexHash(Fnv1a(&s, sizeof(s), h));
 }
 
-ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
-                               const GBuffer& g, const ReferenceParams& params) {
-  const auto t0 = Clock::now();
-  const int w = g.width, h = g.height;
-  std::string cachePath, cacheKey;
-  std::optional<FileLock> lock;  // held until the entry is written
-  if (!params.cacheDir.empty()) {
-    cacheKey = ReferenceCacheKey(sequence, state, params);
-    cachePath = (std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".bin")).string();
-    ReferenceImage cached;
-    if (ReadCache(cachePath, cacheKey, w, h, cached)) {
-      cached.fromCache = true;
-      cached.ms = MsSince(t0);
-      return cached;
-    }
-    // Many processes (a sweep's jobs, on one machine or a cluster's shared file system) may want this entry at
-    // once: the first to lock it renders it, the others wait and read its entry instead of rendering it again.
-    // Without the lock (a file system that cannot lock) they render concurrently; each entry's bytes are the same
-    // and reach the file by an atomic rename, so any one of them is whole.
-    lock.emplace((std::filesystem::path(params.cacheDir) / ("ref-" + cacheKey + ".lock")).string());
-    if (lock->Held() && ReadCache(cachePath, cacheKey, w, h, cached, /*quiet=*/true)) {
-      cached.fromCache = true;
-      cached.ms = MsSince(t0);
-      return cached;
-    }
-  }
+namespace {
 
-  ReferenceImage ref;
-  ref.mean = ImageRgb(w, h);
-  ref.standardError = ImageRgb(w, h);
-  ref.lumaStandardError.assign(static_cast<size_t>(w) * h, 0.0f);
-  const std::vector<LightTriangle>& lightList = scene.LightTriangles();
-  const LightSampler lights(lightList, LightSelection::kPower);
-  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
-  static const RobertsSequence<kSampleDims> rd;
-  static const RobertsSequence<kSkySampleDims> rdSky;
-  // The sky (issue 18): light sampling becomes a per-pixel mixture of the local lights, the sun and the
-  // environment (sim/reference/reference_sky.h), and every surface gets BSDF sampling. A skyless frame takes none of
-  // it.
-  const Sky sky = MakeSky(sequence, state);
-  const bool hasSky = !sky.Empty();
-  const SkySummary skySummary = hasSky ? SummarizeSky(sky) : SkySummary{};
-  const int dims = hasSky ? kSkySampleDims : kSampleDims;
-  const bool hasLocal = !lights.Empty();
-  // Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
-  // get the same reference, bit for bit, and share one cache entry.
-  const uint64_t stateHash = HashFrameState(state);
-  const uint32_t stateKey = static_cast<uint32_t>(stateHash ^ (stateHash >> 32));
-  const size_t pixels = static_cast<size_t>(w) * h;
-  std::vector<uint8_t> active(pixels, 0);
-  for (size_t i = 0; i < pixels; ++i) {
-    // Where the primary ray escaped, the sky it sees (zero in a skyless frame).
-    ref.mean.pixels[i] = DirectEmission(g, i, lightList, sky, state.camera);
-    active[i] = g.IsSurface(i) && (hasLocal || hasSky);
+// Where the frame's reference is cached (no path: no cache), and the lock on that entry, held until it is
+// written.
+struct CacheEntry {
+  std::string path, key;
+  std::optional<FileLock> lock;
+};
+
+// The frame's cached reference, or none: then `entry` names where to write it and holds its lock where one
+// was taken.
+std::optional<ReferenceImage> LookUpCache(const Sequence& sequence, const FrameState& state, int w, int h,
+                                          const ReferenceParams& params, CacheEntry& entry) {
+  if (params.cacheDir.empty()) return std::nullopt;
+  entry.key = ReferenceCacheKey(sequence, state, params);
+  entry.path = (std::filesystem::path(params.cacheDir) / ("ref-" + entry.key + ".bin")).string();
+  ReferenceImage cached;
+  if (ReadCache(entry.path, entry.key, w, h, cached)) {
+    cached.fromCache = true;
+    return cached;
   }
-  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
-  tbb::combinable<uint64_t> samples([] { return uint64_t{0}; });
-  const size_t nLights = lightList.size();
-  const LightGroups groups = MakeLightGroups(lightList);
-  const size_t nGroups = groups.first.size();
-  const LightDrawSoa drawLights(lightList, groups);
-  // Per-pixel distributions (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, every pixel's is
-  // the same (power alone): built once, viewed by all. Without local lights (none, or all switched off) under a
-  // sky, no pixel has a light distribution.
-  const bool perPixelLights = hasLocal && nLights <= kMaxPerPixelLights;
-  std::vector<float> powerPmf;
-  for (uint32_t l = 0; hasLocal && l < nLights; ++l) powerPmf.push_back(lights.SelectionPmf(l));
+  // Many processes (a sweep's jobs, on one machine or a cluster's shared file system) may want this entry at
+  // once: the first to lock it renders it, the others wait and read its entry instead of rendering it again.
+  // Without the lock (a file system that cannot lock) they render concurrently; each entry's bytes are the same
+  // and reach the file by an atomic rename, so any one of them is whole.
+  entry.lock.emplace((std::filesystem::path(params.cacheDir) / ("ref-" + entry.key + ".lock")).string());
+  if (entry.lock->Held() && ReadCache(entry.path, entry.key, w, h, cached, /*quiet=*/true)) {
+    cached.fromCache = true;
+    return cached;
+  }
+  return std::nullopt;
+}
+
+// Writes a rendered reference to its cache entry, where it has one.
+void WriteCache(const CacheEntry& entry, const ReferenceImage& ref) {
+  if (!entry.path.empty())
+    WriteFileAtomic(entry.path,
+                    EncodeReferenceCacheEntry(entry.key, ref.mean, ref.standardError, ref.lumaStandardError));
+}
+
+// Keyed by the scene state, not the frame index: frames that show the same state (a static camera and scene)
+// get the same reference, bit for bit, and share one cache entry.
+uint32_t StateKey(const FrameState& state) {
+  const uint64_t stateHash = HashFrameState(state);
+  return static_cast<uint32_t>(stateHash ^ (stateHash >> 32));
+}
+
+// One frame as both passes see it: its pixels, lights, materials and sky, the pixels that take samples and
+// the key of their random numbers. The passes write only the light mixtures and their counts of rays and
+// samples.
+struct ReferenceFrame {
+  ReferenceFrame(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                 const GBuffer& g);
+
+  const FrameState& state;
+  const EmbreeScene& scene;
+  const GBuffer& g;
+  const int w, h;
+  const size_t pixels;
+  const std::vector<LightTriangle>& lightList;
+  const LightSampler lights;
+  const BsdfSoa bsdfs;
+  // The sky (issue 18): light sampling becomes a per-pixel mixture of the local lights, the sun and the
+  // environment (sim/reference/reference_sky.h), and every surface gets BSDF sampling. A skyless frame takes none
+  // of it.
+  const Sky sky;
+  const bool hasSky;
+  const SkySummary skySummary;
+  const int dims;
+  const bool hasLocal;
+  const uint32_t stateKey;
+  std::vector<uint8_t> active;  // the pixels that take samples: surfaces, where the frame has light to sample
+  // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
+  std::vector<LightMixture> mixtures;
+  tbb::combinable<uint64_t> rays{[] { return uint64_t{0}; }};
+  tbb::combinable<uint64_t> samples{[] { return uint64_t{0}; }};
+};
+
+ReferenceFrame::ReferenceFrame(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                               const GBuffer& g)
+    : state(state),
+      scene(scene),
+      g(g),
+      w(g.width),
+      h(g.height),
+      pixels(static_cast<size_t>(w) * h),
+      lightList(scene.LightTriangles()),
+      lights(lightList, LightSelection::kPower),
+      bsdfs(FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr)),
+      sky(MakeSky(sequence, state)),
+      hasSky(!sky.Empty()),
+      skySummary(hasSky ? SummarizeSky(sky) : SkySummary{}),
+      dims(hasSky ? kSkySampleDims : kSampleDims),
+      hasLocal(!lights.Empty()),
+      stateKey(StateKey(state)),
+      active(pixels, 0),
+      mixtures(hasSky ? pixels : 0) {
+  for (size_t i = 0; i < pixels; ++i) active[i] = g.IsSurface(i) && (hasLocal || hasSky);
+}
+
+// The image before its samples: what each pixel's primary ray sees emitted; where it escaped, the sky it sees
+// (zero in a skyless frame).
+ReferenceImage StartImage(const ReferenceFrame& frame) {
+  ReferenceImage ref;
+  ref.mean = ImageRgb(frame.w, frame.h);
+  ref.standardError = ImageRgb(frame.w, frame.h);
+  ref.lumaStandardError.assign(frame.pixels, 0.0f);
+  for (size_t i = 0; i < frame.pixels; ++i)
+    ref.mean.pixels[i] = DirectEmission(frame.g, i, frame.lightList, frame.sky, frame.state.camera);
+  return ref;
+}
+
+// How the passes build their blocks' light distributions. Per-pixel distributions
+// (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, every pixel's is the same (power alone):
+// built once, viewed by all. Without local lights (none, or all switched off) under a sky, no pixel has a
+// light distribution.
+struct BlockPlan {
+  explicit BlockPlan(const ReferenceFrame& frame);
+
+  const LightGroups groups;
+  const size_t nGroups;
+  const LightDrawSoa drawLights;
+  const bool perPixelLights;
   std::vector<SelectionLight> selectionLights;
-  if (perPixelLights) selectionLights = MakeSelectionLights(lightList, groups, powerPmf);
-  const SelectionLights selection{selectionLights.data(), selectionLights.size()};
-  std::vector<float> shared;
-  if (hasLocal && !perPixelLights) {
+  SelectionLights selection;
+  std::vector<float> shared;  // the one distribution above kMaxPerPixelLights
+  // The pilot's distributions, kept for the main pass where they fit in kKeptDistributionBytes: each row's blocks
+  // in order (both passes form the same blocks), row y's from keptRow[y] on, kSelectionBlock × nGroups floats a
+  // block, light-major as the selection kernel writes them (whole cache lines); each pass copies a block's to rows
+  // in its own scratch to draw from. Not value-initialised: the pilot writes every entry the main pass reads. In
+  // huge pages: first touches of 4 KiB pages would cost a page fault each.
+  const std::vector<size_t> keptRow;
+  const bool keep;
+  const KeptDistributions kept;
+};
+
+// BlockPlan::keptRow: each row's active pixels in whole blocks of kSelectionBlock distributions.
+std::vector<size_t> KeptRows(const ReferenceFrame& frame, bool perPixelLights, size_t nGroups) {
+  const int w = frame.w, h = frame.h;
+  std::vector<size_t> keptRow(static_cast<size_t>(h) + 1, 0);
+  if (perPixelLights)
+    for (int y = 0; y < h; ++y) {
+      size_t rowActive = 0;
+      for (int x = 0; x < w; ++x) rowActive += frame.active[static_cast<size_t>(y) * w + x];
+      const size_t blocks = (rowActive + kSelectionBlock - 1) / kSelectionBlock;
+      keptRow[y + 1] = keptRow[y] + blocks * kSelectionBlock * nGroups;
+    }
+  return keptRow;
+}
+
+BlockPlan::BlockPlan(const ReferenceFrame& frame)
+    : groups(MakeLightGroups(frame.lightList)),
+      nGroups(groups.first.size()),
+      drawLights(frame.lightList, groups),
+      perPixelLights(frame.hasLocal && frame.lightList.size() <= kMaxPerPixelLights),
+      keptRow(KeptRows(frame, perPixelLights, nGroups)),
+      keep(perPixelLights && keptRow[frame.h] * sizeof(float) <= kKeptDistributionBytes),
+      kept(keep ? keptRow[frame.h] : 0) {
+  const size_t nLights = frame.lightList.size();
+  std::vector<float> powerPmf;
+  for (uint32_t l = 0; frame.hasLocal && l < nLights; ++l) powerPmf.push_back(frame.lights.SelectionPmf(l));
+  if (perPixelLights) selectionLights = MakeSelectionLights(frame.lightList, groups, powerPmf);
+  selection = SelectionLights{selectionLights.data(), selectionLights.size()};
+  if (frame.hasLocal && !perPixelLights) {
     float running = 0.0f;
     for (size_t g = 0; g < nGroups; ++g) {
       const uint32_t t = groups.first[g];
       shared.push_back(running += groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
     }
   }
-  // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
-  std::vector<LightMixture> mixtures(hasSky ? pixels : 0);
-  // The pilot's distributions, kept for the main pass where they fit in kKeptDistributionBytes: each row's blocks
-  // in order (both passes form the same blocks), row y's from keptRow[y] on, kSelectionBlock × nGroups floats a
-  // block, light-major as the selection kernel writes them (whole cache lines); each pass copies a block's to rows
-  // in its own scratch to draw from. Not value-initialised: the pilot writes every entry the main pass reads. In
-  // huge pages: first touches of 4 KiB pages would cost a page fault each.
-  std::vector<size_t> keptRow(static_cast<size_t>(h) + 1, 0);
-  if (perPixelLights)
-    for (int y = 0; y < h; ++y) {
-      size_t rowActive = 0;
-      for (int x = 0; x < w; ++x) rowActive += active[static_cast<size_t>(y) * w + x];
-      const size_t blocks = (rowActive + kSelectionBlock - 1) / kSelectionBlock;
-      keptRow[y + 1] = keptRow[y] + blocks * kSelectionBlock * nGroups;
-    }
-  const bool keep = perPixelLights && keptRow[h] * sizeof(float) <= kKeptDistributionBytes;
-  const KeptDistributions kept(keep ? keptRow[h] : 0);
-  // Runs sampleBlock on every active pixel, rows in parallel, each row's active pixels in blocks of
-  // kSelectionBlock whose light distributions are built together by the pilot (and again by the main pass where
-  // they are not kept).
-  auto forEachBlock = [&](bool pilot, auto&& sampleBlock) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& range) {
-      std::vector<float> columns(perPixelLights && !keep ? nGroups * kSelectionBlock : 0);
-      std::vector<float> cdfs(perPixelLights ? nGroups * kSelectionBlock : 0);
-      std::vector<float> work(perPixelLights && (pilot || !keep) ? nGroups * kSelectionBlock : 0);
-      float estimates[kSelectionBlock] = {};
-      SelectionReceivers receivers{};
-      ReceiverBlock block;
-      BlockScratch scratch;
-      std::vector<size_t> rowPixels;
-      uint64_t threadRays = 0, threadSamples = 0;
-      for (int y = range.begin(); y < range.end(); ++y) {
-        // The row's active pixels, diffuse receivers first: a block of one kind skips the other's work (the
-        // BSDF towards every light's centroid, BSDF sampling).
-        rowPixels.clear();
-        for (int pass = 0; pass < 2; ++pass)
-          for (int x = 0; x < w; ++x) {
-            const size_t i = static_cast<size_t>(y) * w + x;
-            // An inactive pixel (background, emitter) has no material: bsdfId is -1 there.
-            if (!active[i]) continue;
-            const bool diffuse = bsdfs.type[static_cast<size_t>(g.bsdfId[i])] == static_cast<int32_t>(BsdfType::kDiffuse);
-            if (diffuse == (pass == 0)) rowPixels.push_back(i);
-          }
-        for (size_t firstPixel = 0; firstPixel < rowPixels.size(); firstPixel += kSelectionBlock) {
-          const size_t count = std::min(kSelectionBlock, rowPixels.size() - firstPixel);
-          block.count = count;
-          for (size_t r = 0; r < count; ++r) {
-            const size_t i = rowPixels[firstPixel + r];
-            block.index[r] = i;
-            block.materialId[r] = g.bsdfId[i];
-            const ShadingPoint& sp = block.points[r] = ShadingPointAt(g, i, state.camera.position, bsdfs);
-            for (int c = 0; c < 3; ++c) {
-              receivers.x[c][r] = sp.position[c];
-              receivers.ng[c][r] = sp.geometricNormal[c];
-              receivers.n[c][r] = sp.shadingNormal[c];
-              receivers.wo[c][r] = sp.wo[c];
-            }
-            receivers.materialId[r] = g.bsdfId[i];
-          }
-          receivers.count = count;
-          float* const blockColumns = keep ? kept.get() + keptRow[y] + firstPixel * nGroups : columns.data();
-          float* const blockCdfs = cdfs.data();
-          // (The main pass reads no estimate: the pilot set the sky's light mixtures from them.)
-          if (perPixelLights && (pilot || !keep))
-            BuildLightSelection(receivers, bsdfs, selection, work.data(), blockColumns, estimates);
-          if (perPixelLights) SelectionRows(blockColumns, nGroups, count, blockCdfs);
-          for (size_t r = 0; r < count; ++r) {
-            const size_t i = block.index[r];
-            const ShadingPoint& sp = block.points[r];
-            PixelLightDistribution& dist = block.dists[r];
-            if (perPixelLights)
-              dist = PixelLightDistribution(blockCdfs + r * nGroups, &groups, estimates[r]);
-            else if (hasLocal)
-              dist = PixelLightDistribution(shared.data(), &groups, -1.0f);
-            SkySampling& skySampling = block.sky[r];
-            if (hasSky) {
-              skySampling.sky = &sky;
-              if (pilot) {
-                // The local lights' estimate where the distribution has one; where it has none (above
-                // kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the draws.
-                const float sunEstimate = SunEstimate(sp, sky, skySummary);
-                const float environmentEstimate = EnvironmentEstimate(sp, sky, skySummary);
-                const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
-                const float localEstimate = !hasLocal                ? -1.0f
-                                            : dist.Estimate() >= 0.0f ? dist.Estimate()
-                                                                      : skyEstimate;
-                mixtures[i] = MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
-              }
-              skySampling.mixture = mixtures[i];
-            }
-          }
-          sampleBlock(block, scratch, threadRays, threadSamples);
-        }
-      }
-      rays.local() += threadRays;
-      samples.local() += threadSamples;
-    });
-  };
-  // The coordinates a receiver's samples read: three at a diffuse receiver without a sky, else every one.
-  const auto usedDims = [&](const ShadingPoint& sp) {
-    return !hasSky && sp.bsdf.type == BsdfType::kDiffuse ? 3 : dims;
-  };
-  const auto alphaOf = [&](int j) { return hasSky ? rdSky.alpha[j] : rd.alpha[j]; };
-  // A block's samples, once its points are in scratch.u: every receiver's at once without a sky (one batch of
-  // shadow rays), one receiver at a time with one.
-  const auto sampleAll = [&](const ReceiverBlock& block, const size_t* counts, const size_t* uFirst,
-                             const size_t* first, BlockScratch& scratch, uint64_t& rayCount) {
-    const size_t total = first[block.count - 1] + counts[block.count - 1];
-    for (std::vector<float>& v : scratch.values) v.resize(total);
-    float* const values[3] = {scratch.values[0].data(), scratch.values[1].data(), scratch.values[2].data()};
-    if (!hasSky) {
-      SkylessBlockSamples(block, counts, uFirst, first, scene, bsdfs, lightList, drawLights.view, scratch, values,
-                          rayCount);
-      return;
-    }
-    for (size_t p = 0; p < block.count; ++p) {
-      float* const out[3] = {values[0] + first[p], values[1] + first[p], values[2] + first[p]};
-      SkySamples(block.points[p], scene, lightList, block.dists[p], block.sky[p], scratch.u.data() + uFirst[p],
-                 counts[p], scratch.batch, out, rayCount);
-    }
-  };
+}
 
-  // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass), only
-  // their relative variance is kept.
-  std::vector<float> relVar(pixels, -1.0f);
-  forEachBlock(true, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
-                         uint64_t& sampleCount) {
-    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
+// One worker's scratch over a range of rows: a block's receivers, light distributions and samples at a time.
+struct BlockWorker {
+  BlockWorker(const BlockPlan& plan, bool pilot)
+      : columns(plan.perPixelLights && !plan.keep ? plan.nGroups * kSelectionBlock : 0),
+        cdfs(plan.perPixelLights ? plan.nGroups * kSelectionBlock : 0),
+        work(plan.perPixelLights && (pilot || !plan.keep) ? plan.nGroups * kSelectionBlock : 0) {}
+
+  std::vector<float> columns;
+  std::vector<float> cdfs;
+  std::vector<float> work;
+  float estimates[kSelectionBlock] = {};
+  SelectionReceivers receivers{};
+  ReceiverBlock block;
+  BlockScratch scratch;
+  std::vector<size_t> rowPixels;
+  uint64_t rays = 0, samples = 0;
+};
+
+// The row's active pixels, diffuse receivers first: a block of one kind skips the other's work (the
+// BSDF towards every light's centroid, BSDF sampling).
+void RowReceivers(const ReferenceFrame& frame, int y, std::vector<size_t>& rowPixels) {
+  rowPixels.clear();
+  for (int pass = 0; pass < 2; ++pass)
+    for (int x = 0; x < frame.w; ++x) {
+      const size_t i = static_cast<size_t>(y) * frame.w + x;
+      // An inactive pixel (background, emitter) has no material: bsdfId is -1 there.
+      if (!frame.active[i]) continue;
+      const bool diffuse = frame.bsdfs.type[static_cast<size_t>(frame.g.bsdfId[i])] ==
+                           static_cast<int32_t>(BsdfType::kDiffuse);
+      if (diffuse == (pass == 0)) rowPixels.push_back(i);
+    }
+}
+
+// The receivers at pixels[0, count): what each sees, as the samplers and the selection kernel read them.
+void GatherBlock(const ReferenceFrame& frame, const size_t* pixels, size_t count, ReceiverBlock& block,
+                 SelectionReceivers& receivers) {
+  const GBuffer& g = frame.g;
+  block.count = count;
+  for (size_t r = 0; r < count; ++r) {
+    const size_t i = pixels[r];
+    block.index[r] = i;
+    block.materialId[r] = g.bsdfId[i];
+    const ShadingPoint& sp = block.points[r] = ShadingPointAt(g, i, frame.state.camera.position, frame.bsdfs);
+    for (int c = 0; c < 3; ++c) {
+      receivers.x[c][r] = sp.position[c];
+      receivers.ng[c][r] = sp.geometricNormal[c];
+      receivers.n[c][r] = sp.shadingNormal[c];
+      receivers.wo[c][r] = sp.wo[c];
+    }
+    receivers.materialId[r] = g.bsdfId[i];
+  }
+  receivers.count = count;
+}
+
+// The pilot's light mixture at a receiver under a sky: the local lights' estimate where the distribution has
+// one; where it has none (above kMaxPerPixelLights), as much as the sky's, so that the local lights get about
+// half the draws.
+LightMixture PilotMixture(const ReferenceFrame& frame, const ShadingPoint& sp,
+                          const PixelLightDistribution& dist) {
+  const float sunEstimate = SunEstimate(sp, frame.sky, frame.skySummary);
+  const float environmentEstimate = EnvironmentEstimate(sp, frame.sky, frame.skySummary);
+  const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
+  const float localEstimate = !frame.hasLocal           ? -1.0f
+                              : dist.Estimate() >= 0.0f ? dist.Estimate()
+                                                        : skyEstimate;
+  return MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+}
+
+// The light distributions of the block in worker.block, whose first pixel is the row's firstPixel-th: built
+// by the selection kernel (the pilot; the main pass where they are not kept) or read from the pilot's, and,
+// under a sky, each receiver's light mixture (set by the pilot).
+void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, int y, size_t firstPixel,
+                    BlockWorker& worker) {
+  ReceiverBlock& block = worker.block;
+  const size_t count = block.count, nGroups = plan.nGroups;
+  float* const blockColumns =
+      plan.keep ? plan.kept.get() + plan.keptRow[y] + firstPixel * nGroups : worker.columns.data();
+  float* const blockCdfs = worker.cdfs.data();
+  // (The main pass reads no estimate: the pilot set the sky's light mixtures from them.)
+  if (plan.perPixelLights && (pilot || !plan.keep))
+    BuildLightSelection(worker.receivers, frame.bsdfs, plan.selection, worker.work.data(), blockColumns,
+                        worker.estimates);
+  if (plan.perPixelLights) SelectionRows(blockColumns, nGroups, count, blockCdfs);
+  for (size_t r = 0; r < count; ++r) {
+    const size_t i = block.index[r];
+    PixelLightDistribution& dist = block.dists[r];
+    if (plan.perPixelLights)
+      dist = PixelLightDistribution(blockCdfs + r * nGroups, &plan.groups, worker.estimates[r]);
+    else if (frame.hasLocal)
+      dist = PixelLightDistribution(plan.shared.data(), &plan.groups, -1.0f);
+    SkySampling& skySampling = block.sky[r];
+    if (frame.hasSky) {
+      skySampling.sky = &frame.sky;
+      if (pilot) frame.mixtures[i] = PilotMixture(frame, block.points[r], dist);
+      skySampling.mixture = frame.mixtures[i];
+    }
+  }
+}
+
+// Runs sampleBlock on every active pixel, rows in parallel, each row's active pixels in blocks of
+// kSelectionBlock whose light distributions are built together by the pilot (and again by the main pass where
+// they are not kept).
+template <typename SampleBlock>
+void ForEachBlock(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, SampleBlock&& sampleBlock) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, frame.h), [&](const tbb::blocked_range<int>& range) {
+    BlockWorker worker(plan, pilot);
+    for (int y = range.begin(); y < range.end(); ++y) {
+      RowReceivers(frame, y, worker.rowPixels);
+      for (size_t firstPixel = 0; firstPixel < worker.rowPixels.size(); firstPixel += kSelectionBlock) {
+        const size_t count = std::min(kSelectionBlock, worker.rowPixels.size() - firstPixel);
+        GatherBlock(frame, worker.rowPixels.data() + firstPixel, count, worker.block, worker.receivers);
+        SetBlockLights(frame, plan, pilot, y, firstPixel, worker);
+        sampleBlock(worker.block, worker.scratch, worker.rays, worker.samples);
+      }
+    }
+    frame.rays.local() += worker.rays;
+    frame.samples.local() += worker.samples;
+  });
+}
+
+// The coordinates a receiver's samples read: three at a diffuse receiver without a sky, else every one.
+int UsedDims(const ReferenceFrame& frame, const ShadingPoint& sp) {
+  return !frame.hasSky && sp.bsdf.type == BsdfType::kDiffuse ? 3 : frame.dims;
+}
+
+// The Roberts sequence's step in coordinate j (kSampleDims coordinates without a sky, kSkySampleDims with
+// one).
+uint32_t RobertsAlpha(const ReferenceFrame& frame, int j) {
+  static const RobertsSequence<kSampleDims> rd;
+  static const RobertsSequence<kSkySampleDims> rdSky;
+  return frame.hasSky ? rdSky.alpha[j] : rd.alpha[j];
+}
+
+// A block's samples, once its points are in scratch.u: every receiver's at once without a sky (one batch of
+// shadow rays), one receiver at a time with one.
+void BlockSamples(const ReferenceFrame& frame, const BlockPlan& plan, const ReceiverBlock& block,
+                  const size_t* counts, const size_t* uFirst, const size_t* first, BlockScratch& scratch,
+                  uint64_t& rayCount) {
+  const size_t total = first[block.count - 1] + counts[block.count - 1];
+  for (std::vector<float>& v : scratch.values) v.resize(total);
+  float* const values[3] = {scratch.values[0].data(), scratch.values[1].data(), scratch.values[2].data()};
+  if (!frame.hasSky) {
+    SkylessBlockSamples(block, counts, uFirst, first, frame.scene, frame.bsdfs, frame.lightList,
+                        plan.drawLights.view, scratch, values, rayCount);
+    return;
+  }
+  for (size_t p = 0; p < block.count; ++p) {
+    float* const out[3] = {values[0] + first[p], values[1] + first[p], values[2] + first[p]};
+    SkySamples(block.points[p], frame.scene, frame.lightList, block.dists[p], block.sky[p],
+               scratch.u.data() + uFirst[p], counts[p], scratch.batch, out, rayCount);
+  }
+}
+
+// Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass), only
+// their relative variance is kept (negative where the pilot saw no light).
+std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan) {
+  const int dims = frame.dims;
+  std::vector<float> relVar(frame.pixels, -1.0f);
+  ForEachBlock(frame, plan, /*pilot=*/true, [&](const ReceiverBlock& block, BlockScratch& scratch,
+                                                uint64_t& rayCount, uint64_t& sampleCount) {
+    const RngKey key{kReferenceSeed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
     uint32_t ids[kSelectionBlock];
     size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
     for (size_t p = 0; p < block.count; ++p) {
@@ -459,10 +576,11 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     PixelRandomWords4(key, ids, block.count, 0, (static_cast<size_t>(dims) + 3) / 4, scratch.words.data());
     scratch.u.resize(block.count * kPilotSamples * dims);
     for (size_t p = 0; p < block.count; ++p)
-      for (int j = 0; j < usedDims(block.points[p]); ++j)
-        RobertsCoordinates(&scratch.words[static_cast<size_t>(j) * block.count + p], 1, kPilotSamples, alphaOf(j),
+      for (int j = 0; j < UsedDims(frame, block.points[p]); ++j)
+        RobertsCoordinates(&scratch.words[static_cast<size_t>(j) * block.count + p], 1, kPilotSamples,
+                           RobertsAlpha(frame, j),
                            scratch.u.data() + uFirst[p] + static_cast<size_t>(j) * kPilotSamples);
-    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
     sampleCount += block.count * kPilotSamples;
     for (size_t p = 0; p < block.count; ++p) {
       double sum = 0.0, sumSq = 0.0;
@@ -477,81 +595,121 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
       if (mean > 0.0) relVar[block.index[p]] = static_cast<float>(std::min(var / (mean * mean), 1e30));
     }
   });
-  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, active, params);
-  ref.pixelSamples.assign(pixels, 0);
-  for (size_t i = 0; i < pixels; ++i)
-    if (active[i]) ref.pixelSamples[i] = kPilotSamples + perReplicate[i] * kReplicates;
+  return relVar;
+}
 
-  // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
-  // points each.
-  forEachBlock(false, [&](const ReceiverBlock& block, BlockScratch& scratch, uint64_t& rayCount,
-                          uint64_t& sampleCount) {
-    const RngKey key{kReferenceSeed, stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
-    uint32_t ids[kSelectionBlock];
+// Each pixel's samples, the pilot's included (0 at an inactive pixel).
+std::vector<uint32_t> PixelSamples(const std::vector<uint8_t>& active,
+                                   const std::vector<uint32_t>& perReplicate) {
+  std::vector<uint32_t> pixelSamples(active.size(), 0);
+  for (size_t i = 0; i < active.size(); ++i)
+    if (active[i]) pixelSamples[i] = kPilotSamples + perReplicate[i] * kReplicates;
+  return pixelSamples;
+}
+
+// The main pass's points of a block in scratch.u, receiver p's counts[p] from uFirst[p] on (uTotal in all).
+void ReplicatePoints(const ReferenceFrame& frame, const ReceiverBlock& block, const size_t* counts,
+                     const size_t* uFirst, size_t uTotal, BlockScratch& scratch) {
+  const RngKey key{kReferenceSeed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
+  uint32_t ids[kSelectionBlock];
+  for (size_t p = 0; p < block.count; ++p) ids[p] = static_cast<uint32_t>(block.index[p]);
+  // Replicate rep's shift of coordinate j is the pixel's word j × kReplicates + rep (core/rng.h RandomWords4's
+  // stream): at words[(j × kReplicates + rep) × count + p], for the coordinates the block reads.
+  int used = 0;
+  for (size_t p = 0; p < block.count; ++p) used = std::max(used, UsedDims(frame, block.points[p]));
+  const size_t wordRow = kReplicates * block.count;
+  scratch.words.resize(static_cast<size_t>(used) * wordRow);
+  PixelRandomWords4(key, ids, block.count, 0, static_cast<size_t>(used) * kReplicates / 4,
+                    scratch.words.data());
+  // Coordinate j of point k of replicate rep is u[uFirst + j × n + k × kReplicates + rep] (sample
+  // k × kReplicates + rep).
+  scratch.u.resize(uTotal);
+  for (size_t p = 0; p < block.count; ++p) {
+    const size_t m = counts[p] / kReplicates;
+    for (int j = 0; j < UsedDims(frame, block.points[p]); ++j) {
+      uint32_t shifts[kReplicates];
+      for (int rep = 0; rep < kReplicates; ++rep)
+        shifts[rep] = scratch.words[j * wordRow + static_cast<size_t>(rep) * block.count + p];
+      RobertsCoordinates(shifts, kReplicates, m, RobertsAlpha(frame, j),
+                         scratch.u.data() + uFirst[p] + j * counts[p]);
+    }
+  }
+}
+
+// Pixel i's estimate from its m points a replicate (sample k × kReplicates + rep at values[c][first + ...]):
+// the mean of the replicate means, added to what the pixel sees emitted, and the standard errors of its
+// channels and of its luminance from the replicates' spread.
+void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_t i, ReferenceImage& ref) {
+  // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
+  // sum of glm::dvec3).
+  double sums[3][kReplicates] = {};
+  for (int c = 0; c < 3; ++c) {
+    const float* v = scratch.values[c].data() + first;
+    for (size_t k = 0; k < m; ++k)
+      for (int rep = 0; rep < kReplicates; ++rep) sums[c][rep] += double(v[k * kReplicates + rep]);
+  }
+  glm::dvec3 replicateMean[kReplicates];
+  const double perPoint = 1.0 / double(m);  // one division, not one per replicate and channel
+  for (int rep = 0; rep < kReplicates; ++rep)
+    replicateMean[rep] = glm::dvec3(sums[0][rep], sums[1][rep], sums[2][rep]) * perPoint;
+  glm::dvec3 mean(0.0), var(0.0);
+  for (const glm::dvec3& r : replicateMean) mean += r;
+  mean /= double(kReplicates);
+  for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
+  var /= double(kReplicates - 1);
+  const double meanY = Luminance(mean);
+  double varY = 0.0;
+  for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
+  varY /= double(kReplicates - 1);
+  ref.mean.pixels[i] += Vec3(mean);
+  ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
+  ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
+}
+
+// Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
+// points each.
+void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<uint32_t>& perReplicate,
+              ReferenceImage& ref) {
+  const int dims = frame.dims;
+  ForEachBlock(frame, plan, /*pilot=*/false, [&](const ReceiverBlock& block, BlockScratch& scratch,
+                                                 uint64_t& rayCount, uint64_t& sampleCount) {
     size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
     size_t uTotal = 0, total = 0;
     for (size_t p = 0; p < block.count; ++p) {
-      ids[p] = static_cast<uint32_t>(block.index[p]);
       counts[p] = static_cast<size_t>(perReplicate[block.index[p]]) * kReplicates;
       uFirst[p] = uTotal;
       first[p] = total;
       uTotal += counts[p] * dims;
       total += counts[p];
     }
-    // Replicate rep's shift of coordinate j is the pixel's word j × kReplicates + rep (core/rng.h RandomWords4's
-    // stream): at words[(j × kReplicates + rep) × count + p], for the coordinates the block reads.
-    int used = 0;
-    for (size_t p = 0; p < block.count; ++p) used = std::max(used, usedDims(block.points[p]));
-    const size_t wordRow = kReplicates * block.count;
-    scratch.words.resize(static_cast<size_t>(used) * wordRow);
-    PixelRandomWords4(key, ids, block.count, 0, static_cast<size_t>(used) * kReplicates / 4, scratch.words.data());
-    // Coordinate j of point k of replicate rep is u[uFirst + j × n + k × kReplicates + rep] (sample
-    // k × kReplicates + rep).
-    scratch.u.resize(uTotal);
-    for (size_t p = 0; p < block.count; ++p) {
-      const size_t m = counts[p] / kReplicates;
-      for (int j = 0; j < usedDims(block.points[p]); ++j) {
-        uint32_t shifts[kReplicates];
-        for (int rep = 0; rep < kReplicates; ++rep)
-          shifts[rep] = scratch.words[j * wordRow + static_cast<size_t>(rep) * block.count + p];
-        RobertsCoordinates(shifts, kReplicates, m, alphaOf(j), scratch.u.data() + uFirst[p] + j * counts[p]);
-      }
-    }
-    sampleAll(block, counts, uFirst, first, scratch, rayCount);
+    ReplicatePoints(frame, block, counts, uFirst, uTotal, scratch);
+    BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
     sampleCount += total;
-    for (size_t p = 0; p < block.count; ++p) {
-      const size_t i = block.index[p];
-      const size_t m = counts[p] / kReplicates;
-      // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
-      // sum of glm::dvec3).
-      double sums[3][kReplicates] = {};
-      for (int c = 0; c < 3; ++c) {
-        const float* v = scratch.values[c].data() + first[p];
-        for (size_t k = 0; k < m; ++k)
-          for (int rep = 0; rep < kReplicates; ++rep) sums[c][rep] += double(v[k * kReplicates + rep]);
-      }
-      glm::dvec3 replicateMean[kReplicates];
-      const double perPoint = 1.0 / double(m);  // one division, not one per replicate and channel
-      for (int rep = 0; rep < kReplicates; ++rep)
-        replicateMean[rep] = glm::dvec3(sums[0][rep], sums[1][rep], sums[2][rep]) * perPoint;
-      glm::dvec3 mean(0.0), var(0.0);
-      for (const glm::dvec3& r : replicateMean) mean += r;
-      mean /= double(kReplicates);
-      for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
-      var /= double(kReplicates - 1);
-      const double meanY = Luminance(mean);
-      double varY = 0.0;
-      for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
-      varY /= double(kReplicates - 1);
-      ref.mean.pixels[i] += Vec3(mean);
-      ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
-      ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
-    }
+    for (size_t p = 0; p < block.count; ++p)
+      AddPixelEstimate(scratch, first[p], counts[p] / kReplicates, block.index[p], ref);
   });
-  ref.rays = rays.combine(std::plus<uint64_t>());
-  ref.samples = samples.combine(std::plus<uint64_t>());
-  if (!cachePath.empty()) WriteFileAtomic(cachePath, EncodeReferenceCacheEntry(cacheKey, ref.mean, ref.standardError,
-                                                                    ref.lumaStandardError));
+}
+
+}  // namespace
+
+ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                               const GBuffer& g, const ReferenceParams& params) {
+  const auto t0 = Clock::now();
+  CacheEntry cache;  // its lock held until the entry is written
+  if (std::optional<ReferenceImage> cached = LookUpCache(sequence, state, g.width, g.height, params, cache)) {
+    cached->ms = MsSince(t0);
+    return std::move(*cached);
+  }
+  ReferenceFrame frame(sequence, state, scene, g);
+  ReferenceImage ref = StartImage(frame);
+  const BlockPlan plan(frame);
+  const std::vector<float> relVar = Pilot(frame, plan);
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params);
+  ref.pixelSamples = PixelSamples(frame.active, perReplicate);
+  MainPass(frame, plan, perReplicate, ref);
+  ref.rays = frame.rays.combine(std::plus<uint64_t>());
+  ref.samples = frame.samples.combine(std::plus<uint64_t>());
+  WriteCache(cache, ref);
   ref.ms = MsSince(t0);
   return ref;
 }
