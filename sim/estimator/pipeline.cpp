@@ -8,13 +8,8 @@
 namespace restir {
 
 Pipeline::Pipeline(const PipelineSettings& settings) : settings_(settings) {
-  const StochasticPairwiseParams& sp = settings.spatial.stochastic;
-  if (sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations || sp.cellTile < 1 ||
-      sp.cellTile > kMaxCellTile || sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
-      sp.canonicalDraws > kMaxGrisInputs - 1)
-    throw std::invalid_argument("Pipeline: spatial settings outside their validated bounds");
-  if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2)
-    throw std::invalid_argument("Pipeline: temporal.fusedNeighbours outside its validated bounds");
+  if (const SettingBound* b = BrokenBound(settings, BoundsScope::kPipeline))
+    throw std::invalid_argument("Pipeline: " + b->key + " outside its validated bounds (" + b->reason + ")");
 }
 
 FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials) {

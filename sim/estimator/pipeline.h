@@ -19,16 +19,10 @@
 #include "sim/estimator/passes/stochastic_pairwise_reuse.h"
 #include "sim/estimator/passes/temporal_reuse.h"
 #include "sim/estimator/reservoir_diagnostics.h"
+#include "sim/estimator/settings.h"  // PipelineSettings
 #include "sim/scene/sequence.h"
 
 namespace restir {
-
-struct PipelineSettings {
-  InitialSamplingParams initial;  // the initial-sampling pass
-  TemporalParams temporal;        // the temporal-reuse pass
-  SpatialParams spatial;          // the spatial-reuse pass (k neighbours, or stochastic pairwise over cells)
-  ShadeParams shade;              // the shading pass
-};
 
 class InitialSamplingShare;
 

@@ -19,10 +19,9 @@ Preset Make(const std::string& name, const std::string& description, const std::
   return p;
 }
 
-}  // namespace
-
-const std::vector<Preset>& AllPresets() {
-  static const std::vector<Preset> presets = {
+// No reuse, then temporal reuse alone: seed 003's baselines.
+std::vector<Preset> BaselinePresets() {
+  return {
       Make("ris", "no reuse: streaming RIS over 32 power-sampled light candidates, one final shadow ray",
            "seed 003 §1 (baseline); Talbot et al. 2005",
            [](PipelineSettings&) {}),
@@ -36,6 +35,12 @@ const std::vector<Preset>& AllPresets() {
              s.temporal.bias = BiasCorrection::kBasic;
              s.temporal.targetRatioClamp = true;
            }),
+  };
+}
+
+// Bitterli 2020's biased ReSTIR and seed 000's visibility reuse: no ray-traced bias correction.
+std::vector<Preset> BiasedPresets() {
+  return {
       Make("restir-biased",
            "Bitterli 2020 biased ReSTIR: initial visibility, temporal + 5 spatial neighbours, uniform MIS",
            "Bitterli et al. 2020, Spatiotemporal reservoir resampling, biased variant",
@@ -78,6 +83,12 @@ const std::vector<Preset>& AllPresets() {
              s.spatial.neighbours = 5;
              s.shade.visibility = VisibilityReuse::kWeighted;
            }),
+  };
+}
+
+// Unbiased ReSTIR: ray-traced bias correction under pairwise, balance or stochastic pairwise MIS.
+std::vector<Preset> UnbiasedPresets() {
+  return {
       Make("restir-unbiased",
            "unbiased ReSTIR: initial visibility, temporal + 5 spatial neighbours, defensive pairwise MIS with "
            "ray-traced bias correction (previous frame's scene for the temporal input), final shadow ray",
@@ -125,6 +136,12 @@ const std::vector<Preset>& AllPresets() {
              s.spatial.stochastic.draws = 5;
              s.spatial.stochastic.canonicalDraws = 5;
            }),
+  };
+}
+
+// RTXDI 3.1's library defaults, where they map onto these passes.
+std::vector<Preset> RtxdiPresets() {
+  return {
       Make("rtxdi-defaults",
            "RTXDI 3.1's library defaults where they map: 8 uniformly chosen local-light, 1 sun, 1 environment and 1 "
            "BSDF candidates (BRDF cutoff 1e-4), initial visibility; temporal reuse (history 20, permutation "
@@ -160,6 +177,17 @@ const std::vector<Preset>& AllPresets() {
              s.shade.finalVisibilityMaxDistance = 16.0f;
            }),
   };
+}
+
+}  // namespace
+
+const std::vector<Preset>& AllPresets() {
+  static const std::vector<Preset> presets = [] {
+    std::vector<Preset> all;
+    for (std::vector<Preset> (*family)() : {BaselinePresets, BiasedPresets, UnbiasedPresets, RtxdiPresets})
+      for (Preset& p : family()) all.push_back(std::move(p));
+    return all;
+  }();
   return presets;
 }
 

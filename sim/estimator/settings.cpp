@@ -4,8 +4,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <limits>
+#include <type_traits>
 
 #include "core/gris.h"
+#include "sim/estimator/passes/stochastic_pairwise_reuse.h"
 #include "sim/util/input_error.h"
 #include "sim/util/text.h"
 
@@ -146,8 +149,97 @@ const std::vector<Field>& Fields() {
   return fields;
 }
 
+// The accessor of PipelineSettings' field MEMBER, for const and mutable settings alike.
+#define RESTIR_MEMBER(MEMBER) [](auto& s) -> auto& { return s.MEMBER; }
+
+template <typename Access>
+SettingBound Bound(const char* key, Access member, double low, double high, const std::string& reason,
+                   bool pipeline = false, bool highExclusive = false) {
+  using Value = std::remove_cvref_t<decltype(member(std::declval<PipelineSettings&>()))>;
+  SettingBound b;
+  b.key = key;
+  b.low = low;
+  b.high = high;
+  b.highExclusive = highExclusive;
+  b.integer = std::is_integral_v<Value>;
+  b.pipeline = pipeline;
+  b.reason = reason;
+  b.get = [member](const PipelineSettings& s) { return static_cast<double>(member(s)); };
+  b.set = [member](PipelineSettings& s, double v) { member(s) = static_cast<Value>(v); };
+  return b;
+}
+
+std::vector<SettingBound> MakeBounds() {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  constexpr bool kPipeline = true;  // SettingBound::pipeline
+  const std::string neighbours = "at most " + std::to_string(kMaxGrisInputs - 1) + " spatial neighbours";
+  const std::string candidates =
+      "candidate counts must be in [0, " + std::to_string(kMaxCandidatesPerSource) + "]";
+  const std::string fused = "fusedNeighbours must be in [0, " + std::to_string(kMaxGrisInputs - 2) +
+                            "] and fusedRadius in [0, 1e4]";
+  const std::string finalVisibility =
+      "finalVisibilityMaxAge must be in [0, 255] and finalVisibilityMaxDistance in [0, 1e6]";
+  const std::string draws =
+      "draws and canonicalDraws must be in [1, " + std::to_string(kMaxGrisInputs - 1) + "]";
+  const std::string cells = "cellTile must be in [1, " + std::to_string(kMaxCellTile) +
+                            "], normalBins in [1, 64] and cellSearchIterations in [1, " +
+                            std::to_string(kMaxCellSearchIterations) + "]";
+  // In the order `--set` always checked them, for the first broken bound is the message: a candidate count of
+  // 0 "needs at least 1 candidate" before the range of every candidate count.
+  return {
+      Bound("spatial.neighbours", RESTIR_MEMBER(spatial.neighbours), -kNone, kMaxGrisInputs - 1, neighbours),
+      Bound("spatial.disocclusionNeighbours", RESTIR_MEMBER(spatial.disocclusionNeighbours), -kNone,
+            kMaxGrisInputs - 1, neighbours),
+      Bound("initial.candidates", RESTIR_MEMBER(initial.candidates), 1, kNone, "needs at least 1 candidate"),
+      Bound("initial.candidates", RESTIR_MEMBER(initial.candidates), 0, kMaxCandidatesPerSource, candidates),
+      Bound("initial.sunCandidates", RESTIR_MEMBER(initial.sunCandidates), 0, kMaxCandidatesPerSource,
+            candidates),
+      Bound("initial.environmentCandidates", RESTIR_MEMBER(initial.environmentCandidates), 0,
+            kMaxCandidatesPerSource, candidates),
+      Bound("initial.brdfCandidates", RESTIR_MEMBER(initial.brdfCandidates), 0, kMaxCandidatesPerSource,
+            candidates),
+      Bound("temporal.boilingFilterStrength", RESTIR_MEMBER(temporal.boilingFilterStrength), 0, 1,
+            "boilingFilterStrength must be in [0, 1] (0: off)"),
+      Bound("temporal.fusedNeighbours", RESTIR_MEMBER(temporal.fusedNeighbours), 0, kMaxGrisInputs - 2, fused,
+            kPipeline),
+      Bound("temporal.fusedRadius", RESTIR_MEMBER(temporal.fusedRadius), 0, 1e4, fused),
+      Bound("shade.finalVisibilityMaxAge", RESTIR_MEMBER(shade.finalVisibilityMaxAge), 0, 255,
+            finalVisibility),
+      Bound("shade.finalVisibilityMaxDistance", RESTIR_MEMBER(shade.finalVisibilityMaxDistance), 0, 1e6,
+            finalVisibility),
+      Bound("initial.brdfCutoff", RESTIR_MEMBER(initial.brdfCutoff), 0, 1, "brdfCutoff must be in [0, 1)",
+            /*pipeline=*/false, /*highExclusive=*/true),
+      Bound("spatial.draws", RESTIR_MEMBER(spatial.stochastic.draws), 1, kMaxGrisInputs - 1, draws,
+            kPipeline),
+      Bound("spatial.canonicalDraws", RESTIR_MEMBER(spatial.stochastic.canonicalDraws), 1, kMaxGrisInputs - 1,
+            draws, kPipeline),
+      Bound("spatial.cellTile", RESTIR_MEMBER(spatial.stochastic.cellTile), 1, kMaxCellTile, cells,
+            kPipeline),
+      Bound("spatial.normalBins", RESTIR_MEMBER(spatial.stochastic.normalBins), 1, 64, cells),
+      Bound("spatial.cellSearchIterations", RESTIR_MEMBER(spatial.stochastic.cellSearchIterations), 1,
+            kMaxCellSearchIterations, cells, kPipeline),
+  };
+}
+
+#undef RESTIR_MEMBER
 
 }  // namespace
+
+bool SettingBound::Holds(const PipelineSettings& settings) const {
+  const double v = get(settings);
+  return v >= low && (highExclusive ? v < high : v <= high);  // false for NaN
+}
+
+const std::vector<SettingBound>& SettingBounds() {
+  static const std::vector<SettingBound> bounds = MakeBounds();
+  return bounds;
+}
+
+const SettingBound* BrokenBound(const PipelineSettings& settings, BoundsScope scope) {
+  for (const SettingBound& b : SettingBounds())
+    if ((scope == BoundsScope::kAll || b.pipeline) && !b.Holds(settings)) return &b;
+  return nullptr;
+}
 
 std::vector<std::pair<std::string, std::string>> SettingsToStrings(const PipelineSettings& settings) {
   std::vector<std::pair<std::string, std::string>> out;
@@ -159,37 +251,9 @@ void ApplySetting(PipelineSettings& settings, const std::string& key, const std:
   for (const Field& f : Fields()) {
     if (f.name == key) {
       f.set(settings, key, value);
-      if (settings.spatial.neighbours > kMaxGrisInputs - 1 || settings.spatial.disocclusionNeighbours > kMaxGrisInputs - 1)
-        throw InputError("--set: error at " + key + ": at most " + std::to_string(kMaxGrisInputs - 1) +
-                         " spatial neighbours");
-      if (settings.initial.candidates < 1) throw InputError("--set: error at " + key + ": needs at least 1 candidate");
-      const InitialSamplingParams& in = settings.initial;
-      for (int count : {in.candidates, in.sunCandidates, in.environmentCandidates, in.brdfCandidates})
-        if (count < 0 || count > kMaxCandidatesPerSource)
-          throw InputError("--set: error at " + key + ": candidate counts must be in [0, " +
-                           std::to_string(kMaxCandidatesPerSource) + "]");
-      if (!(settings.temporal.boilingFilterStrength >= 0.0f && settings.temporal.boilingFilterStrength <= 1.0f))
-        throw InputError("--set: error at " + key + ": boilingFilterStrength must be in [0, 1] (0: off)");
-      if (settings.temporal.fusedNeighbours < 0 || settings.temporal.fusedNeighbours > kMaxGrisInputs - 2 ||
-          !(settings.temporal.fusedRadius >= 0.0f && settings.temporal.fusedRadius <= 1e4f))
-        throw InputError("--set: error at " + key + ": fusedNeighbours must be in [0, " +
-                         std::to_string(kMaxGrisInputs - 2) + "] and fusedRadius in [0, 1e4]");
-      if (settings.shade.finalVisibilityMaxAge < 0 || settings.shade.finalVisibilityMaxAge > 255 ||
-          !(settings.shade.finalVisibilityMaxDistance >= 0.0f && settings.shade.finalVisibilityMaxDistance <= 1e6f))
-        throw InputError("--set: error at " + key +
-                         ": finalVisibilityMaxAge must be in [0, 255] and finalVisibilityMaxDistance in [0, 1e6]");
-      if (!(in.brdfCutoff >= 0.0f && in.brdfCutoff < 1.0f))
-        throw InputError("--set: error at " + key + ": brdfCutoff must be in [0, 1)");
-      const StochasticPairwiseParams& sp = settings.spatial.stochastic;
-      if (sp.draws < 1 || sp.draws > kMaxGrisInputs - 1 || sp.canonicalDraws < 1 ||
-          sp.canonicalDraws > kMaxGrisInputs - 1)
-        throw InputError("--set: error at " + key + ": draws and canonicalDraws must be in [1, " +
-                         std::to_string(kMaxGrisInputs - 1) + "]");
-      if (sp.cellTile < 1 || sp.cellTile > kMaxCellTile || sp.normalBins < 1 || sp.normalBins > 64 ||
-          sp.cellSearchIterations < 1 || sp.cellSearchIterations > kMaxCellSearchIterations)
-        throw InputError("--set: error at " + key + ": cellTile must be in [1, " + std::to_string(kMaxCellTile) +
-                         "], normalBins in [1, 64] and cellSearchIterations in [1, " +
-                         std::to_string(kMaxCellSearchIterations) + "]");
+      // All bounds, not only the key's (the table is short), reported at the key being set.
+      if (const SettingBound* b = BrokenBound(settings, BoundsScope::kAll))
+        throw InputError("--set: error at " + key + ": " + b->reason);
       return;
     }
   }

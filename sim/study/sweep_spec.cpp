@@ -59,7 +59,6 @@ class SweepReader : public JsonReader {
 
 };
 
-// A run directory name: the characters a file name can always hold.
 // A run directory name: the characters a file name can always hold, never "." or ".." or hidden (a leading dot),
 // and short enough for any file system (a long grid name keeps its start and a hash of the whole).
 std::string SafeName(const std::string& s) {
@@ -137,19 +136,8 @@ void ReadSeeds(const SweepReader& r, const Json& root, std::vector<SweepSequence
   }
 }
 
-}  // namespace
-
-SweepSpec LoadSweep(const std::string& path) {
-  // A FIFO or /dev/zero given as the sweep file is refused, not read forever (DESIGN §10).
-  const SweepReader r(path, ReadInputFile(path, size_t(16) << 20, "sweep file"));
-  const Json& root = r.AsObject(r.Root(), "");
-  r.CheckKeys(root, "", {"sequence", "sequences", "resolution", "frames", "seed", "seeds", "seedCount",
-                         "referenceSpp", "referenceError", "presets", "grid", "configs"});
-
-  SweepSpec spec;
-  spec.path = path;
-  RunOptions& b = spec.base;
-  ReadSequences(r, root, path, spec.sequences);
+// "resolution", "frames" and the reference ("referenceSpp" or "referenceError"): what every run shares.
+void ReadRunOptions(const SweepReader& r, const Json& root, RunOptions& b) {
   if (root.contains("resolution")) {
     const Json& v = root["resolution"];
     if (!v.is_array() || v.size() != 2) r.Fail("/resolution", "expected [width, height]");
@@ -170,91 +158,135 @@ SweepSpec LoadSweep(const std::string& path) {
     if (!(b.referenceError >= 1e-4 && b.referenceError <= 1.0))
       r.Fail("/referenceError", "expected a relative standard error in [0.0001, 1]");
   }
-  ReadSeeds(r, root, spec.sequences);
-  b.writeImages = false;
-  b.report = false;  // the sweep writes its own reports
+}
 
-  std::set<std::string> names;
-  auto add = [&](SweepConfig c, const std::string& pointer) {
+// The configurations read so far. Their names, made safe for a directory, name the runs, so each is unique.
+class ConfigList {
+ public:
+  ConfigList(const SweepReader& r, std::vector<SweepConfig>& configs) : r_(r), configs_(configs) {}
+
+  void Add(SweepConfig c, const std::string& pointer) {
     c.name = SafeName(c.name);
-    if (!names.insert(c.name).second) r.Fail(pointer, "configuration name '" + c.name + "' is used twice");
-    spec.configs.push_back(std::move(c));
-  };
+    if (!names_.insert(c.name).second) r_.Fail(pointer, "configuration name '" + c.name + "' is used twice");
+    configs_.push_back(std::move(c));
+  }
 
-  // The grid: every preset of "presets" with every combination of the grid's values (first key slowest).
+ private:
+  const SweepReader& r_;
+  std::vector<SweepConfig>& configs_;
+  std::set<std::string> names_;
+};
+
+// A grid's axes: (setting, its values as --set takes them), in file order.
+using GridAxes = std::vector<std::pair<std::string, std::vector<std::string>>>;
+
+// "grid": each value is checked against every known preset of `presets` (an unknown one is reported later,
+// where it is named).
+GridAxes ReadGridAxes(const SweepReader& r, const Json& root, const Json& presets) {
+  GridAxes axes;
+  const Json& g = root["grid"];
+  if (!g.is_object()) r.Fail("/grid", "expected an object of setting -> array of values");
+  for (const auto& [key, values] : g.items()) {
+    const std::string gp = PointerChild("/grid", key);
+    if (!values.is_array() || values.empty()) r.Fail(gp, "expected a non-empty array of values");
+    std::vector<std::string> vs;
+    for (size_t k = 0; k < values.size(); ++k) {
+      const std::string vp = PointerChild(gp, k);
+      vs.push_back(r.SettingValue(values[k], vp));
+      for (size_t i = 0; i < presets.size(); ++i)
+        if (const Preset* p = FindPreset(presets[i].is_string() ? presets[i].get<std::string>() : ""))
+          r.CheckSetting(*p, key, vs.back(), vp);
+    }
+    axes.emplace_back(key, vs);
+  }
+  return axes;
+}
+
+// Combination `c` of the axes (the last axis fastest) on a preset, named "<preset>_<key>=<value>_...".
+SweepConfig GridConfig(const Preset& preset, const GridAxes& axes, size_t c) {
+  SweepConfig cfg;
+  cfg.preset = preset.name;
+  cfg.name = preset.name;
+  size_t rest = c;
+  std::vector<std::string> parts;
+  for (size_t a = axes.size(); a-- > 0;) {
+    const size_t k = rest % axes[a].second.size();
+    rest /= axes[a].second.size();
+    parts.insert(parts.begin(), axes[a].first + "=" + axes[a].second[k]);
+  }
+  cfg.overrides = parts;
+  for (const std::string& part : parts) cfg.name += "_" + part;
+  return cfg;
+}
+
+// The grid: every preset of "presets" with every combination of the grid's values (first key slowest).
+void ReadGridConfigs(const SweepReader& r, const Json& root, ConfigList& configs) {
   if (root.contains("grid") && !root.contains("presets")) r.Fail("/grid", "a grid needs a 'presets' list");
-  if (root.contains("presets")) {
-    const Json& ps = root["presets"];
-    if (!ps.is_array() || ps.empty()) r.Fail("/presets", "expected a non-empty array of preset names");
-    std::vector<std::pair<std::string, std::vector<std::string>>> axes;
-    if (root.contains("grid")) {
-      const Json& g = root["grid"];
-      if (!g.is_object()) r.Fail("/grid", "expected an object of setting -> array of values");
-      for (const auto& [key, values] : g.items()) {
-        const std::string gp = PointerChild("/grid", key);
-        if (!values.is_array() || values.empty()) r.Fail(gp, "expected a non-empty array of values");
-        std::vector<std::string> vs;
-        for (size_t k = 0; k < values.size(); ++k) {
-          const std::string vp = PointerChild(gp, k);
-          vs.push_back(r.SettingValue(values[k], vp));
-          for (size_t i = 0; i < ps.size(); ++i)
-            if (const Preset* p = FindPreset(ps[i].is_string() ? ps[i].get<std::string>() : ""))
-              r.CheckSetting(*p, key, vs.back(), vp);
-        }
-        axes.emplace_back(key, vs);
-      }
+  if (!root.contains("presets")) return;
+  const Json& ps = root["presets"];
+  if (!ps.is_array() || ps.empty()) r.Fail("/presets", "expected a non-empty array of preset names");
+  const GridAxes axes = root.contains("grid") ? ReadGridAxes(r, root, ps) : GridAxes{};
+  for (size_t i = 0; i < ps.size(); ++i) {
+    const std::string pp = PointerChild("/presets", i);
+    const Preset& preset = r.PresetNamed(ps[i], pp);
+    size_t combos = 1;
+    for (const auto& a : axes) {
+      if (combos > 4096 / a.second.size()) r.Fail("/grid", "more than 4096 combinations");
+      combos *= a.second.size();
     }
-    for (size_t i = 0; i < ps.size(); ++i) {
-      const std::string pp = PointerChild("/presets", i);
-      const Preset& preset = r.PresetNamed(ps[i], pp);
-      size_t combos = 1;
-      for (const auto& a : axes) {
-        if (combos > 4096 / a.second.size()) r.Fail("/grid", "more than 4096 combinations");
-        combos *= a.second.size();
-      }
-      for (size_t c = 0; c < combos; ++c) {
-        SweepConfig cfg;
-        cfg.preset = preset.name;
-        cfg.name = preset.name;
-        size_t rest = c;
-        std::vector<std::string> parts;
-        for (size_t a = axes.size(); a-- > 0;) {
-          const size_t k = rest % axes[a].second.size();
-          rest /= axes[a].second.size();
-          parts.insert(parts.begin(), axes[a].first + "=" + axes[a].second[k]);
-        }
-        cfg.overrides = parts;
-        for (const std::string& part : parts) cfg.name += "_" + part;
-        add(cfg, pp);
-      }
-    }
+    for (size_t c = 0; c < combos; ++c) configs.Add(GridConfig(preset, axes, c), pp);
   }
-  if (root.contains("configs")) {
-    const Json& cs = root["configs"];
-    if (!cs.is_array()) r.Fail("/configs", "expected an array of {name, preset, set}");
-    for (size_t i = 0; i < cs.size(); ++i) {
-      const std::string cp = PointerChild("/configs", i);
-      const Json& c = cs[i];
-      if (!c.is_object()) r.Fail(cp, "expected an object {name, preset, set}");
-      r.CheckKeys(c, cp, {"name", "preset", "set"});
-      r.Need(c, cp, "name");
-      r.Need(c, cp, "preset");
-      SweepConfig cfg;
-      cfg.name = r.Name(c["name"], cp + "/name");
-      const Preset& preset = r.PresetNamed(c["preset"], cp + "/preset");
-      cfg.preset = preset.name;
-      if (c.contains("set")) {
-        if (!c["set"].is_object()) r.Fail(cp + "/set", "expected an object of setting -> value");
-        for (const auto& [key, value] : c["set"].items()) {
-          const std::string vp = PointerChild(cp + "/set", key);
-          const std::string v = r.SettingValue(value, vp);
-          r.CheckSetting(preset, key, v, vp);
-          cfg.overrides.push_back(key + "=" + v);
-        }
+}
+
+// "configs": explicit {name, preset, set} configurations, after the grid's.
+void ReadExplicitConfigs(const SweepReader& r, const Json& root, ConfigList& configs) {
+  if (!root.contains("configs")) return;
+  const Json& cs = root["configs"];
+  if (!cs.is_array()) r.Fail("/configs", "expected an array of {name, preset, set}");
+  for (size_t i = 0; i < cs.size(); ++i) {
+    const std::string cp = PointerChild("/configs", i);
+    const Json& c = cs[i];
+    if (!c.is_object()) r.Fail(cp, "expected an object {name, preset, set}");
+    r.CheckKeys(c, cp, {"name", "preset", "set"});
+    r.Need(c, cp, "name");
+    r.Need(c, cp, "preset");
+    SweepConfig cfg;
+    cfg.name = r.Name(c["name"], cp + "/name");
+    const Preset& preset = r.PresetNamed(c["preset"], cp + "/preset");
+    cfg.preset = preset.name;
+    if (c.contains("set")) {
+      if (!c["set"].is_object()) r.Fail(cp + "/set", "expected an object of setting -> value");
+      for (const auto& [key, value] : c["set"].items()) {
+        const std::string vp = PointerChild(cp + "/set", key);
+        const std::string v = r.SettingValue(value, vp);
+        r.CheckSetting(preset, key, v, vp);
+        cfg.overrides.push_back(key + "=" + v);
       }
-      add(cfg, cp + "/name");
     }
+    configs.Add(cfg, cp + "/name");
   }
+}
+
+}  // namespace
+
+SweepSpec LoadSweep(const std::string& path) {
+  // A FIFO or /dev/zero given as the sweep file is refused, not read forever (DESIGN §10).
+  const SweepReader r(path, ReadInputFile(path, size_t(16) << 20, "sweep file"));
+  const Json& root = r.AsObject(r.Root(), "");
+  r.CheckKeys(root, "", {"sequence", "sequences", "resolution", "frames", "seed", "seeds", "seedCount",
+                         "referenceSpp", "referenceError", "presets", "grid", "configs"});
+
+  SweepSpec spec;
+  spec.path = path;
+  ReadSequences(r, root, path, spec.sequences);
+  ReadRunOptions(r, root, spec.base);
+  ReadSeeds(r, root, spec.sequences);
+  spec.base.writeImages = false;
+  spec.base.report = false;  // the sweep writes its own reports
+
+  ConfigList configs(r, spec.configs);
+  ReadGridConfigs(r, root, configs);
+  ReadExplicitConfigs(r, root, configs);
   if (spec.configs.empty()) r.Fail("", "no configurations: give 'presets' (with an optional 'grid') or 'configs'");
   size_t jobs = 0;
   for (const SweepSequence& q : spec.sequences) jobs += q.seeds.size() * spec.configs.size();

@@ -2,6 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <set>
+#include <stdexcept>
+
+#include "sim/estimator/pipeline.h"
 #include "sim/estimator/presets.h"
 #include "sim/scene/sequence.h"
 
@@ -50,6 +57,128 @@ TEST(Settings, BadValuesAreInputErrors) {
   EXPECT_THROW(ApplySettingAssignment(s, "spatial.neighbours=99"), InputError);
   EXPECT_THROW(ApplySettingAssignment(s, "initial.candidates=0"), InputError);
   EXPECT_THROW(ApplySettingAssignment(s, "novalue"), InputError);
+}
+
+// A value as `--set` takes it: ints in full, floats in the digits that read back to the same float.
+std::string BoundText(const SettingBound& b, double v) {
+  if (b.integer) return std::to_string(static_cast<long long>(v));
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.9g", v);
+  return buf;
+}
+
+// The next value past `v` towards `direction` that the field can hold.
+double Step(const SettingBound& b, double v, double direction) {
+  if (b.integer) return v + (direction > 0 ? 1.0 : -1.0);
+  return std::nextafter(static_cast<float>(v), static_cast<float>(direction));
+}
+
+// The bounds are stated once (settings.h) and used twice: `--set` refuses a value just outside each bound
+// with the bound's reason and takes one just inside (unless another bound refuses it), and the Pipeline
+// refuses a value outside a bound it relies on and takes every value `--set` takes.
+TEST(Settings, ParserAndPipelineAgreeOnTheBounds) {
+  const PipelineSettings defaults;
+  ASSERT_EQ(BrokenBound(defaults, BoundsScope::kAll), nullptr);
+  std::set<std::string> pipelineKeys;
+  for (const SettingBound& b : SettingBounds()) {
+    if (b.pipeline) pipelineKeys.insert(b.key);
+    const double inf = std::numeric_limits<double>::infinity();
+    struct Case {
+      double value;
+      bool inside;
+    };
+    std::vector<Case> cases;
+    if (!std::isinf(b.low)) cases.insert(cases.end(), {{b.low, true}, {Step(b, b.low, -inf), false}});
+    if (!std::isinf(b.high)) {
+      if (b.highExclusive)
+        cases.insert(cases.end(), {{Step(b, b.high, -inf), true}, {b.high, false}});
+      else
+        cases.insert(cases.end(), {{b.high, true}, {Step(b, b.high, inf), false}});
+    }
+    ASSERT_FALSE(cases.empty()) << b.key;
+    for (const Case& c : cases) {
+      const std::string text = BoundText(b, c.value);
+      SCOPED_TRACE(b.key + "=" + text);
+      PipelineSettings direct = defaults;
+      b.set(direct, c.value);
+      ASSERT_EQ(b.get(direct), c.value);
+      EXPECT_EQ(b.Holds(direct), c.inside);
+      const SettingBound* broken = BrokenBound(direct, BoundsScope::kAll);
+
+      PipelineSettings parsed = defaults;
+      bool parserTakes = true;
+      std::string message;
+      try {
+        ApplySetting(parsed, b.key, text);
+      } catch (const InputError& e) {
+        parserTakes = false;
+        message = e.what();
+      }
+      if (c.inside) {
+        EXPECT_EQ(parserTakes, broken == nullptr) << message;
+        if (parserTakes) {
+          EXPECT_EQ(b.get(parsed), c.value);  // the key names the field the bound reads
+        }
+      } else {
+        EXPECT_FALSE(parserTakes);
+        // A negative number is refused as text before any bound; every other value with the bound's reason.
+        if (c.value >= 0) {
+          ASSERT_NE(broken, nullptr);
+          EXPECT_EQ(message, "--set: error at " + b.key + ": " + broken->reason);
+        }
+      }
+
+      bool pipelineTakes = true;
+      try {
+        Pipeline pipeline(direct);
+      } catch (const std::invalid_argument& e) {
+        pipelineTakes = false;
+        EXPECT_NE(std::string(e.what()).find(b.key), std::string::npos) << e.what();
+      }
+      if (b.pipeline) {
+        EXPECT_EQ(pipelineTakes, c.inside);
+      }
+      if (parserTakes) {
+        EXPECT_TRUE(pipelineTakes);
+      }
+      EXPECT_EQ(pipelineTakes, BrokenBound(direct, BoundsScope::kPipeline) == nullptr);
+    }
+  }
+  // The Pipeline checks the bounds it checked before they were one table, no more: a value set in code
+  // beyond the others still runs.
+  const std::set<std::string> checkedBefore = {"spatial.draws", "spatial.canonicalDraws", "spatial.cellTile",
+                                               "spatial.cellSearchIterations", "temporal.fusedNeighbours"};
+  EXPECT_EQ(pipelineKeys, checkedBefore);
+}
+
+// What `--set` says at each bound, word for word as before the bounds were one table.
+TEST(Settings, BoundMessagesAreUnchanged) {
+  const std::string gris = std::to_string(kMaxGrisInputs - 1);
+  const std::pair<std::string, std::string> cases[] = {
+      {"spatial.neighbours=" + std::to_string(kMaxGrisInputs), "at most " + gris + " spatial neighbours"},
+      {"initial.candidates=0", "needs at least 1 candidate"},
+      {"initial.brdfCandidates=" + std::to_string(kMaxCandidatesPerSource + 1),
+       "candidate counts must be in [0, " + std::to_string(kMaxCandidatesPerSource) + "]"},
+      {"temporal.boilingFilterStrength=2", "boilingFilterStrength must be in [0, 1] (0: off)"},
+      {"temporal.fusedRadius=2e4", "fusedNeighbours must be in [0, " + std::to_string(kMaxGrisInputs - 2) +
+                                       "] and fusedRadius in [0, 1e4]"},
+      {"shade.finalVisibilityMaxAge=256",
+       "finalVisibilityMaxAge must be in [0, 255] and finalVisibilityMaxDistance in [0, 1e6]"},
+      {"initial.brdfCutoff=1", "brdfCutoff must be in [0, 1)"},
+      {"spatial.canonicalDraws=0", "draws and canonicalDraws must be in [1, " + gris + "]"},
+      {"spatial.normalBins=65", "cellTile must be in [1, " + std::to_string(kMaxCellTile) +
+                                    "], normalBins in [1, 64] and cellSearchIterations in [1, " +
+                                    std::to_string(kMaxCellSearchIterations) + "]"},
+  };
+  for (const auto& [assignment, reason] : cases) {
+    PipelineSettings s;
+    try {
+      ApplySettingAssignment(s, assignment);
+      ADD_FAILURE() << assignment << ": no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.what(), "--set: error at " + assignment.substr(0, assignment.find('=')) + ": " + reason);
+    }
+  }
 }
 
 TEST(Presets, EveryDesignPresetExistsWithItsSource) {
