@@ -376,9 +376,9 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   out.driver = std::make_unique<FrameLoop>(WindowBars(), w, h);
   FrameLoop& d = *out.driver;
   Pipeline pipeline(preset.settings);
-  d.BeginFrame(kHistoryFrame);
-  d.Render(pipeline, WindowBars().seed);
-  d.EndFrame();
+  // The history, played as a run plays its frames; the measured frame is begun and never ended: it is rendered
+  // again and again from the same history below.
+  d.Play(kHistoryFrame, kMeasuredFrame, [&](int) { d.Render(pipeline, WindowBars().seed); });
   d.BeginFrame(kMeasuredFrame);
   const std::vector<StoredReservoir> history = pipeline.History();
   const double sceneUpdate = d.MsSceneUpdate();
@@ -722,10 +722,8 @@ void BM_Memory(benchmark::State& state, const Preset* preset) {
     const double n = double(w) * h;
     FrameLoop d(WindowBars(), w, h);
     Pipeline p(preset->settings);
-    d.BeginFrame(kHistoryFrame);
-    d.Render(p, WindowBars().seed);
-    d.EndFrame();
-    d.BeginFrame(kMeasuredFrame);
+    d.Play(kHistoryFrame, kMeasuredFrame, [&](int) { d.Render(p, WindowBars().seed); });
+    d.BeginFrame(kMeasuredFrame);  // measured, never ended
     const auto t0 = Clock::now();
     const FrameResult fr = d.Render(p, WindowBars().seed);
     state.SetIterationTime(MsSince(t0) / 1000.0);

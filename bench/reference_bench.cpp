@@ -113,13 +113,13 @@ void BM_Reference(benchmark::State& state) {
   if (EnvInt("RESTIR_BENCH_PROFILE", 0)) {  // only the renders, for perf record
     for (auto _ : state)
       for (int r = 0; r < reps; ++r)
-        benchmark::DoNotOptimize(RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params).rays);
+        benchmark::DoNotOptimize(loop.Reference(params).rays);
     return;
   }
   // The rays, recorded by one render; then the timed renders and floors, alternating.
   Capture capture;
   SetRayHook(loop.Scene(), &capture);
-  const ReferenceImage captured = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
+  const ReferenceImage captured = loop.Reference(params);
   SetRayHook(loop.Scene(), nullptr);
   std::vector<ThreadRays> rays = capture.Take();
   for (ThreadRays& t : rays)
@@ -167,7 +167,7 @@ void BM_Reference(benchmark::State& state) {
   for (auto _ : state) {
     for (int r = 0; r < reps; ++r) {
       auto t0 = Clock::now();
-      ReferenceImage ref = RenderReference(seq, loop.State(), loop.Scene(), loop.Gbuffer(), params);
+      ReferenceImage ref = loop.Reference(params);
       const double ms = MsSince(t0);
       t0 = Clock::now();
       traceFloor();

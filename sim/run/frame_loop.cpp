@@ -18,6 +18,7 @@ void FrameLoop::BeginFrame(int frame) {
   timings_.reproject = Reprojection();
   disocclusionAge_ = AgeDisocclusion(current_, hasPrevious_ ? disocclusionAge_ : std::vector<uint16_t>());
   lights_ = std::make_unique<LightSampler>(scene_.LightTriangles(), LightSelection::kPower);
+  inputs_ = MakeInputs();
 }
 
 double FrameLoop::Primary() {
@@ -40,6 +41,12 @@ double FrameLoop::Reprojection() {
 }
 
 FrameInputs FrameLoop::Inputs(uint32_t seed) const {
+  FrameInputs in = inputs_;
+  in.seed = seed;
+  return in;
+}
+
+FrameInputs FrameLoop::MakeInputs() const {
   FrameInputs in;
   in.state = &state_;
   in.scene = &scene_;
@@ -47,7 +54,6 @@ FrameInputs FrameLoop::Inputs(uint32_t seed) const {
   in.lights = lights_.get();
   in.materials = &bsdfs_;
   if (!sequence_.textures.empty()) in.sceneMaterials = &sequence_.materials;
-  in.seed = seed;
   in.frame = static_cast<uint32_t>(state_.frame);
   in.sky = MakeSky(sequence_, state_);
   if (hasPrevious_) {
@@ -62,6 +68,10 @@ FrameInputs FrameLoop::Inputs(uint32_t seed) const {
 ReferenceImage FrameLoop::Reference(int spp) const {
   ReferenceParams params;
   params.samplesPerPixel = spp;
+  return Reference(params);
+}
+
+ReferenceImage FrameLoop::Reference(const ReferenceParams& params) const {
   return RenderReference(sequence_, state_, scene_, current_, params);
 }
 

@@ -1,7 +1,7 @@
 // The one frame loop (DESIGN §2): a frame's state is evaluated, the scene updated, primary rays traced, the
 // G-buffer reprojected into the previous frame and its disocclusion aged, the light sampler built; any number of
 // pipelines then render the frame from Inputs(seed); EndFrame keeps it as the previous frame. `restir-sim run`,
-// the whole-frame benchmark and the tests all drive frames through it.
+// the whole-frame benchmark and the tests all drive frames through Play, the one loop over frames.
 #pragma once
 
 #include <memory>
@@ -33,13 +33,26 @@ class FrameLoop {
   // depend only on the frame's state, so the G-buffer comes out the same); ms taken.
   double Primary();
   double Reprojection();
-  // What a pipeline renders this frame from.
+  // What a pipeline renders this frame from: the frame's inputs, made once by BeginFrame, with `seed`.
   FrameInputs Inputs(uint32_t seed) const;
   FrameResult Render(Pipeline& pipeline, uint32_t seed) const { return pipeline.RenderFrame(Inputs(seed)); }
-  // The frame's reference (no cache).
+  // The frame's reference: `spp` samples a pixel and no cache, or as `params` say (`restir-sim run`: its
+  // cache and error target).
   ReferenceImage Reference(int spp) const;
+  ReferenceImage Reference(const ReferenceParams& params) const;
   // Keeps the current frame as the previous one.
   void EndFrame();
+
+  // The loop over frames (pbrt-v4's ImageTileIntegrator::Render: one loop, one extension point): for each
+  // frame of [begin, end), BeginFrame, then `render(frame)` (the frame's presets, its reference, what the
+  // caller measures), then EndFrame, then `kept(frame)` with the frame kept as the previous one (what a
+  // checkpoint saves).
+  template <typename Body, typename Kept>
+  void Play(int begin, int end, Body&& render, Kept&& kept);
+  template <typename Body>
+  void Play(int begin, int end, Body&& render) {
+    Play(begin, end, render, [](int) {});
+  }
 
   const Sequence& GetSequence() const { return sequence_; }
   EmbreeScene& Scene() { return scene_; }
@@ -74,7 +87,23 @@ class FrameLoop {
   std::unique_ptr<LightSampler> lights_;
   bool hasPrevious_ = false;
   FrameTimings timings_;
+  // The frame's inputs with seed 0, made by BeginFrame: Inputs(seed) copies them rather than making them
+  // again (the skies included) for every preset and ensemble member. Points into this loop, which never moves
+  // (EmbreeScene is neither copied nor moved).
+  FrameInputs inputs_;
+
+  FrameInputs MakeInputs() const;
 };
+
+template <typename Body, typename Kept>
+void FrameLoop::Play(int begin, int end, Body&& render, Kept&& kept) {
+  for (int frame = begin; frame < end; ++frame) {
+    BeginFrame(frame);
+    render(frame);
+    EndFrame();
+    kept(frame);
+  }
+}
 
 template <typename Io>
 void FrameLoop::Transfer(Io& io) {

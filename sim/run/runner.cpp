@@ -31,6 +31,7 @@
 #include "sim/estimator/pipeline.h"
 #include "sim/estimator/presets.h"
 #include "sim/run/progress.h"
+#include "sim/run/run_stages.h"
 #include "sim/reference/reference.h"
 #include "sim/output/report.h"
 #include "sim/scene/sequence.h"
@@ -39,22 +40,9 @@
 #include "sim/metrics/seed_ensemble.h"
 
 namespace restir {
+namespace run_stages {
 
 namespace {
-
-// A frame's inputs to its presets' image files that the frame loop does not keep: the reference, and the G-buffer
-// arrays the EXR shows (disocclusion, depth, shading normal; the snapshot's other arrays stay empty).
-struct FrameImageInputs {
-  bool hasReference = false;
-  std::string sequenceHash;  // the sequence's content hash, stamped on every EXR
-  ImageRgb reference, referenceStdError;
-  GBuffer gbuffer;
-  // With a reference, every preset's preview of the frame shares its exposure and its reference panel: made once,
-  // by the frame's first image job.
-  mutable std::once_flag previewOnce;
-  mutable float exposure = 1.0f;
-  mutable std::vector<unsigned char> referencePanel;
-};
 
 std::shared_ptr<const FrameImageInputs> SnapshotImageInputs(const ReferenceImage& ref, bool hasReference,
                                                             const GBuffer& g, const std::string& sequenceHash) {
@@ -109,20 +97,6 @@ std::string FormatCsvNumber(double v) {
   return buf;
 }
 
-std::string MetricsCsv(const std::vector<FrameMetricsRow>& rows) {
-  std::ostringstream o;
-  if (rows.empty()) return "";
-  o << "frame,preset";
-  for (const auto& [name, value] : rows.front().values) o << "," << name;
-  o << ",image_hash\n";
-  for (const FrameMetricsRow& r : rows) {
-    o << r.frame << "," << r.preset;
-    for (const auto& [name, value] : r.values) o << "," << FormatCsvNumber(value);
-    o << "," << r.imageHash << "\n";
-  }
-  return o.str();
-}
-
 nlohmann::json SettingsJson(const PipelineSettings& s) {
   nlohmann::json j = nlohmann::json::object();
   for (const auto& [key, value] : SettingsToStrings(s)) j[key] = value;
@@ -167,97 +141,6 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
 
 constexpr uint64_t kCheckpointMagic = 0x37544B43'52545352ull;  // "RSTRCKT7" (7: presets by name)
 
-// One preset's frame between rendering and writing (Run's frame loop).
-struct PresetFrame {
-  FrameResult fr;                           // member 0's frame
-  ImageRgb ensembleBias, ensembleVariance;  // --ensemble K > 1: the members' split, and its statistics
-  EnsembleStats ensemble;
-  FlipMap flipMap;                          // against the reference (empty without one)
-  FrameMetricsRow row;                      // its metrics.csv row
-};
-
-// What a preset carries from frame to frame besides its pipelines' reservoirs.
-struct PresetState {
-  Preset preset;
-  bool sharesInitialPass = false;                  // another preset runs its initial pass (SharesInitialPass)
-  std::vector<std::unique_ptr<Pipeline>> members;  // --ensemble K: member k runs with seed + k
-  ImageRgb previousImage;                          // member 0's estimate of the previous frame
-  ImageRgb accumSum;                               // Σ of member 0's estimates since the scene state changed
-};
-
-// Everything the next frame reads, in one list for writing and reading a checkpoint (Io: BinaryWriter or
-// BinaryReader).
-struct RunState {
-  FrameLoop& loop;
-  std::vector<PresetState>& presets;
-  ImageRgb& previousReference;
-  int& accumFrames;
-  std::vector<FrameMetricsRow>& rows;
-  template <typename Io>
-  void Transfer(Io& io, int& nextFrame) {
-    io.Pod(nextFrame);
-    loop.Transfer(io);
-    TransferImage(io, previousReference);
-    // By name, in name order: the configuration key holds the presets as a set, so a resume may list them in
-    // another order than the run that wrote the checkpoint, and each must get its own state back.
-    std::vector<PresetState*> byName;
-    for (PresetState& p : presets) byName.push_back(&p);
-    std::sort(byName.begin(), byName.end(),
-              [](const PresetState* a, const PresetState* b) { return a->preset.name < b->preset.name; });
-    for (PresetState* p : byName) {
-      std::string name = p->preset.name;
-      io.String(name);
-      if (name != p->preset.name) throw std::runtime_error("its presets are not this run's");
-      TransferImage(io, p->previousImage);
-      TransferImage(io, p->accumSum);
-      for (auto& member : p->members) io.Vector(member->History());
-    }
-    io.Pod(accumFrames);
-    TransferRows(io, rows);
-    InPresetOrder(rows);
-  }
-
-  // Rows restored from a checkpoint written with the presets in another order: each frame's rows in this run's
-  // order, as an uninterrupted run writes metrics.csv.
-  void InPresetOrder(std::vector<FrameMetricsRow>& restored) const {
-    auto rank = [&](const FrameMetricsRow& r) {
-      for (size_t i = 0; i < presets.size(); ++i)
-        if (presets[i].preset.name == r.preset) return i;
-      return presets.size();
-    };
-    std::stable_sort(restored.begin(), restored.end(), [&](const FrameMetricsRow& a, const FrameMetricsRow& b) {
-      return a.frame != b.frame ? a.frame < b.frame : rank(a) < rank(b);
-    });
-  }
-};
-
-// The checkpoint (--resume) is keyed by the configuration: run.json without the fields that do not change the
-// results, so a different run never resumes from it.
-std::string ConfigurationKey(nlohmann::json runJson) {
-  // exrCompression changes the EXRs' bytes, never their pixels, like the thread count their timing.
-  for (const char* volatileField :
-       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput", "outputs"})
-    runJson.erase(volatileField);
-  return runJson.dump();
-}
-
-// The frame files written so far come before the state, so a resume checks them before it restores anything.
-void SaveCheckpoint(const std::string& path, const std::string& configKey, OutputManifest& written, RunState& state,
-                    int nextFrame) {
-  ByteCounter size;
-  size.Pod(kCheckpointMagic);
-  size.String(configKey);
-  written.Transfer(size);
-  state.Transfer(size, nextFrame);
-  BinaryWriter w;
-  w.Reserve(size.Bytes());
-  w.Pod(kCheckpointMagic);
-  w.String(configKey);
-  written.Transfer(w);
-  state.Transfer(w, nextFrame);
-  WriteFileAtomic(path, w.Bytes());
-}
-
 // Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
 // write them; false (saying nothing) when every one is as written.
 bool ReportDamagedOutputs(const std::string& outDir, const std::vector<OutputFile>& files, int frameBegin) {
@@ -267,44 +150,6 @@ bool ReportDamagedOutputs(const std::string& outDir, const std::vector<OutputFil
     std::fprintf(stderr, "restir-sim: rendering again from frame %d to write %s\n", frameBegin,
                  damaged.size() == 1 ? "it" : "them");
   return !damaged.empty();
-}
-
-// The frame to start from: frameBegin, or the checkpoint's next frame with the run's state and its record of
-// written files restored. A frame file of a finished frame that is missing or damaged starts the run again (its
-// bits come back only by rendering the frames before it).
-int LoadCheckpoint(const std::string& path, const std::string& configKey, const std::string& outDir,
-                   OutputManifest& written, RunState& state, int frameBegin) {
-  std::string bytes, problem;
-  if (!TryReadRegularFile(path, std::numeric_limits<size_t>::max(), bytes, problem)) {
-    if (problem != "no such file") throw InputError(path + ": error: cannot read checkpoint (" + problem + ")");
-    bytes.clear();
-  }
-  try {
-    BinaryReader r(bytes);
-    uint64_t magic = 0;
-    std::string key;
-    if (!bytes.empty()) r.Pod(magic);
-    if (magic == kCheckpointMagic) r.String(key);
-    if (magic == kCheckpointMagic && key == configKey) {
-      written.Transfer(r);
-      if (ReportDamagedOutputs(outDir, written.Files(), frameBegin)) {
-        written.Restore({});
-        return frameBegin;
-      }
-      int nextFrame = 0;
-      state.Transfer(r, nextFrame);
-      if (!r.AtEnd()) throw std::runtime_error("trailing bytes");
-      state.loop.RestoreScene();
-      return nextFrame;
-    }
-    if (!bytes.empty())
-      std::fprintf(stderr, "restir-sim: %s is from another configuration; starting from frame %d\n", path.c_str(),
-                   frameBegin);
-  } catch (const std::runtime_error& e) {
-    // Checkpoints are renamed into place whole, so this is outside damage: refuse rather than guess.
-    throw InputError(path + ": error: unreadable checkpoint (" + e.what() + "); delete it or run without --resume");
-  }
-  return frameBegin;
 }
 
 // The presets a run replays, with every --set applied. Names from the file are reported with their JSON path
@@ -377,64 +222,413 @@ bool CompleteRunExists(const std::string& runJsonPath, const std::string& config
   return true;
 }
 
-}  // namespace
-
-RunResult Run(const RunOptions& opt) {
-  const auto tRun = Clock::now();
-  const Sequence seq = LoadSequence(opt.sequencePath);
-  const int width = opt.width > 0 ? opt.width : seq.width;
-  const int height = opt.height > 0 ? opt.height : seq.height;
-  const int frameEnd = opt.frameEnd < 0 ? seq.frameCount : opt.frameEnd;
-  if (opt.frameBegin < 0 || opt.frameBegin >= frameEnd || frameEnd > seq.frameCount)
-    throw InputError(opt.sequencePath + ": error: frame range " + std::to_string(opt.frameBegin) + ":" +
-                     std::to_string(frameEnd) + " is outside the sequence's frames 0:" +
-                     std::to_string(seq.frameCount));
-  const uint32_t seed = opt.seed.value_or(seq.seed);
-  // Per preset, K pipelines (--ensemble K): member k runs with seed + k; member 0 is the run's own estimate.
-  // The split needs a reference, so without one the other members would be rendered for nothing.
-  const int members = opt.reference ? std::max(1, opt.ensemble) : 1;
-  const std::vector<Preset> resolved = ResolvePresets(opt, seq);
-  if (!opt.relativeErrorPath.empty() && (resolved.size() != 1 || !opt.reference || opt.resume))
-    throw InputError(opt.relativeErrorPath + ": error: relative-error frames need one preset, a reference and no "
-                     "--resume");
-  ReferenceParams refParams;
-  refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
-  refParams.targetRelativeError = opt.referenceError;
-  refParams.cacheDir = opt.cacheDir;
-  CheckRunMemory(opt, seq, refParams, width, height, frameEnd - opt.frameBegin, resolved, members);
-  const int threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
-
-  // run.json first, so an interrupted run still says what it was.
+// run.json as the run starts, so an interrupted run still says what it was.
+nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan& plan) {
+  const ReferenceParams& refParams = plan.refParams;
   nlohmann::json runJson = {
       {"program", "restir-sim"},
       {"version", RESTIR_VERSION},
       {"commandLine", opt.commandLine},
       {"sequence", {{"path", opt.sequencePath}, {"name", seq.name}, {"contentHash", seq.contentHash}}},
-      {"resolution", {width, height}},
-      {"frames", {opt.frameBegin, frameEnd}},
-      {"seed", seed},
-      {"ensemble", members},
+      {"resolution", {plan.width, plan.height}},
+      {"frames", {opt.frameBegin, plan.frameEnd}},
+      {"seed", plan.seed},
+      {"ensemble", plan.members},
       {"simd", ActiveSimdTargetName()},
       {"embreeIsa", EmbreeIsaName(ActiveEmbreeIsa())},
-      {"threads", threads},
+      {"threads", plan.threads},
       {"exrCompression", opt.writeImages ? nlohmann::json(ExrCompressionName(opt.exrCompression)) : nullptr},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"targetRelativeError", refParams.targetRelativeError},
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
-  for (const Preset& p : resolved)
+  for (const Preset& p : plan.presets)
     runJson["presets"][p.name] = {{"source", p.source}, {"settings", SettingsJson(p.settings)}};
   runJson["overrides"] = opt.settings;
-  const std::string runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
-  const std::string csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
-  const std::string configKey = ConfigurationKey(runJson);
+  return runJson;
+}
+
+// What the reference cost where it was rendered: its rays (shadow rays and, on glossy pixels, BSDF rays) per
+// second of its wall time, to set beside the ray floor of docs/performance.md.
+nlohmann::json ReferenceThroughputJson(const ReferenceTally& refRendered, int width, int height) {
+  return {
+      {"framesRendered", refRendered.frames},
+      {"framesFromCache", refRendered.cachedFrames},
+      {"rays", refRendered.rays},
+      {"samples", refRendered.samples},
+      {"seconds", refRendered.ms / 1000.0},
+      {"raysPerSecond", refRendered.ms > 0.0 ? double(refRendered.rays) / (refRendered.ms / 1000.0) : 0.0},
+      {"samplesPerPixel", refRendered.frames > 0
+                              ? double(refRendered.samples) / (double(width) * height * refRendered.frames)
+                              : 0.0}};
+}
+
+// The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
+void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetFrame& pf,
+                    InitialSamplingShare* share) {
+  std::vector<ImageRgb> images;
+  images.push_back(pf.fr.image);
+  for (int k = 1; k < run.plan.members; ++k) {
+    FrameInputs memberInputs = run.loop.Inputs(run.plan.seed + static_cast<uint32_t>(k));
+    memberInputs.initialShare = share;
+    images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
+  }
+  pf.ensemble =
+      MeasureEnsemble(images, f.ref.mean, f.ref.standardError, pf.ensembleBias, pf.ensembleVariance);
+}
+
+// One preset's frame files, handed to the background writer.
+void SubmitPresetFiles(RunContext& run, const RunFrame& f, const std::string& preset, PresetFrame& pf) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%04d", f.frame);
+  const auto stem = std::filesystem::path(run.opt.outDir) / "frames" / preset / name;
+  // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as MeasurePresets
+  // reads them; the ensemble images moved) and the frame's shared inputs. Submitted now, so the writer
+  // works while the next preset renders.
+  auto images = std::make_shared<const PresetImages>(PresetImages{
+      pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
+  const std::string relative = "frames/" + preset + "/" + name;
+  run.imageWriter->Submit([stem, relative, images, frameInputs = f.imageInputs,
+                           compression = run.opt.exrCompression, written = &run.written] {
+    WritePresetFiles(stem.string(), *images, *frameInputs, compression);
+    for (const char* extension : {".exr", ".png"}) written->Record(relative + extension);
+  });
+}
+
+}  // namespace
+
+std::string MetricsCsv(const std::vector<FrameMetricsRow>& rows) {
+  std::ostringstream o;
+  if (rows.empty()) return "";
+  o << "frame,preset";
+  for (const auto& [name, value] : rows.front().values) o << "," << name;
+  o << ",image_hash\n";
+  for (const FrameMetricsRow& r : rows) {
+    o << r.frame << "," << r.preset;
+    for (const auto& [name, value] : r.values) o << "," << FormatCsvNumber(value);
+    o << "," << r.imageHash << "\n";
+  }
+  return o.str();
+}
+
+template <typename Io>
+void RunState::Transfer(Io& io, int& nextFrame) {
+  io.Pod(nextFrame);
+  loop.Transfer(io);
+  TransferImage(io, previousReference);
+  // By name, in name order: the configuration key holds the presets as a set, so a resume may list them in
+  // another order than the run that wrote the checkpoint, and each must get its own state back.
+  std::vector<PresetState*> byName;
+  for (PresetState& p : presets) byName.push_back(&p);
+  std::sort(byName.begin(), byName.end(),
+            [](const PresetState* a, const PresetState* b) { return a->preset.name < b->preset.name; });
+  for (PresetState* p : byName) {
+    std::string name = p->preset.name;
+    io.String(name);
+    if (name != p->preset.name) throw std::runtime_error("its presets are not this run's");
+    TransferImage(io, p->previousImage);
+    TransferImage(io, p->accumSum);
+    for (auto& member : p->members) io.Vector(member->History());
+  }
+  io.Pod(accumFrames);
+  TransferRows(io, rows);
+  InPresetOrder(rows);
+}
+
+void RunState::InPresetOrder(std::vector<FrameMetricsRow>& restored) const {
+  auto rank = [&](const FrameMetricsRow& r) {
+    for (size_t i = 0; i < presets.size(); ++i)
+      if (presets[i].preset.name == r.preset) return i;
+    return presets.size();
+  };
+  std::stable_sort(restored.begin(), restored.end(), [&](const FrameMetricsRow& a, const FrameMetricsRow& b) {
+    return a.frame != b.frame ? a.frame < b.frame : rank(a) < rank(b);
+  });
+}
+
+// The checkpoint (--resume) is keyed by the configuration: run.json without the fields that do not change the
+// results, so a different run never resumes from it.
+std::string ConfigurationKey(nlohmann::json runJson) {
+  // exrCompression changes the EXRs' bytes, never their pixels, like the thread count their timing.
+  for (const char* volatileField :
+       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput", "outputs"})
+    runJson.erase(volatileField);
+  return runJson.dump();
+}
+
+// The frame files written so far come before the state, so a resume checks them before it restores anything.
+void SaveCheckpoint(const std::string& path, const std::string& configKey, OutputManifest& written, RunState& state,
+                    int nextFrame) {
+  ByteCounter size;
+  size.Pod(kCheckpointMagic);
+  size.String(configKey);
+  written.Transfer(size);
+  state.Transfer(size, nextFrame);
+  BinaryWriter w;
+  w.Reserve(size.Bytes());
+  w.Pod(kCheckpointMagic);
+  w.String(configKey);
+  written.Transfer(w);
+  state.Transfer(w, nextFrame);
+  WriteFileAtomic(path, w.Bytes());
+}
+
+// The frame to start from: frameBegin, or the checkpoint's next frame with the run's state and its record of
+// written files restored. A frame file of a finished frame that is missing or damaged starts the run again (its
+// bits come back only by rendering the frames before it).
+int LoadCheckpoint(const std::string& path, const std::string& configKey, const std::string& outDir,
+                   OutputManifest& written, RunState& state, int frameBegin) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, std::numeric_limits<size_t>::max(), bytes, problem)) {
+    if (problem != "no such file") throw InputError(path + ": error: cannot read checkpoint (" + problem + ")");
+    bytes.clear();
+  }
+  try {
+    BinaryReader r(bytes);
+    uint64_t magic = 0;
+    std::string key;
+    if (!bytes.empty()) r.Pod(magic);
+    if (magic == kCheckpointMagic) r.String(key);
+    if (magic == kCheckpointMagic && key == configKey) {
+      written.Transfer(r);
+      if (ReportDamagedOutputs(outDir, written.Files(), frameBegin)) {
+        written.Restore({});
+        return frameBegin;
+      }
+      int nextFrame = 0;
+      state.Transfer(r, nextFrame);
+      if (!r.AtEnd()) throw std::runtime_error("trailing bytes");
+      state.loop.RestoreScene();
+      return nextFrame;
+    }
+    if (!bytes.empty())
+      std::fprintf(stderr, "restir-sim: %s is from another configuration; starting from frame %d\n", path.c_str(),
+                   frameBegin);
+  } catch (const std::runtime_error& e) {
+    // Checkpoints are renamed into place whole, so this is outside damage: refuse rather than guess.
+    throw InputError(path + ": error: unreadable checkpoint (" + e.what() + "); delete it or run without --resume");
+  }
+  return frameBegin;
+}
+
+RunPlan PlanRun(const RunOptions& opt, const Sequence& seq) {
+  RunPlan plan;
+  plan.width = opt.width > 0 ? opt.width : seq.width;
+  plan.height = opt.height > 0 ? opt.height : seq.height;
+  plan.frameEnd = opt.frameEnd < 0 ? seq.frameCount : opt.frameEnd;
+  if (opt.frameBegin < 0 || opt.frameBegin >= plan.frameEnd || plan.frameEnd > seq.frameCount)
+    throw InputError(opt.sequencePath + ": error: frame range " + std::to_string(opt.frameBegin) + ":" +
+                     std::to_string(plan.frameEnd) + " is outside the sequence's frames 0:" +
+                     std::to_string(seq.frameCount));
+  plan.seed = opt.seed.value_or(seq.seed);
+  // The ensemble's split needs a reference, so without one the other members would be rendered for nothing.
+  plan.members = opt.reference ? std::max(1, opt.ensemble) : 1;
+  plan.presets = ResolvePresets(opt, seq);
+  if (!opt.relativeErrorPath.empty() && (plan.presets.size() != 1 || !opt.reference || opt.resume))
+    throw InputError(opt.relativeErrorPath + ": error: relative-error frames need one preset, a reference and no "
+                     "--resume");
+  plan.refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
+  plan.refParams.targetRelativeError = opt.referenceError;
+  plan.refParams.cacheDir = opt.cacheDir;
+  CheckRunMemory(opt, seq, plan.refParams, plan.width, plan.height, plan.frameEnd - opt.frameBegin,
+                 plan.presets, plan.members);
+  plan.threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
+  plan.runJson = RunJson(opt, seq, plan);
+  plan.runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
+  plan.csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
+  plan.checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
+  plan.configKey = ConfigurationKey(plan.runJson);
+  return plan;
+}
+
+bool CompleteRunIntact(const RunOptions& opt, const RunPlan& plan) {
+  std::vector<OutputFile> completeOutputs;
+  return CompleteRunExists(plan.runJsonPath, plan.configKey, completeOutputs) &&
+         !ReportDamagedOutputs(opt.outDir, completeOutputs, opt.frameBegin);
+}
+
+std::vector<PresetState> MakePresetStates(const RunPlan& plan) {
+  std::vector<PresetState> presets;
+  for (const Preset& p : plan.presets) {
+    PresetState& ps = presets.emplace_back();
+    ps.preset = p;
+    ps.sharesInitialPass = SharesInitialPass(plan.presets, presets.size() - 1);
+    for (int k = 0; k < plan.members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
+  }
+  return presets;
+}
+
+void StartFrame(RunContext& run, int frame, RunFrame& f) {
+  f.frame = frame;
+  f.recentMask = RecentDisocclusionMask(run.loop.DisocclusionAge());
+  f.restMask.assign(f.recentMask.size(), 0);
+  for (size_t i = 0; i < f.recentMask.size(); ++i) f.restMask[i] = !f.recentMask[i];
+  f.hasPrevious = frame > run.opt.frameBegin;
+  f.stateChanged = !f.hasPrevious || !SameSceneState(run.loop.State(), run.loop.PreviousState());
+  run.state.accumFrames = f.stateChanged ? 1 : run.state.accumFrames + 1;
+}
+
+void RenderFrameReference(RunContext& run, RunFrame& f) {
+  run.progress.Show(f.frame - run.opt.frameBegin, "reference");
+  f.ref = run.loop.Reference(run.plan.refParams);
+  ReferenceTally& refRendered = run.refRendered;
+  if (!f.ref.fromCache) {
+    refRendered.frames += 1;
+    refRendered.rays += f.ref.rays;
+    refRendered.samples += f.ref.samples;
+    refRendered.ms += f.ref.ms;
+  } else {
+    refRendered.cachedFrames += 1;
+  }
+}
+
+void PrepareSharedInputs(RunContext& run, RunFrame& f) {
+  // What this frame's image files read after the loop has moved on: the reference (moved into
+  // previousReference at the frame's end) and the G-buffer layers the EXR shows (the loop reuses its buffers).
+  if (run.opt.writeImages)
+    f.imageInputs =
+        SnapshotImageInputs(f.ref, run.opt.reference, run.loop.Gbuffer(), run.loop.GetSequence().contentHash);
+  // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
+  // once per preset.
+  if (run.opt.reference) f.flipReference.emplace(f.ref.mean);
+}
+
+// Each preset's frame: rendered and FLIP'd preset by preset (each of those parallel inside), then measured
+// for all presets at once (MeasurePresets), then written in preset order (KeepRows).
+void RenderPresets(RunContext& run, RunFrame& f) {
+  std::vector<PresetState>& presets = run.state.presets;
+  f.work.resize(presets.size());
+  for (size_t p = 0; p < presets.size(); ++p) {
+    PresetState& ps = presets[p];
+    PresetFrame& pf = f.work[p];
+    run.progress.Show(f.frame - run.opt.frameBegin,
+                      ps.preset.name + " (" + std::to_string(p + 1) + "/" + std::to_string(presets.size()) + ")");
+    FrameInputs inputs = run.loop.Inputs(run.plan.seed);
+    inputs.measureReservoirs = true;
+    inputs.diagnosticsRegion = &f.recentMask;
+    InitialSamplingShare* share = ps.sharesInitialPass ? &f.initialShare : nullptr;
+    inputs.initialShare = share;
+    pf.fr = ps.members[0]->RenderFrame(inputs);
+    if (run.plan.members > 1) RenderEnsemble(run, f, ps, pf, share);
+    if (run.opt.reference) pf.flipMap = HdrFlip(*f.flipReference, pf.fr.image);
+    if (run.opt.writeImages) SubmitPresetFiles(run, f, ps.preset.name, pf);
+  }
+}
+
+// A preset per task (MeasureFrame sums in pixel order, serially: the same bits whatever the thread count).
+void MeasurePresets(RunContext& run, RunFrame& f) {
+  const RunOptions& opt = run.opt;
+  const FrameLoop& loop = run.loop;
+  const ReferenceImage& ref = f.ref;
+  const int accumFrames = run.state.accumFrames;
+  const double referenceRelStdError = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
+  tbb::parallel_for(size_t{0}, run.state.presets.size(), [&](size_t p) {
+    PresetState& ps = run.state.presets[p];
+    PresetFrame& pf = f.work[p];
+    const FrameResult& fr = pf.fr;
+    if (f.stateChanged) {
+      ps.accumSum = fr.image;
+    } else {
+      for (size_t i = 0; i < fr.image.Size(); ++i) ps.accumSum.pixels[i] += fr.image.pixels[i];
+    }
+    ImageRgb accumMean(run.plan.width, run.plan.height);
+    for (size_t i = 0; i < accumMean.Size(); ++i) accumMean.pixels[i] = ps.accumSum.pixels[i] / float(accumFrames);
+
+    FrameMeasurement m;
+    m.frame = f.frame;
+    m.preset = ps.preset.name;
+    m.msSceneUpdate = loop.Timings().sceneUpdate;
+    m.msPrimary = loop.Timings().primary;
+    m.msReproject = loop.Timings().reproject;
+    m.passes = &fr.passes;
+    m.image = &fr.image;
+    m.previousImage = f.hasPrevious ? &ps.previousImage : nullptr;
+    m.guarded = fr.guardedEvents;
+    m.temporalAcceptance = fr.temporalAcceptance;
+    m.diagnostics = fr.diagnostics;
+    m.crossObjectReuse = fr.crossObjectReuse;
+    m.disoccFraction = MaskFraction(loop.Gbuffer().disoccluded);
+    m.recentFraction = MaskFraction(f.recentMask);
+    if (opt.reference) {
+      m.reference = &ref.mean;
+      m.msReference = ref.ms;
+      m.referenceCached = ref.fromCache;
+      m.referenceRelStdError = referenceRelStdError;
+      m.referenceNoise = ReferenceNoise{&ref.standardError, &ref.lumaStandardError};
+      m.previousReference = &run.state.previousReference;
+      m.flip = &pf.flipMap;
+      m.recentMask = &f.recentMask;
+      m.restMask = &f.restMask;
+      m.accumulatedMean = &accumMean;
+      m.accumFrames = accumFrames;
+      if (run.plan.members > 1) m.ensemble = &pf.ensemble;
+    }
+    pf.row = MeasureFrame(m);
+  });
+}
+
+void KeepRows(RunContext& run, RunFrame& f) {
+  for (size_t p = 0; p < run.state.presets.size(); ++p) {
+    PresetFrame& pf = f.work[p];
+    run.state.rows.push_back(std::move(pf.row));
+    if (run.relativeErrors) {
+      std::vector<float> e;
+      AppendRelativeError(pf.fr.image, f.ref.mean, e);
+      run.relativeErrors->Write(EncodeRelativeErrorFrame(e));
+    }
+    run.state.presets[p].previousImage = std::move(pf.fr.image);
+  }
+}
+
+// The CSV is rewritten whole after every frame: it is always complete up to the last finished frame. It may
+// lead the frame files by the jobs the writer holds (a failed one is reported here or at the next Submit);
+// the checkpoint never does.
+void WriteMetricsCsv(RunContext& run) {
+  if (run.imageWriter) run.imageWriter->Check();
+  WriteFileAtomic(run.plan.csvPath, MetricsCsv(run.state.rows));
+}
+
+void CheckpointIfDue(RunContext& run, int frame, CheckpointClock& clock) {
+  if (!clock.written || run.opt.checkpointSeconds <= 0.0 ||
+      std::chrono::duration<double>(Clock::now() - clock.last).count() >= run.opt.checkpointSeconds) {
+    if (run.imageWriter) run.imageWriter->Drain();  // a resume starts after this frame: its images must be on disk
+    SaveCheckpoint(run.plan.checkpointPath, run.plan.configKey, run.written, run.state, frame + 1);
+    clock.last = Clock::now();
+    clock.written = true;
+  }
+}
+
+void FinishRun(RunContext& run, Clock::time_point start, RunResult& result) {
+  const RunOptions& opt = run.opt;
+  if (run.imageWriter) run.imageWriter->Drain();
+  run.progress.Finish();
+  result.wallSeconds = std::chrono::duration<double>(Clock::now() - start).count();
+  std::error_code ec;
+  std::filesystem::remove(run.plan.checkpointPath, ec);  // a finished run needs no checkpoint
+  nlohmann::json& runJson = run.plan.runJson;
+  runJson["status"] = "complete";
+  runJson["wallSeconds"] = result.wallSeconds;
+  if (opt.writeImages) runJson["outputs"] = OutputFilesJson(run.written.Files());
+  if (opt.reference)
+    runJson["referenceThroughput"] =
+        ReferenceThroughputJson(run.refRendered, run.plan.width, run.plan.height);
+  if (run.relativeErrors) run.relativeErrors->Commit();
+  WriteFileAtomic(run.plan.runJsonPath, runJson.dump(2) + "\n");
+  if (opt.report) WriteReport(opt.outDir);
+}
+
+}  // namespace run_stages
+
+RunResult Run(const RunOptions& opt) {
+  using namespace run_stages;
+  const auto tRun = Clock::now();
+  const Sequence seq = LoadSequence(opt.sequencePath);
+  RunPlan plan = PlanRun(opt, seq);
   RunResult result;
   // Resuming a finished run has nothing to do, and must not start it again beside its own summary.
   // Unless a file it wrote has gone or changed since: then it renders again to write it.
-  std::vector<OutputFile> completeOutputs;
-  if (opt.resume && CompleteRunExists(runJsonPath, configKey, completeOutputs) &&
-      !ReportDamagedOutputs(opt.outDir, completeOutputs, opt.frameBegin)) {
+  if (opt.resume && CompleteRunIntact(opt, plan)) {
     result.alreadyComplete = true;
     return result;
   }
@@ -446,224 +640,61 @@ RunResult Run(const RunOptions& opt) {
     cacheTemporaries.emplace(opt.cacheDir);
     CheckWritableDirectory(opt.cacheDir, "reference cache directory");
   }
-  tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
-  if (opt.writeImages) SetExrThreads(threads);
-  WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
+  tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism,
+                                  static_cast<size_t>(plan.threads));
+  if (opt.writeImages) SetExrThreads(plan.threads);
+  WriteFileAtomic(plan.runJsonPath, plan.runJson.dump(2) + "\n");
 
   // opt.relativeErrorPath, written frame by frame (a long run's would not fit in memory twice).
   std::optional<AtomicFileWriter> relativeErrors;
   if (!opt.relativeErrorPath.empty()) {
     relativeErrors.emplace(opt.relativeErrorPath);
-    relativeErrors->Write(EncodeRelativeErrorHeader(width, height, frameEnd - opt.frameBegin));
+    relativeErrors->Write(EncodeRelativeErrorHeader(plan.width, plan.height, plan.frameEnd - opt.frameBegin));
   }
-  std::vector<PresetState> presets;
-  for (const Preset& p : resolved) {
-    PresetState& ps = presets.emplace_back();
-    ps.preset = p;
-    ps.sharesInitialPass = SharesInitialPass(resolved, presets.size() - 1);
-    for (int k = 0; k < members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
-  }
-  FrameLoop loop(seq, width, height);
+  std::vector<PresetState> presets = MakePresetStates(plan);
+  FrameLoop loop(seq, plan.width, plan.height);
   ImageRgb previousReference;
   int accumFrames = 0;
   RunState state{loop, presets, previousReference, accumFrames, result.rows};
-  const std::string checkpointPath = (std::filesystem::path(opt.outDir) / "checkpoint.bin").string();
   // Declared before the image writer, whose jobs record into it.
   OutputManifest written(opt.outDir);
   const int firstFrame =
-      opt.resume ? LoadCheckpoint(checkpointPath, configKey, opt.outDir, written, state, opt.frameBegin)
+      opt.resume ? LoadCheckpoint(plan.checkpointPath, plan.configKey, opt.outDir, written, state, opt.frameBegin)
                  : opt.frameBegin;
   if (firstFrame > opt.frameBegin) result.resumedAtFrame = firstFrame;
-  ProgressBar progress(opt.progress, seq.name, frameEnd - opt.frameBegin);
-  struct {
-    int frames = 0, cachedFrames = 0;
-    uint64_t rays = 0, samples = 0;
-    double ms = 0.0;
-  } refRendered;  // the references this run rendered (not read from the cache), for run.json
-
-  auto lastCheckpoint = Clock::now();
-  bool checkpointWritten = false;
+  ProgressBar progress(opt.progress, seq.name, plan.frameEnd - opt.frameBegin);
+  ReferenceTally refRendered;  // the references this run rendered (not read from the cache), for run.json
+  CheckpointClock checkpoints;
   // Frame images are encoded and written on a thread of their own while the next preset renders. Declared after
   // outputTemporaries, so it stops (and its temporaries are cleaned) before them; drained wherever the files must
   // exist: before a checkpoint (it says the frames before it are done) and at the end.
   std::optional<BackgroundWriter> imageWriter;
   if (opt.writeImages) imageWriter.emplace(size_t{kImageJobsWaiting});  // sim/run/memory_estimate.h
-  for (int frame = firstFrame; frame < frameEnd; ++frame) {
-    loop.BeginFrame(frame);
-    const FrameState& frameState = loop.State();
-    const GBuffer& current = loop.Gbuffer();
-    const std::vector<uint8_t> recentMask = RecentDisocclusionMask(loop.DisocclusionAge());
-    std::vector<uint8_t> restMask(recentMask.size());  // the complement: pixels not revealed in the last 4 frames
-    for (size_t i = 0; i < recentMask.size(); ++i) restMask[i] = !recentMask[i];
-    const bool hasPrevious = frame > opt.frameBegin;  // true after a resume too: the checkpoint restored it
-    const bool stateChanged = !hasPrevious || !SameSceneState(frameState, loop.PreviousState());
-    accumFrames = stateChanged ? 1 : accumFrames + 1;
-    ReferenceImage ref;
-    if (opt.reference) {
-      progress.Show(frame - opt.frameBegin, "reference");
-      ref = RenderReference(seq, frameState, loop.Scene(), current, refParams);
-      if (!ref.fromCache) {
-        refRendered.frames += 1;
-        refRendered.rays += ref.rays;
-        refRendered.samples += ref.samples;
-        refRendered.ms += ref.ms;
-      } else {
-        refRendered.cachedFrames += 1;
-      }
-    }
-
-    // What this frame's image files read after the loop has moved on: the reference (moved into previousReference
-    // at the frame's end) and the G-buffer layers the EXR shows (the loop reuses its buffers).
-    std::shared_ptr<const FrameImageInputs> imageInputs;
-    if (opt.writeImages) imageInputs = SnapshotImageInputs(ref, opt.reference, current, seq.contentHash);
-
-    // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
-    // once per preset.
-    std::optional<FlipReference> flipReference;
-    if (opt.reference) flipReference.emplace(ref.mean);
-
-    // Presets with equal initial-sampling parameters run the frame's initial pass once (sim/estimator/pipeline.h).
-    InitialSamplingShare initialShare;
-    // Each preset's frame: rendered and FLIP'd preset by preset (each of those parallel inside), then measured for
-    // all presets at once, a preset per task (MeasureFrame sums in pixel order, serially: the same bits whatever
-    // the thread count), then written in preset order.
-    std::vector<PresetFrame> work(presets.size());
-    for (size_t p = 0; p < presets.size(); ++p) {
-      PresetState& ps = presets[p];
-      PresetFrame& pf = work[p];
-      progress.Show(frame - opt.frameBegin,
-                    ps.preset.name + " (" + std::to_string(p + 1) + "/" + std::to_string(presets.size()) + ")");
-      FrameInputs inputs = loop.Inputs(seed);
-      inputs.measureReservoirs = true;
-      inputs.diagnosticsRegion = &recentMask;
-      InitialSamplingShare* share = ps.sharesInitialPass ? &initialShare : nullptr;
-      inputs.initialShare = share;
-      pf.fr = ps.members[0]->RenderFrame(inputs);
-      // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
-      if (members > 1) {
-        std::vector<ImageRgb> images;
-        images.push_back(pf.fr.image);
-        for (int k = 1; k < members; ++k) {
-          FrameInputs memberInputs = loop.Inputs(seed + static_cast<uint32_t>(k));
-          memberInputs.initialShare = share;
-          images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
-        }
-        pf.ensemble = MeasureEnsemble(images, ref.mean, ref.standardError, pf.ensembleBias, pf.ensembleVariance);
-      }
-      if (opt.reference) pf.flipMap = HdrFlip(*flipReference, pf.fr.image);
-      if (opt.writeImages) {
-        char name[32];
-        std::snprintf(name, sizeof(name), "%04d", frame);
-        const auto stem = std::filesystem::path(opt.outDir) / "frames" / ps.preset.name / name;
-        // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as the metrics
-        // below read them; the ensemble images moved) and the frame's shared inputs. Submitted now, so the writer
-        // works while the next preset renders.
-        auto images = std::make_shared<const PresetImages>(PresetImages{
-            pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
-        const std::string relative = "frames/" + ps.preset.name + "/" + name;
-        imageWriter->Submit([stem, relative, images, frameInputs = imageInputs, compression = opt.exrCompression,
-                             &written] {
-          WritePresetFiles(stem.string(), *images, *frameInputs, compression);
-          for (const char* extension : {".exr", ".png"}) written.Record(relative + extension);
-        });
-      }
-    }
-    const double referenceRelStdError = opt.reference ? MeanRelativeStandardError(ref) : 0.0;
-    tbb::parallel_for(size_t{0}, presets.size(), [&](size_t p) {
-      PresetState& ps = presets[p];
-      PresetFrame& pf = work[p];
-      const FrameResult& fr = pf.fr;
-      if (stateChanged) {
-        ps.accumSum = fr.image;
-      } else {
-        for (size_t i = 0; i < fr.image.Size(); ++i) ps.accumSum.pixels[i] += fr.image.pixels[i];
-      }
-      ImageRgb accumMean(width, height);
-      for (size_t i = 0; i < accumMean.Size(); ++i) accumMean.pixels[i] = ps.accumSum.pixels[i] / float(accumFrames);
-
-      FrameMeasurement m;
-      m.frame = frame;
-      m.preset = ps.preset.name;
-      m.msSceneUpdate = loop.Timings().sceneUpdate;
-      m.msPrimary = loop.Timings().primary;
-      m.msReproject = loop.Timings().reproject;
-      m.passes = &fr.passes;
-      m.image = &fr.image;
-      m.previousImage = hasPrevious ? &ps.previousImage : nullptr;
-      m.guarded = fr.guardedEvents;
-      m.temporalAcceptance = fr.temporalAcceptance;
-      m.diagnostics = fr.diagnostics;
-      m.crossObjectReuse = fr.crossObjectReuse;
-      m.disoccFraction = MaskFraction(current.disoccluded);
-      m.recentFraction = MaskFraction(recentMask);
-      if (opt.reference) {
-        m.reference = &ref.mean;
-        m.msReference = ref.ms;
-        m.referenceCached = ref.fromCache;
-        m.referenceRelStdError = referenceRelStdError;
-        m.referenceNoise = ReferenceNoise{&ref.standardError, &ref.lumaStandardError};
-        m.previousReference = &previousReference;
-        m.flip = &pf.flipMap;
-        m.recentMask = &recentMask;
-        m.restMask = &restMask;
-        m.accumulatedMean = &accumMean;
-        m.accumFrames = accumFrames;
-        if (members > 1) m.ensemble = &pf.ensemble;
-      }
-      pf.row = MeasureFrame(m);
-    });
-    for (size_t p = 0; p < presets.size(); ++p) {
-      PresetFrame& pf = work[p];
-      result.rows.push_back(std::move(pf.row));
-      if (relativeErrors) {
-        std::vector<float> e;
-        AppendRelativeError(pf.fr.image, ref.mean, e);
-        relativeErrors->Write(EncodeRelativeErrorFrame(e));
-      }
-      presets[p].previousImage = std::move(pf.fr.image);
-    }
-    // The CSV is rewritten whole after every frame: it is always complete up to the last finished frame. It may
-    // lead the frame files by the jobs the writer holds (a failed one is reported here or at the next Submit);
-    // the checkpoint never does.
-    if (imageWriter) imageWriter->Check();
-    WriteFileAtomic(csvPath, MetricsCsv(result.rows));
-    loop.EndFrame();
-    if (opt.reference) previousReference = std::move(ref.mean);
-    if (!checkpointWritten || opt.checkpointSeconds <= 0.0 ||
-        std::chrono::duration<double>(Clock::now() - lastCheckpoint).count() >= opt.checkpointSeconds) {
-      if (imageWriter) imageWriter->Drain();  // a resume starts after this frame: its images must be on disk
-      SaveCheckpoint(checkpointPath, configKey, written, state, frame + 1);
-      lastCheckpoint = Clock::now();
-      checkpointWritten = true;
-    }
-    progress.FrameDone();
-    progress.Show(frame - opt.frameBegin + 1, "done");
-  }
-  if (imageWriter) imageWriter->Drain();
-  progress.Finish();
-  result.wallSeconds = std::chrono::duration<double>(Clock::now() - tRun).count();
-  std::error_code ec;
-  std::filesystem::remove(checkpointPath, ec);  // a finished run needs no checkpoint
-  runJson["status"] = "complete";
-  runJson["wallSeconds"] = result.wallSeconds;
-  if (opt.writeImages) runJson["outputs"] = OutputFilesJson(written.Files());
-  if (opt.reference) {
-    // What the reference cost where it was rendered: its rays (shadow rays and, on glossy pixels, BSDF rays)
-    // per second of its wall time, to set beside the ray floor of docs/performance.md.
-    runJson["referenceThroughput"] = {
-        {"framesRendered", refRendered.frames},
-        {"framesFromCache", refRendered.cachedFrames},
-        {"rays", refRendered.rays},
-        {"samples", refRendered.samples},
-        {"seconds", refRendered.ms / 1000.0},
-        {"raysPerSecond", refRendered.ms > 0.0 ? double(refRendered.rays) / (refRendered.ms / 1000.0) : 0.0},
-        {"samplesPerPixel", refRendered.frames > 0 ? double(refRendered.samples) / (double(width) * height *
-                                                                                   refRendered.frames)
-                                                   : 0.0}};
-  }
-  if (relativeErrors) relativeErrors->Commit();
-  WriteFileAtomic(runJsonPath, runJson.dump(2) + "\n");
-  if (opt.report) WriteReport(opt.outDir);
+  RunContext run{opt, plan, loop, state, progress, refRendered, written, imageWriter ? &*imageWriter : nullptr,
+                 relativeErrors ? &*relativeErrors : nullptr};
+  // The frame in flight: what its stages hand each other, kept until its checkpoint is written (the memory
+  // estimate counts the frame's inputs beside the checkpoint, sim/run/memory_estimate.cpp).
+  std::optional<RunFrame> current;
+  loop.Play(
+      firstFrame, plan.frameEnd,
+      [&](int frame) {
+        RunFrame& f = current.emplace();
+        StartFrame(run, frame, f);
+        if (opt.reference) RenderFrameReference(run, f);
+        PrepareSharedInputs(run, f);
+        RenderPresets(run, f);
+        MeasurePresets(run, f);
+        KeepRows(run, f);
+        WriteMetricsCsv(run);
+      },
+      [&](int frame) {  // the frame is now the loop's previous one: what a checkpoint saves
+        if (opt.reference) previousReference = std::move(current->ref.mean);
+        CheckpointIfDue(run, frame, checkpoints);
+        progress.FrameDone();
+        progress.Show(frame - opt.frameBegin + 1, "done");
+        current.reset();
+      });
+  FinishRun(run, tRun, result);
   return result;
 }
 

@@ -124,8 +124,7 @@ CaseOutcome RunCase(const std::string& file, int seeds) {
     out.referenceVariance += double(stretchFrames) * stretchFrames * stretchVar;
     stretchFrames = 0;
   };
-  for (int f = 0; f < out.frames; ++f) {
-    d.BeginFrame(f);
+  d.Play(0, out.frames, [&](int f) {
     const GBuffer& g = d.Gbuffer();
     const FrameState& st = d.State();
     const bool same = f > 0 && st.camera.position == refState.camera.position &&
@@ -165,8 +164,7 @@ CaseOutcome RunCase(const std::string& file, int seeds) {
         po.maxRelmse = std::isfinite(m.relmse) ? std::max(po.maxRelmse, m.relmse) : INFINITY;
       }
     }
-    d.EndFrame();
-  }
+  });
   flushStretch();
   out.referenceFrameVariance = stretchVar;  // of the last stretch (long_static: its only one)
   for (auto& [name, po] : out.presets)

@@ -158,8 +158,7 @@ const OccludedRuns& GetOccludedRuns() {
     }
     const double averaged = kOccFrames - kOccFirstAveraged;
     FrameLoop d(seq, kOccW, kOccH);
-    for (int f = 0; f < kOccFrames; ++f) {
-      d.BeginFrame(f);
+    d.Play(0, kOccFrames, [&](int f) {
       for (size_t c = 0; c < configs.size(); ++c) {
         ConfigRuns& cr = r.runs[configs[c].first];
         for (int s = 0; s < kOccSeeds; ++s) {
@@ -176,8 +175,7 @@ const OccludedRuns& GetOccludedRuns() {
         r.ref = d.Reference(kOccRefSpp);
         r.gbuffer = d.Gbuffer();
       }
-      d.EndFrame();
-    }
+    });
     return r;
   }();
   return result;
@@ -303,8 +301,7 @@ TEST(Pipeline, UnbiasedRightAfterDisocclusion) {
   }
   FrameLoop d(seq, kW, kH);
   double disoccluded = 0.0;
-  for (int f = 0; f < kFrames; ++f) {
-    d.BeginFrame(f);
+  d.Play(0, kFrames, [&](int f) {
     for (size_t c = 0; c < names.size(); ++c)
       for (int s = 0; s < kSeeds; ++s) {
         const FrameResult fr = d.Render(*pipelines[c][s], 500u + 7u * static_cast<uint32_t>(s));
@@ -316,8 +313,7 @@ TEST(Pipeline, UnbiasedRightAfterDisocclusion) {
       r.gbuffer = d.Gbuffer();
       disoccluded = MaskFraction(d.Gbuffer().disoccluded);
     }
-    d.EndFrame();
-  }
+  });
   EXPECT_GT(disoccluded, 0.02);  // the test is about a disocclusion: a visible part of the frame is revealed
   for (const std::string& name : names) {
     const ChiSquareOutcome o = ChiSquareAgainstReference(r, r.runs.at(name), 4, kSeeds);
@@ -369,8 +365,7 @@ TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
   constexpr int kW = 160, kH = 90, kFrames = 6;
   FrameLoop d(seq, kW, kH);
   Pipeline pipeline(PresetSettings("restir-unbiased"));
-  for (int f = 0; f < kFrames; ++f) {
-    d.BeginFrame(f);
+  d.Play(0, kFrames, [&](int f) {
     const FrameResult fr = d.Render(pipeline, seq.seed);
     const GBuffer& g = d.Gbuffer();
     size_t surfaces = 0, accepted = 0, disoccluded = 0, both = 0;
@@ -395,8 +390,7 @@ TEST(Pipeline, TemporalAcceptancePlusDisocclusionCoversEveryPixel) {
       EXPECT_GT(dis, 0.0) << "frame " << f << ": the pan reveals pixels every frame";
       EXPECT_GT(acc, 0.5) << "frame " << f;
     }
-    d.EndFrame();
-  }
+  });
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -425,8 +419,7 @@ TEST(Pipeline, NoGhostingAfterOccluderMoves) {
   FrameLoop d(seq, kW, kH);
   ReferenceImage ref;
   double lumaBefore = 0.0, lumaAfter = 0.0;
-  for (int f = 0; f < kFrames; ++f) {
-    d.BeginFrame(f);
+  d.Play(0, kFrames, [&](int f) {
     if (f == 0 || f == kMove) {
       ref = d.Reference(1024);
       double total = 0.0;
@@ -442,8 +435,7 @@ TEST(Pipeline, NoGhostingAfterOccluderMoves) {
         if (f == kMove - 1) beforeMove[p].push_back(std::move(fr.image));
       }
     }
-    d.EndFrame();
-  }
+  });
   std::printf("reference total luma before the move %.2f, after %.2f\n", lumaBefore, lumaAfter);
   EXPECT_GT(lumaAfter, 1.05 * lumaBefore);
   for (size_t p = 0; p < presets.size(); ++p) {
@@ -484,11 +476,9 @@ TEST(Pipeline, ThreadCountDoesNotChangeBits) {
     for (const Preset& p : AllPresets()) pipelines.push_back(std::make_unique<Pipeline>(p.settings));
     hashes.resize(pipelines.size());
     FrameLoop d(seq, kW, kH);
-    for (int f = 8; f <= 10; ++f) {
-      d.BeginFrame(f);
+    d.Play(8, 11, [&](int f) {
       for (size_t p = 0; p < pipelines.size(); ++p) hashes[p].push_back(HashImage(d.Render(*pipelines[p], 42).image));
-      d.EndFrame();
-    }
+    });
     return hashes;
   };
   const auto one = run(1), two = run(2);
@@ -518,8 +508,7 @@ void ExpectSharedInitialPassChangesNothing(const Sequence& seq, int w, int h, in
   FrameLoop loop(seq, w, h);
   std::vector<uint8_t> region(size_t(w) * h, 0);
   for (size_t i = 0; i < region.size(); i += 3) region[i] = 1;
-  for (int f = firstFrame; f < firstFrame + frames; ++f) {
-    loop.BeginFrame(f);
+  loop.Play(firstFrame, firstFrame + frames, [&](int f) {
     InitialSamplingShare share;
     for (size_t i = 0; i < alone.size(); ++i) {
       const std::string what = AllPresets()[i / seeds.size()].name + " seed " +
@@ -557,8 +546,7 @@ void ExpectSharedInitialPassChangesNothing(const Sequence& seq, int w, int h, in
         configs.push_back(p.settings.initial);
     EXPECT_EQ(configs.size(), 3u);
     EXPECT_EQ(share.Entries(), configs.size() * seeds.size()) << "frame " << f;
-    loop.EndFrame();
-  }
+  });
 }
 
 TEST(Pipeline, SharedInitialPassGivesEveryPresetItsOwnBits) {
@@ -602,8 +590,7 @@ TEST(Pipeline, LightSwitchedOffInvalidatesSamples) {
     if (!preset.settings.temporal.enabled) continue;
     FrameLoop d(seq, kW, kH);
     Pipeline pipeline(preset.settings);
-    for (int f = 0; f <= 4; ++f) {
-      d.BeginFrame(f);
+    d.Play(0, 5, [&](int f) {
       const FrameResult fr = d.Render(pipeline, 9);
       double total = 0.0, maxValue = 0.0;
       for (const Vec3& c : fr.image.pixels) {
@@ -618,8 +605,7 @@ TEST(Pipeline, LightSwitchedOffInvalidatesSamples) {
       } else {
         EXPECT_EQ(maxValue, 0.0) << preset.name << " frame " << f << ": a switched-off light still lights";
       }
-      d.EndFrame();
-    }
+    });
   }
 }
 

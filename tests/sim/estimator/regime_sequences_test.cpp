@@ -63,11 +63,9 @@ TEST_P(RegimeSequences, ContributingFractionIsInTheRegime) {
   Pipeline ris(FindPreset("ris")->settings);
   constexpr int kFrames = 3;
   double shaded = 0.0;
-  for (int frame = c.firstFrame; frame < c.firstFrame + kFrames; ++frame) {
-    loop.BeginFrame(frame);
+  loop.Play(c.firstFrame, c.firstFrame + kFrames, [&](int frame) {
     shaded += loop.Render(ris, seq.seed).diagnostics.contributingShaded / kFrames;
-    loop.EndFrame();
-  }
+  });
   std::printf("[ %s ] ris contributingShaded %.4f at %dx%d, frames %d-%d\n", c.name, shaded, kWidth, kHeight,
               c.firstFrame, c.firstFrame + kFrames - 1);
   EXPECT_GE(shaded, c.minShaded) << c.name;
@@ -95,8 +93,7 @@ TEST(RegimeSequences, SlidingRevealUncoversARegionFarWiderThanTheSpatialRadius) 
   FrameLoop loop(seq, kWidth, kHeight);
   double before = 1.0, peak = 0.0;
   int widestRun = 0;
-  for (int frame = 12; frame <= 28; ++frame) {
-    loop.BeginFrame(frame);
+  loop.Play(12, 29, [&](int frame) {
     const std::vector<uint8_t> recent = RecentDisocclusionMask(loop.DisocclusionAge());
     const double share = double(std::count(recent.begin(), recent.end(), 1)) / double(recent.size());
     if (frame == 16) before = share;  // the door has not moved yet
@@ -106,8 +103,7 @@ TEST(RegimeSequences, SlidingRevealUncoversARegionFarWiderThanTheSpatialRadius) 
       run = recent[size_t(kHeight / 2) * kWidth + x] ? run + 1 : 0;
       widestRun = std::max(widestRun, run);
     }
-    loop.EndFrame();
-  }
+  });
   const float radius = FindPreset("restir-unbiased")->settings.spatial.radius;
   const double runAt640 = widestRun * 640.0 / kWidth;
   std::printf(

@@ -136,12 +136,10 @@ TEST(ReservoirDiagnostics, FramesReportAgesSpreadAndDuplicationThePresetsImply) 
   FrameLoop loop(seq, 96, 54);
   Pipeline ris(FindPreset("ris")->settings), temporal(FindPreset("temporal")->settings),
       unbiased(FindPreset("restir-unbiased")->settings);
-  for (int frame = 0; frame < 4; ++frame) {
-    loop.BeginFrame(frame);
+  loop.Play(0, 4, [&](int frame) {
     FrameInputs in = loop.Inputs(seq.seed);
     in.measureReservoirs = true;
     const FrameResult a = ris.RenderFrame(in), b = temporal.RenderFrame(in), c = unbiased.RenderFrame(in);
-    loop.EndFrame();
     // ris: fresh samples every frame, confidence 1 everywhere, no pass after initial sampling.
     EXPECT_EQ(a.diagnostics.ageMean, 0.0);
     EXPECT_EQ(a.diagnostics.confidenceSd, 0.0);
@@ -164,7 +162,7 @@ TEST(ReservoirDiagnostics, FramesReportAgesSpreadAndDuplicationThePresetsImply) 
       // A shaded contribution needs a sample its target accepted: visibility only removes.
       EXPECT_LE(d.contributingShaded, d.contributingSpatial + 1e-12);
     }
-  }
+  });
 }
 
 }  // namespace

@@ -343,15 +343,13 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
     // One pipeline per seed: each keeps its own history across the frames.
     std::vector<Pipeline> pipelines(kSeeds, Pipeline(settings));
     GBuffer gbuffer;
-    for (int frame = 0; frame < kFrames; ++frame) {
-      driver.BeginFrame(frame);
+    driver.Play(0, kFrames, [&](int frame) {
       gbuffer = driver.Gbuffer();
       for (int s = 0; s < kSeeds; ++s) {
         const FrameResult fr = driver.Render(pipelines[s], 7000u + static_cast<uint32_t>(s));
         for (size_t i = 0; i < fr.image.pixels.size(); ++i) seedSums[s][i] += fr.image.pixels[i].x;
       }
-      driver.EndFrame();
-    }
+    });
     for (int s = 0; s < kSeeds; ++s)
       for (size_t i = 0; i < stats.size(); ++i) stats[i].Add(seedSums[s][i] / kFrames);
     std::vector<double> value(stats.size()), stdError(stats.size());

@@ -194,14 +194,12 @@ TEST_F(SimdDeterminism, EmbreeIsasChangeAtMostAFewGrazingPixels) {
       for (const Preset& p : AllPresets()) {
         FrameLoop loop(seq, sc.width, sc.height);
         Pipeline pipeline(p.settings);
-        for (int frame = 0; frame < 2; ++frame) {
-          loop.BeginFrame(frame);
+        loop.Play(0, 2, [&](int frame) {
           const ImageRgb image = loop.Render(pipeline, seq.seed).image;
-          loop.EndFrame();
           const std::string key = std::string(sc.path) + ":" + p.name + ":" + std::to_string(frame);
           if (isa == EmbreeIsa::kSse42) {
             first[key] = image;
-            continue;
+            return;
           }
           size_t d = 0;
           for (size_t i = 0; i < image.Size(); ++i)
@@ -209,7 +207,7 @@ TEST_F(SimdDeterminism, EmbreeIsasChangeAtMostAFewGrazingPixels) {
           pixels += image.Size();
           differing += d;
           EXPECT_LE(double(d), 0.0005 * double(image.Size())) << key << " on " << EmbreeIsaName(isa);
-        }
+        });
       }
     }
   }
