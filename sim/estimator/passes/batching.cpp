@@ -188,6 +188,18 @@ void RequestFamilyTargets(Combination& c, MisFamily family, VisibilityCarry carr
   GrisCombine(family, c.inputs, c.count, record, c.u, carry);
 }
 
+void CombineFamilyBatch(BatchScratch& sc, const int* order, int count, MisFamily family, VisibilityCarry carry,
+                        uint64_t& rays) {
+  std::vector<Combination>& combos = sc.combinations;
+  TargetEvaluator& ev = sc.evaluator;
+  for (int k = 0; k < count; ++k) RequestCanonicalTargets(combos[order ? order[k] : k], ev);
+  ev.Resolve(rays);
+  for (int k = 0; k < count; ++k) RequestFamilyTargets(combos[order ? order[k] : k], family, carry, ev);
+  ev.Resolve(rays);
+  sc.combine.Fill(combos.data(), order, count, true);
+  sc.combine.Combine(family, carry);
+}
+
 // ---- CombineBatch
 
 void CombineBatch::Fill(const Combination* combos, const int* order, int count, bool matrix) {

@@ -279,6 +279,12 @@ struct BatchScratch {
   CombineBatch combine;
 };
 
+// The deterministic-family combination of a batch, as the temporal and k-neighbour passes run it: the canonical
+// targets, then the entries the family reads (RequestFamilyTargets), each round resolved as one batch, then the
+// GRIS kernel over sc.combinations[order[0..count)] (order null: [0..count)). `rays` counts the shadow rays.
+void CombineFamilyBatch(BatchScratch& sc, const int* order, int count, MisFamily family, VisibilityCarry carry,
+                        uint64_t& rays);
+
 // A reuse pass's statistics from its per-thread counters and scratch (Scratch: BatchScratch or a derived one).
 template <typename Scratch>
 void FinishReusePass(const char* name, Clock::time_point start, tbb::combinable<uint64_t>& rays,

@@ -103,8 +103,8 @@ Reservoir SampleCandidateSources(const FrameView& view, const LightSampler& ligh
     if (!(bs.pdf > 0.0f) || !(glm::dot(sp.geometricNormal, bs.wi) > 0.0f)) continue;
     const float maxDistance = BrdfRayMaxDistance(brdfCutoff, bs.pdf);
     ++rays;
-    const SurfaceHit hit =
-        view.scene->Intersect(OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi), bs.wi, maxDistance);
+    const Vec3 origin = OffsetRayOrigin(sp.position, sp.geometricNormal, sp.errorScale, bs.wi);
+    const SurfaceHit hit = view.scene->Intersect(origin, bs.wi, maxDistance);
     if (hit.hit) {
       // An emitter seen from its front is a point on a local light; anything else hides what lies beyond.
       if (hit.lightId < 0 || !hit.frontFace) continue;

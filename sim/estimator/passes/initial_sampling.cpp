@@ -1,9 +1,11 @@
 #include "sim/estimator/passes/initial_sampling.h"
 
 #include <tbb/combinable.h>
-
-#include <optional>
 #include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <optional>
+#include <vector>
 
 #include "core/ris_kernel.h"
 #include "core/rng.h"
@@ -14,8 +16,10 @@
 
 namespace restir {
 
+namespace {
+
 // The effective counts of a frame: a source with nothing to sample draws nothing (core/candidates.h).
-static CandidateCounts EffectiveCounts(const InitialSamplingParams& params, const FrameView& view) {
+CandidateCounts EffectiveCounts(const InitialSamplingParams& params, const FrameView& view) {
   CandidateCounts m;
   m.local = view.lights->Empty() ? 0 : params.candidates;
   m.sun = view.sky.hasSun ? params.sunCandidates : 0;
@@ -24,50 +28,43 @@ static CandidateCounts EffectiveCounts(const InitialSamplingParams& params, cons
   return m;
 }
 
+// What every row of the pass reads, decided once per frame.
+struct InitialFrame {
+  const InitialSamplingParams& params;
+  const FrameView& view;
+  const LightSampler& sampler;  // the lights the kernel and the other sources select from
+  RisParams risParams;          // the RIS kernel's RNG key and candidate count
+  CandidateCounts counts;       // the frame's effective counts per source
+  bool mixed;                   // sources beyond local lights: the reservoir combines them (candidate_sources.cpp)
+  bool runKernel;               // local lights to stream: the kernel runs in every configuration
+  float confidence;             // an initial reservoir's confidence
+};
 
-void InitialSampling(const InitialSamplingParams& params, const FrameView& view, ReservoirBuffer& out,
-                     PassStats& stats) {
-  const auto t0 = Clock::now();
-  const GBuffer& g = *view.gbuffer;
-  const int w = g.width, h = g.height;
-  out.assign(g.Size(), StoredReservoir{});
-  const std::vector<LightTriangle>& lights = view.Lights();
-  const RisParams risParams{view.seed, view.frame, static_cast<uint32_t>(RngPass::kInitial), params.candidates};
-  // The frame's sampler selects lights by power; a uniform selection gets its own sampler (a pass over the lights).
-  std::optional<LightSampler> uniformLights;
-  if (params.lightSelection == LightSelection::kUniform) uniformLights.emplace(lights, LightSelection::kUniform);
-  const LightSampler& sampler = uniformLights ? *uniformLights : *view.lights;
-  const bool haveLights = !sampler.Empty();
-  const CandidateCounts counts = EffectiveCounts(params, view);
-  const bool mixed = NeedsCandidateSources(counts);
-  // The kernel streams the local candidates in every configuration; with other sources its reservoir is one input
-  // of their combination (sim/estimator/passes/candidate_sources.cpp).
-  const bool runKernel = haveLights;
-  const float confidence = params.countCandidates ? static_cast<float>(mixed ? counts.Total() : params.candidates)
-                                                  : 1.0f;
-  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
-  tbb::combinable<uint64_t> risPixels([] { return uint64_t{0}; });
-  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
-  tbb::enumerable_thread_specific<ShadowRayBatch> shadowRayBatches;
-  // The RIS itself runs in the SIMD kernel a row at a time, on the target core/simd.h selects; every target gives
-  // the same bits.
-  ForEachRow(h, [&](int y) {
-    const size_t rowStart = static_cast<size_t>(y) * w;
-    const size_t rw = static_cast<size_t>(w);
-    // Row inputs the G-buffer does not hold as arrays: wo and the surface mask.
-    std::vector<float> woRow[3];
-    for (auto& v : woRow) v.resize(rw);
-    std::vector<uint8_t> activeRow(rw, 0);
-    for (size_t x = 0; x < rw; ++x) {
+// A row's inputs of the RIS kernel that the G-buffer does not hold as arrays (wo and the surface mask), and the
+// kernel's outputs, one entry per pixel.
+struct RisRow {
+  explicit RisRow(size_t width) : active(width, 0), lightId(width) {
+    for (auto& v : wo) v.resize(width);
+    for (auto& v : out) v.resize(width);
+  }
+  std::vector<float> wo[3];
+  std::vector<uint8_t> active;   // a surface in a frame with something to sample
+  std::vector<int32_t> lightId;  // RisOutput::lightId
+  std::vector<float> out[12];    // RisOutput's position, normal, radiance (3 each), pdfArea, weightSum, targetPdf
+
+  // The row's wo and surface mask.
+  void Gather(const FrameView& view, size_t rowStart) {
+    const GBuffer& g = *view.gbuffer;
+    for (size_t x = 0; x < active.size(); ++x) {
       const size_t i = rowStart + x;
       if (!g.IsSurface(i) || !view.HasLight()) continue;
-      activeRow[x] = 1;
-      const Vec3 wo = ViewDirection(view.eye, g.Position(i));
-      for (int c = 0; c < 3; ++c) woRow[c][x] = wo[c];
+      active[x] = 1;
+      const Vec3 w = ViewDirection(view.eye, g.Position(i));
+      for (int c = 0; c < 3; ++c) wo[c][x] = w[c];
     }
-    std::vector<int32_t> outId(rw);
-    std::vector<float> outF[12];
-    for (auto& v : outF) v.resize(rw);
+  }
+  // The kernel's inputs: the G-buffer's arrays from rowStart, and the row's own.
+  RisPixels Pixels(const GBuffer& g, size_t rowStart) const {
     RisPixels px;
     px.position[0] = g.posX.data() + rowStart, px.position[1] = g.posY.data() + rowStart;
     px.position[2] = g.posZ.data() + rowStart;
@@ -75,71 +72,127 @@ void InitialSampling(const InitialSamplingParams& params, const FrameView& view,
     px.geometricNormal[2] = g.ngZ.data() + rowStart;
     px.shadingNormal[0] = g.nsX.data() + rowStart, px.shadingNormal[1] = g.nsY.data() + rowStart;
     px.shadingNormal[2] = g.nsZ.data() + rowStart;
-    for (int c = 0; c < 3; ++c) px.wo[c] = woRow[c].data();
+    for (int c = 0; c < 3; ++c) px.wo[c] = wo[c].data();
     px.materialId = g.bsdfId.data() + rowStart;  // the BSDF table index (textured receivers have their own)
-    px.active = activeRow.data();
+    px.active = active.data();
     px.pixelBase = static_cast<uint32_t>(rowStart);
-    px.count = rw;
+    px.count = active.size();
+    return px;
+  }
+  RisOutput Output() {
     RisOutput ro;
-    ro.lightId = outId.data();
+    ro.lightId = lightId.data();
     for (int c = 0; c < 3; ++c) {
-      ro.position[c] = outF[c].data();
-      ro.normal[c] = outF[3 + c].data();
-      ro.radiance[c] = outF[6 + c].data();
+      ro.position[c] = out[c].data();
+      ro.normal[c] = out[3 + c].data();
+      ro.radiance[c] = out[6 + c].data();
     }
-    ro.pdfArea = outF[9].data();
-    ro.weightSum = outF[10].data();
-    ro.targetPdf = outF[11].data();
-    if (runKernel) RisInitialSampling(px, sampler.Soa(), *view.materials, risParams, ro);
-    risPixels.local() += static_cast<uint64_t>(std::count(activeRow.begin(), activeRow.end(), uint8_t{1}));
-    std::vector<Reservoir> row(rw);
-    ShadowRayBatch& shadowRays = shadowRayBatches.local();
-    shadowRays.Clear();
-    std::vector<uint32_t> rayPixel;
-    for (size_t x = 0; x < rw; ++x) {
-      if (!activeRow[x]) continue;
-      Reservoir& r = row[x];
-      if (runKernel) {
-        r.sample.lightId = static_cast<uint32_t>(outId[x]);
-        r.sample.position = Vec3(outF[0][x], outF[1][x], outF[2][x]);
-        r.sample.normal = Vec3(outF[3][x], outF[4][x], outF[5][x]);
-        r.sample.radiance = Vec3(outF[6][x], outF[7][x], outF[8][x]);
-        r.sample.pdfArea = outF[9][x];
-        r.weightSum = outF[10][x];
-        r.targetPdf = outF[11][x];
-      }
-      if (mixed) {
-        const ShadingPoint sp = ShadingPointAt(g, rowStart + x, view.eye, *view.materials);
-        r = SampleCandidateSources(view, sampler, counts, params.brdfCutoff, sp, static_cast<uint32_t>(rowStart + x),
-                                   runKernel ? &r : nullptr, rays.local());
-      } else {
-        FinalizeRis(r, static_cast<float>(params.candidates));
-      }
-      // An initial reservoir counts one frame of history (DESIGN §4), or its candidates (seed 003).
-      r.confidence = confidence;
-      if (params.visibility && r.HasSample()) {
-        LightPoint y;
-        LightPointAt(g.Position(rowStart + x), r.sample.lightId, r.sample.position, r.sample.normal, lights, nullptr, y);
-        shadowRays.Add(g, rowStart + x, y.position, y.normal, y.errorScale);
-        rayPixel.push_back(static_cast<uint32_t>(x));
-      }
+    ro.pdfArea = out[9].data();
+    ro.weightSum = out[10].data();
+    ro.targetPdf = out[11].data();
+    return ro;
+  }
+  // Pixel x's streamed reservoir, before FinalizeRis, into r's sample, weight sum and target.
+  void Read(size_t x, Reservoir& r) const {
+    r.sample.lightId = static_cast<uint32_t>(lightId[x]);
+    r.sample.position = Vec3(out[0][x], out[1][x], out[2][x]);
+    r.sample.normal = Vec3(out[3][x], out[4][x], out[5][x]);
+    r.sample.radiance = Vec3(out[6][x], out[7][x], out[8][x]);
+    r.sample.pdfArea = out[9][x];
+    r.weightSum = out[10][x];
+    r.targetPdf = out[11][x];
+  }
+};
+
+// Active pixel x's reservoir before visibility: the kernel's, finalised over the local candidates, or the
+// combination of every source with it (SampleCandidateSources); it counts one frame of history (DESIGN §4), or its
+// candidates (seed 003).
+void SelectSample(const InitialFrame& f, const RisRow& ris, size_t rowStart, size_t x, Reservoir& r,
+                  uint64_t& rays) {
+  if (f.runKernel) ris.Read(x, r);
+  if (f.mixed) {
+    const ShadingPoint sp = ShadingPointAt(*f.view.gbuffer, rowStart + x, f.view.eye, *f.view.materials);
+    r = SampleCandidateSources(f.view, f.sampler, f.counts, f.params.brdfCutoff, sp,
+                               static_cast<uint32_t>(rowStart + x), f.runKernel ? &r : nullptr, rays);
+  } else {
+    FinalizeRis(r, static_cast<float>(f.params.candidates));
+  }
+  r.confidence = f.confidence;
+}
+
+// One row: the RIS kernel over its pixels, each pixel's reservoir, the visibility rays of the selected samples
+// (with params.visibility) traced as one batch, then the reservoirs stored, non-finite ones reset.
+void SampleRow(const InitialFrame& f, int y, ShadowRayBatch& shadowRays, ReservoirBuffer& out, uint64_t& rays,
+               uint64_t& risPixels, uint64_t& guarded) {
+  const GBuffer& g = *f.view.gbuffer;
+  const size_t rowStart = static_cast<size_t>(y) * g.width;
+  const size_t rw = static_cast<size_t>(g.width);
+  RisRow ris(rw);
+  ris.Gather(f.view, rowStart);
+  if (f.runKernel) RisInitialSampling(ris.Pixels(g, rowStart), f.sampler.Soa(), *f.view.materials, f.risParams,
+                                      ris.Output());
+  risPixels += static_cast<uint64_t>(std::count(ris.active.begin(), ris.active.end(), uint8_t{1}));
+  std::vector<Reservoir> row(rw);
+  shadowRays.Clear();
+  std::vector<uint32_t> rayPixel;
+  for (size_t x = 0; x < rw; ++x) {
+    if (!ris.active[x]) continue;
+    Reservoir& r = row[x];
+    SelectSample(f, ris, rowStart, x, r, rays);
+    if (f.params.visibility && r.HasSample()) {
+      LightPoint lp;
+      LightPointAt(g.Position(rowStart + x), r.sample.lightId, r.sample.position, r.sample.normal, f.view.Lights(),
+                   nullptr, lp);
+      shadowRays.Add(g, rowStart + x, lp.position, lp.normal, lp.errorScale);
+      rayPixel.push_back(static_cast<uint32_t>(x));
     }
-    if (shadowRays.Size() > 0) {
-      const std::vector<uint8_t>& occluded = shadowRays.Trace(*view.scene, SceneFrame::kCurrent);
-      rays.local() += occluded.size();
-      for (size_t k = 0; k < occluded.size(); ++k)
-        if (occluded[k]) row[rayPixel[k]].W = 0.0f, row[rayPixel[k]].visibility = 0.0f;
+  }
+  if (shadowRays.Size() > 0) {
+    const std::vector<uint8_t>& occluded = shadowRays.Trace(*f.view.scene, SceneFrame::kCurrent);
+    rays += occluded.size();
+    for (size_t k = 0; k < occluded.size(); ++k)
+      if (occluded[k]) row[rayPixel[k]].W = 0.0f, row[rayPixel[k]].visibility = 0.0f;
+  }
+  for (size_t x = 0; x < rw; ++x) {
+    if (!ris.active[x]) continue;
+    Reservoir& r = row[x];
+    if (!FiniteReservoir(r)) {
+      guarded += 1;
+      r = Reservoir{};
+      r.confidence = f.confidence;
     }
-    for (size_t x = 0; x < rw; ++x) {
-      if (!activeRow[x]) continue;
-      Reservoir& r = row[x];
-      if (!FiniteReservoir(r)) {
-        guarded.local() += 1;
-        r = Reservoir{};
-        r.confidence = confidence;
-      }
-      out[rowStart + x] = Store(r);
-    }
+    out[rowStart + x] = Store(r);
+  }
+}
+
+}  // namespace
+
+void InitialSampling(const InitialSamplingParams& params, const FrameView& view, ReservoirBuffer& out,
+                     PassStats& stats) {
+  const auto t0 = Clock::now();
+  const GBuffer& g = *view.gbuffer;
+  out.assign(g.Size(), StoredReservoir{});
+  // The frame's sampler selects lights by power; a uniform selection gets its own sampler (a pass over the lights).
+  std::optional<LightSampler> uniformLights;
+  if (params.lightSelection == LightSelection::kUniform) uniformLights.emplace(view.Lights(), LightSelection::kUniform);
+  const LightSampler& sampler = uniformLights ? *uniformLights : *view.lights;
+  const CandidateCounts counts = EffectiveCounts(params, view);
+  const bool mixed = NeedsCandidateSources(counts);
+  const float confidence = params.countCandidates ? static_cast<float>(mixed ? counts.Total() : params.candidates)
+                                                  : 1.0f;
+  // The kernel streams the local candidates in every configuration; with other sources its reservoir is one input
+  // of their combination (sim/estimator/passes/candidate_sources.cpp).
+  const InitialFrame f{params, view, sampler,
+                       RisParams{view.seed, view.frame, static_cast<uint32_t>(RngPass::kInitial), params.candidates},
+                       counts, mixed, /*runKernel=*/!sampler.Empty(), confidence};
+  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> risPixels([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
+  tbb::enumerable_thread_specific<ShadowRayBatch> shadowRayBatches;
+  // The RIS itself runs in the SIMD kernel a row at a time, on the target core/simd.h selects; every target gives
+  // the same bits.
+  ForEachRow(g.height, [&](int y) {
+    SampleRow(f, y, shadowRayBatches.local(), out, rays.local(), risPixels.local(), guarded.local());
   });
   stats.name = "initial";
   stats.ms = MsSince(t0);

@@ -1,7 +1,12 @@
 // What the two spatial passes share (sim/estimator/passes/spatial_reuse.h, stochastic_pairwise_reuse.h): the
-// spatial.* settings and the random-number key of a pixel's spatial draws.
+// spatial.* settings, the random-number key of a pixel's spatial draws, and the skeleton both run (their
+// iterations over the two reservoir buffers, batch by batch, and their statistics).
 #pragma once
 
+#include <cstdint>
+#include <functional>
+
+#include "core/gris.h"
 #include "core/mis.h"
 #include "core/rng.h"
 #include "sim/estimator/passes/frame_view.h"
@@ -43,5 +48,33 @@ inline constexpr float kNaiveConfidence = 2.0f;
 
 // The RNG key of pixel i in spatial iteration `iteration` (DESIGN §3): both spatial passes draw from it.
 RngKey SpatialRngKey(const FrameView& view, size_t i, int iteration);
+
+struct BatchScratch;  // sim/estimator/passes/batching.h
+
+// One batch of one spatial iteration, as RunSpatialIterations hands it to a pass.
+struct SpatialBatch {
+  const FrameView& view;         // the frame
+  const GBuffer& g;              // *view.gbuffer
+  int iteration;                 // 0 .. params.iterations - 1 (SpatialRngKey's iteration)
+  int y, x0, x1;                 // the batch: pixels [x0, x1) of row y
+  const ReservoirBuffer& input;  // the previous iteration's output (the pass's input in iteration 0)
+  ReservoirBuffer& output;       // this iteration's output: the batch writes each of its pixels
+  VisibilityCarry carry;         // how combinations carry visibility for the shading pass (CarryFor)
+  bool carryVisibility;          // the shading pass uses carried V: neighbours' V is re-traced (seed 000 Alg. 1)
+  BatchScratch& scratch;         // this thread's combinations, combiner and evaluator (bound to the frame)
+  uint64_t& rays;                // this thread's count of shadow rays traced
+  uint64_t& guarded;             // this thread's count of non-finite values caught and reset (DESIGN §10)
+};
+
+// The skeleton of both spatial passes: params.iterations iterations, each reading `reservoirs` (the previous
+// iteration's output) and writing every pixel of `spare`, then swapping the two (the pipeline's ping-pong: no third
+// buffer, Pipeline::kReservoirBuffers); an iteration's batches run in parallel (ForEachBatch), each with its
+// thread's scratch, its evaluator bound to the current frame (ray traced with params.bias = ray-traced). Ends with
+// the pass's statistics under the name "spatial". `beginIteration` (may be empty) runs before an iteration's
+// batches with its input; `batch` does one batch. Reads params.iterations and params.bias.
+void RunSpatialIterations(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
+                          ReservoirBuffer& reservoirs, ReservoirBuffer& spare, PassStats& stats,
+                          const std::function<void(const ReservoirBuffer& input)>& beginIteration,
+                          const std::function<void(const SpatialBatch& batch)>& batch);
 
 }  // namespace restir

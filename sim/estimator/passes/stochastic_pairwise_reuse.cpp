@@ -1,12 +1,12 @@
 #include "sim/estimator/passes/stochastic_pairwise_reuse.h"
 
-#include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
+
+#include <cstddef>
 
 #include "core/sampling.h"
 #include "core/spmis.h"
 #include "core/spmis_kernel.h"
-#include "sim/util/clock.h"
 #include "sim/estimator/passes/batching.h"
 #include "sim/estimator/passes/spatial_common.h"
 
@@ -26,8 +26,8 @@ struct DrawState {
   float cBar = 0.0f;                   // scaled Σ c_i over the cell
 };
 
-// Per-thread scratch: a batch's combinations and kernels, and the cell search of its pixels.
-struct CellBatchScratch : BatchScratch {
+// Per-thread scratch of the cell search and the stochastic weights, beside the skeleton's BatchScratch.
+struct CellScratch {
   StochasticPairwiseArrays spmis;
   // Per pixel of the batch: the cell (or -1) under each search position and its uniform, and the chosen cell.
   std::vector<int32_t> searchCell = std::vector<int32_t>(kBatchPixels * kMaxCellSearchIterations);
@@ -125,6 +125,178 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
   return true;
 }
 
+// §5.1, first stage: each surface pixel's search positions (a rounded disk offset whose radius grows by
+// cellSearchGrowth per iteration) and their uniforms, the first three dimensions of each iteration of its stream;
+// the pixel cells under the positions are prefetched for the next stage.
+void DrawSearchPositions(const StochasticPairwiseParams& sp, const CellGrid& grid, const SpatialBatch& b,
+                         CellScratch& cs) {
+  const GBuffer& g = b.g;
+  const int w = g.width, h = g.height, y = b.y, iterations = sp.cellSearchIterations;
+  for (int x = b.x0; x < b.x1; ++x) {
+    const size_t i = static_cast<size_t>(y) * w + x;
+    int32_t* q = cs.searchCell.data() + static_cast<size_t>(x - b.x0) * iterations;
+    float* pick = cs.searchPick.data() + static_cast<size_t>(x - b.x0) * iterations;
+    if (!g.IsSurface(i)) continue;
+    Sampler s(SpatialRngKey(b.view, i, b.iteration));
+    float radius = sp.cellSearchRadius;
+    for (int it = 0; it < iterations; ++it, radius *= sp.cellSearchGrowth) {
+      const float u0 = s.Next(), u1 = s.Next();
+      const PixelOffset d = RoundedDiskOffset(radius, u0, u1);
+      pick[it] = s.Next();
+      const int qx = x + d.dx, qy = y + d.dy;
+      q[it] = qx < 0 || qy < 0 || qx >= w || qy >= h ? -1 : qy * w + qx;
+      if (q[it] >= 0) __builtin_prefetch(grid.pixelCell.data() + q[it]);
+    }
+  }
+}
+
+// Second stage: the cell under each search position (-1: off screen or no cell); the cells are prefetched.
+void LookUpSearchCells(const StochasticPairwiseParams& sp, const CellGrid& grid, const SpatialBatch& b,
+                       CellScratch& cs) {
+  const GBuffer& g = b.g;
+  const int w = g.width, iterations = sp.cellSearchIterations;
+  for (int x = b.x0; x < b.x1; ++x) {
+    if (!g.IsSurface(static_cast<size_t>(b.y) * w + x)) continue;
+    int32_t* q = cs.searchCell.data() + static_cast<size_t>(x - b.x0) * iterations;
+    for (int it = 0; it < iterations; ++it) {
+      if (q[it] >= 0) q[it] = grid.pixelCell[static_cast<size_t>(q[it])];
+      if (q[it] >= 0) __builtin_prefetch(grid.cells.data() + q[it]);
+    }
+  }
+}
+
+// Third stage: each surface pixel's neighbour cell (ChooseCell, or -1), whose reservoirs are prefetched for the
+// draws.
+void ChooseBatchCells(const SpatialParams& params, const CellGrid& grid, const SpatialBatch& b, CellScratch& cs) {
+  const GBuffer& g = b.g;
+  const int w = g.width, iterations = params.stochastic.cellSearchIterations;
+  for (int x = b.x0; x < b.x1; ++x) {
+    const size_t i = static_cast<size_t>(b.y) * w + x;
+    int32_t& chosen = cs.chosenCell[x - b.x0];
+    chosen = -1;
+    if (!g.IsSurface(i)) continue;
+    chosen = ChooseCell(params, grid, i, g, cs.searchCell.data() + static_cast<size_t>(x - b.x0) * iterations,
+                        cs.searchPick.data() + static_cast<size_t>(x - b.x0) * iterations);
+    if (chosen < 0) continue;
+    const CellGrid::Cell& cell = grid.cells[static_cast<size_t>(chosen)];
+    for (uint32_t t = 0; t < cell.count; ++t)
+      __builtin_prefetch(reinterpret_cast<const char*>(b.input.data() + grid.pixels[cell.first + t]) +
+                         offsetof(StoredReservoir, targetPdf));
+  }
+}
+
+// Each surface pixel's combination from its chosen cell (Draw); a pixel keeps its reservoir unless one replaces
+// it. The drawn pixels' surfaces are prefetched for the target evaluations. Returns the batch's combinations.
+int DrawInputs(const StochasticPairwiseParams& sp, const CellGrid& grid, const SpatialBatch& b,
+               const CellScratch& cs, DrawState* draws) {
+  const GBuffer& g = b.g;
+  const int w = g.width;
+  std::vector<Combination>& combos = b.scratch.combinations;
+  int count = 0;
+  for (int x = b.x0; x < b.x1; ++x) {
+    const size_t i = static_cast<size_t>(b.y) * w + x;
+    b.output[i] = b.input[i];  // kept unless a combination below replaces it
+    if (!g.IsSurface(i)) continue;
+    Combination& c = combos[count];
+    // The search used the first three dimensions of each iteration.
+    Sampler s(SpatialRngKey(b.view, i, b.iteration), 3u * static_cast<uint32_t>(sp.cellSearchIterations));
+    if (!Draw(sp, grid, i, cs.chosenCell[x - b.x0], b.input, s, c, draws[count])) continue;
+    // The second Resolve evaluates targets at the drawn pixels' surfaces: start loading them now.
+    for (int t = 1; t < c.count; ++t) PrefetchSurface(g, c.domainPixel[t]);
+    for (int j = 0; j < draws[count].distinct; ++j) PrefetchSurface(g, draws[count].drawnPixel[j]);
+    // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
+    if (b.carryVisibility)
+      for (int t = 1; t < c.count; ++t)
+        if (c.inputs[t].hasSample) b.scratch.evaluator.RequestVisibility(c, t);
+    ++count;
+  }
+  return count;
+}
+
+// Seed 004 Eq. 15-19: p̂_c of every input first; then, where the canonical sample can contribute, its target in
+// each canonically drawn pixel, and p̂_i(Y_i) where p̂_c(Y_i) > 0. Each round is resolved as one batch.
+void ResolveCellTargets(const SpatialBatch& b, const DrawState* draws, int count) {
+  std::vector<Combination>& combos = b.scratch.combinations;
+  TargetEvaluator& ev = b.scratch.evaluator;
+  for (int k = 0; k < count; ++k) {
+    Combination& c = combos[k];
+    for (int t = 0; t < c.count; ++t)
+      if (c.inputs[t].hasSample) ev.Request(c, 0, t);
+  }
+  ev.Resolve(b.rays);
+  for (int k = 0; k < count; ++k) {
+    Combination& c = combos[k];
+    const DrawState& d = draws[k];
+    if (c.inputs[0].hasSample && c.target[0][0] > 0.0f) {
+      for (int j = 0; j < d.distinct; ++j) {
+        c.AddDomain(0, d.drawnPixel[j]);
+        ev.Request(c, c.domains - 1, 0);
+      }
+    }
+    for (int t = 1; t < c.count; ++t)
+      if (c.inputs[t].hasSample && c.target[0][t] > 0.0f) ev.Request(c, t, t);
+  }
+  ev.Resolve(b.rays);
+}
+
+// The weights of seed 004 Eq. 15-19 for the whole batch in the SIMD kernel (core/spmis_kernel.h), written where
+// the resampling kernel reads them.
+void StochasticBatchWeights(const StochasticPairwiseParams& sp, const SpatialBatch& b, const DrawState* draws,
+                            int count, StochasticPairwiseArrays& sw) {
+  const std::vector<Combination>& combos = b.scratch.combinations;
+  b.scratch.combine.Fill(combos.data(), nullptr, count, false);
+  GrisBatchArrays& a = b.scratch.combine.Arrays();
+  sw.Resize(a, sp.canonicalDraws);
+  for (int k = 0; k < count; ++k) {
+    const Combination& c = combos[k];
+    const DrawState& d = draws[k];
+    sw.distinct[k] = d.distinct;
+    sw.cBar[k] = d.cBar;
+    sw.drawCount[k] = static_cast<float>(sp.draws);
+    sw.canonicalDrawCount[k] = static_cast<float>(sp.canonicalDraws);
+    sw.candidateCount[k] = d.bigM;
+    for (int t = 0; t < c.count; ++t) {
+      const size_t e = sw.At(t, static_cast<size_t>(k));
+      sw.canonicalTarget[e] = c.Known(0, t);
+      if (t == 0) continue;
+      sw.multiplicity[e] = d.multiplicity[t];
+      sw.probability[e] = d.probability[t];
+      sw.ownTarget[e] = c.Known(t, t);
+    }
+    for (int j = 0; j < d.distinct; ++j) {
+      const size_t e = sw.DrawAt(j, static_cast<size_t>(k));
+      sw.drawnMultiplicity[e] = d.drawnCount[j];
+      sw.drawnConfidence[e] = b.input[d.drawnPixel[j]].confidence * d.scale;
+      sw.drawnTarget[e] = c.domains > c.count + j ? c.Known(c.count + j, 0) : 0.0f;
+    }
+  }
+  StochasticPairwiseWeights(sw.View(a), StochasticPairwiseOutputInto(a));
+}
+
+// One batch of an iteration. The cell search reads random pixels up to hundreds of pixels away, then their
+// cells, then the chosen cell's reservoirs: three dependent cache misses per search. Each stage runs over the
+// whole batch and prefetches what the next one reads, so the misses overlap. Then the draws, their targets and
+// weights, and the resampling with the given weights.
+void CellBatch(const SpatialParams& params, const CellGrid& grid, const SpatialBatch& b, CellScratch& cs) {
+  const StochasticPairwiseParams& sp = params.stochastic;
+  DrawState draws[kBatchPixels];
+  DrawSearchPositions(sp, grid, b, cs);
+  LookUpSearchCells(sp, grid, b, cs);
+  ChooseBatchCells(params, grid, b, cs);
+  const int count = DrawInputs(sp, grid, b, cs, draws);
+  ResolveCellTargets(b, draws, count);
+  StochasticBatchWeights(sp, b, draws, count, cs.spmis);
+  b.scratch.combine.Resample(b.carry);
+  const std::vector<Combination>& combos = b.scratch.combinations;
+  for (int k = 0; k < count; ++k) {
+    const Combination& c = combos[k];
+    const GrisResult gr = b.scratch.combine.Result(k);
+    b.guarded += static_cast<uint64_t>(gr.guarded);
+    // The canonical plus the (scaled) cell it stands for.
+    b.output[c.pixel] = OutputOf(c, gr, c.inputs[0].confidence + draws[k].cBar);
+  }
+}
+
 }  // namespace
 
 void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const StochasticPairwiseParams& params,
@@ -178,151 +350,11 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
 void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
                              ReservoirBuffer& reservoirs, ReservoirBuffer& spare, CellGrid& grid,
                              PassStats& stats) {
-  const auto t0 = Clock::now();
-  const StochasticPairwiseParams& sp = params.stochastic;
-  const GBuffer& g = *view.gbuffer;
-  const int w = g.width, h = g.height;
-  const size_t n = g.Size();
-  tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
-  tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
-  tbb::enumerable_thread_specific<CellBatchScratch> scratch;
-  const VisibilityCarry carry = CarryFor(visibility);
-  const bool carryVisibility = visibility != VisibilityReuse::kNone;
-  const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky}};
-  for (int iteration = 0; iteration < params.iterations; ++iteration) {
-    const ReservoirBuffer& input = reservoirs;
-    ReservoirBuffer& output = spare;
-    output.resize(n);
-    BuildCells(g, input, sp, grid);
-    ForEachBatch(w, h, [&](int y, int x0, int x1) {
-      uint64_t& localRays = rays.local();
-      CellBatchScratch& sc = scratch.local();
-      std::vector<Combination>& combos = sc.combinations;
-      TargetEvaluator& ev = sc.evaluator;
-      ev.Bind(frames, *view.materials, *view.scene, params.bias == BiasCorrection::kRayTraced);
-      DrawState draws[kBatchPixels];
-      // The cell search reads random pixels up to hundreds of pixels away, then their cells, then the chosen
-      // cell's reservoirs: three dependent cache misses per search. Each stage runs over the whole batch and
-      // prefetches what the next one reads, so the misses overlap.
-      const int iterations = sp.cellSearchIterations;
-      for (int x = x0; x < x1; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        int32_t* q = sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations;
-        float* pick = sc.searchPick.data() + static_cast<size_t>(x - x0) * iterations;
-        if (!g.IsSurface(i)) continue;
-        Sampler s(SpatialRngKey(view, i, iteration));
-        float radius = sp.cellSearchRadius;
-        for (int it = 0; it < iterations; ++it, radius *= sp.cellSearchGrowth) {
-          const float u0 = s.Next(), u1 = s.Next();
-          const PixelOffset d = RoundedDiskOffset(radius, u0, u1);
-          pick[it] = s.Next();
-          const int qx = x + d.dx, qy = y + d.dy;
-          q[it] = qx < 0 || qy < 0 || qx >= w || qy >= h ? -1 : qy * w + qx;
-          if (q[it] >= 0) __builtin_prefetch(grid.pixelCell.data() + q[it]);
-        }
-      }
-      for (int x = x0; x < x1; ++x) {
-        if (!g.IsSurface(static_cast<size_t>(y) * w + x)) continue;
-        int32_t* q = sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations;
-        for (int it = 0; it < iterations; ++it) {
-          if (q[it] >= 0) q[it] = grid.pixelCell[static_cast<size_t>(q[it])];
-          if (q[it] >= 0) __builtin_prefetch(grid.cells.data() + q[it]);
-        }
-      }
-      for (int x = x0; x < x1; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        int32_t& chosen = sc.chosenCell[x - x0];
-        chosen = -1;
-        if (!g.IsSurface(i)) continue;
-        chosen = ChooseCell(params, grid, i, g, sc.searchCell.data() + static_cast<size_t>(x - x0) * iterations,
-                            sc.searchPick.data() + static_cast<size_t>(x - x0) * iterations);
-        if (chosen < 0) continue;
-        const CellGrid::Cell& cell = grid.cells[static_cast<size_t>(chosen)];
-        for (uint32_t t = 0; t < cell.count; ++t)
-          __builtin_prefetch(reinterpret_cast<const char*>(input.data() + grid.pixels[cell.first + t]) +
-                             offsetof(StoredReservoir, targetPdf));
-      }
-      int count = 0;
-      for (int x = x0; x < x1; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        output[i] = input[i];  // kept unless a combination below replaces it
-        if (!g.IsSurface(i)) continue;
-        Combination& c = combos[count];
-        // The search used the first three dimensions of each iteration.
-        Sampler s(SpatialRngKey(view, i, iteration), 3u * static_cast<uint32_t>(iterations));
-        if (!Draw(sp, grid, i, sc.chosenCell[x - x0], input, s, c, draws[count])) continue;
-        // The second Resolve evaluates targets at the drawn pixels' surfaces: start loading them now.
-        for (int t = 1; t < c.count; ++t) PrefetchSurface(g, c.domainPixel[t]);
-        for (int j = 0; j < draws[count].distinct; ++j) PrefetchSurface(g, draws[count].drawnPixel[j]);
-        // Seed 000 Algorithm 1: a spatial neighbour's visibility is re-traced from this pixel.
-        if (carryVisibility)
-          for (int t = 1; t < c.count; ++t)
-            if (c.inputs[t].hasSample) ev.RequestVisibility(c, t);
-        ++count;
-      }
-      // Seed 004 Eq. 15-19: p̂_c of every input first; then, where the canonical sample can contribute, its target
-      // in each canonically drawn pixel, and p̂_i(Y_i) where p̂_c(Y_i) > 0.
-      for (int k = 0; k < count; ++k) {
-        Combination& c = combos[k];
-        for (int t = 0; t < c.count; ++t)
-          if (c.inputs[t].hasSample) ev.Request(c, 0, t);
-      }
-      ev.Resolve(localRays);
-      for (int k = 0; k < count; ++k) {
-        Combination& c = combos[k];
-        const DrawState& d = draws[k];
-        if (c.inputs[0].hasSample && c.target[0][0] > 0.0f) {
-          for (int j = 0; j < d.distinct; ++j) {
-            c.AddDomain(0, d.drawnPixel[j]);
-            ev.Request(c, c.domains - 1, 0);
-          }
-        }
-        for (int t = 1; t < c.count; ++t)
-          if (c.inputs[t].hasSample && c.target[0][t] > 0.0f) ev.Request(c, t, t);
-      }
-      ev.Resolve(localRays);
-      // The weights of seed 004 Eq. 15-19 for the whole batch in the SIMD kernel (core/spmis_kernel.h), written
-      // where the resampling kernel reads them.
-      sc.combine.Fill(combos.data(), nullptr, count, false);
-      GrisBatchArrays& a = sc.combine.Arrays();
-      StochasticPairwiseArrays& sw = sc.spmis;
-      sw.Resize(a, sp.canonicalDraws);
-      for (int k = 0; k < count; ++k) {
-        const Combination& c = combos[k];
-        const DrawState& d = draws[k];
-        sw.distinct[k] = d.distinct;
-        sw.cBar[k] = d.cBar;
-        sw.drawCount[k] = static_cast<float>(sp.draws);
-        sw.canonicalDrawCount[k] = static_cast<float>(sp.canonicalDraws);
-        sw.candidateCount[k] = d.bigM;
-        for (int t = 0; t < c.count; ++t) {
-          const size_t e = sw.At(t, static_cast<size_t>(k));
-          sw.canonicalTarget[e] = c.Known(0, t);
-          if (t == 0) continue;
-          sw.multiplicity[e] = d.multiplicity[t];
-          sw.probability[e] = d.probability[t];
-          sw.ownTarget[e] = c.Known(t, t);
-        }
-        for (int j = 0; j < d.distinct; ++j) {
-          const size_t e = sw.DrawAt(j, static_cast<size_t>(k));
-          sw.drawnMultiplicity[e] = d.drawnCount[j];
-          sw.drawnConfidence[e] = input[d.drawnPixel[j]].confidence * d.scale;
-          sw.drawnTarget[e] = c.domains > c.count + j ? c.Known(c.count + j, 0) : 0.0f;
-        }
-      }
-      StochasticPairwiseWeights(sw.View(a), StochasticPairwiseOutputInto(a));
-      sc.combine.Resample(carry);
-      for (int k = 0; k < count; ++k) {
-        const Combination& c = combos[k];
-        const GrisResult gr = sc.combine.Result(k);
-        guarded.local() += static_cast<uint64_t>(gr.guarded);
-        // The canonical plus the (scaled) cell it stands for.
-        output[c.pixel] = OutputOf(c, gr, c.inputs[0].confidence + draws[k].cBar);
-      }
-    });
-    std::swap(reservoirs, spare);
-  }
-  FinishReusePass("spatial", t0, rays, guarded, scratch, stats);
+  tbb::enumerable_thread_specific<CellScratch> cellScratch;
+  RunSpatialIterations(
+      params, visibility, view, reservoirs, spare, stats,
+      [&](const ReservoirBuffer& input) { BuildCells(*view.gbuffer, input, params.stochastic, grid); },
+      [&](const SpatialBatch& b) { CellBatch(params, grid, b, cellScratch.local()); });
 }
 
 }  // namespace restir

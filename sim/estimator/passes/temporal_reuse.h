@@ -14,10 +14,12 @@ struct TemporalParams {
   bool enabled = false;                          // reuse the previous frame's reservoir
   MisFamily mis = MisFamily::kUniform;           // MIS family of the two-input combination
   BiasCorrection bias = BiasCorrection::kBasic;  // how targets enter the MIS weights
-  float maxHistory = 20.0f;                      // cap on the previous reservoir's confidence (seed 003 §4.3)
+  float maxHistory = 20.0f;                      // cap on the previous reservoir's confidence (seed 003 §4.3;
+                                                 // core/temporal.h CappedHistoryConfidence)
   bool sampleChecks = true;    // seed 003's sample tests: reject an empty previous reservoir or p̂_c(Y_prev) = 0
                                // (they depend on the sample, so unbiased presets turn them off)
   bool targetRatioClamp = false;  // also reject unless p̂_c(Y_prev) / p̂_prev(Y_prev) is in [0.1, 10]
+                                  // (core/temporal.h TargetRatioInRange)
   bool permutation = false;       // RTXDI permutation sampling: read a per-frame XOR-permuted previous pixel
   // RTXDI's boiling filter, run on the pass's output (rtxdi-runtime DI/BoilingFilter.hlsli, Utils/BoilingFilter.hlsli):
   // in each kBoilingFilterTile² tile, a reservoir whose W exceeds the tile's mean nonzero W times 10/s − 9 is
