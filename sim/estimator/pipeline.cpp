@@ -75,6 +75,14 @@ Contributing MeasureContributing(const FrameInputs& in, const ReservoirBuffer& r
 
 }  // namespace
 
+PipelineSettings PassSettings(const PipelineSettings& settings) {
+  PipelineSettings s = settings;
+  s.temporal.visibility = settings.shade.visibility;
+  s.spatial.visibility = settings.shade.visibility;
+  s.spatial.disocclusionBoost = settings.temporal.enabled;
+  return s;
+}
+
 // Initial sampling, or its reservoirs and statistics taken from a preset of this frame with the same parameters
 // and seed (FrameInputs::initialShare): the same bits, computed once.
 Contributing Pipeline::InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r) {
@@ -99,25 +107,23 @@ Contributing Pipeline::InitialPass(const FrameInputs& in, const FrameView& view,
 
 // The spatial pass the MIS family selects: stochastic pairwise over cells (seed 004), else k neighbours.
 void Pipeline::SpatialPass(const FrameView& view, FrameResult& r) {
-  const PipelineSettings& s = settings_;
-  if (s.spatial.mis == MisFamily::kStochasticPairwise)
-    StochasticPairwiseReuse(s.spatial, s.shade.visibility, view, reservoirs_, previousReservoirs_, cells_,
-                            r.passes.emplace_back());
+  const SpatialParams& spatial = passes_.spatial;
+  if (spatial.mis == MisFamily::kStochasticPairwise)
+    StochasticPairwiseReuse(spatial, view, reservoirs_, previousReservoirs_, cells_, r.passes.emplace_back());
   else
-    SpatialReuse(s.spatial, s.shade.visibility, view, s.temporal.enabled ? &r.temporalAccepted : nullptr,
-                 reservoirs_, previousReservoirs_, r.passes.emplace_back());
+    SpatialReuse(spatial, view, r.temporalAccepted, reservoirs_, previousReservoirs_, r.passes.emplace_back());
 }
 
 // DESIGN §2, from InitialSampling to Shade. A pass the preset lacks leaves the contributing share as it was.
 FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
   const BsdfSoa materials = FrameMaterials(in);
   const FrameView view = MakeFrameView(in, materials);
-  const PipelineSettings& s = settings_;
+  const PipelineSettings& s = passes_;
   FrameResult r;
   r.temporalAccepted.assign(in.gbuffer->Size(), 0);
   const Contributing initial = InitialPass(in, view, r);
   if (s.temporal.enabled)
-    TemporalReuse(s.temporal, s.shade.visibility, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
+    TemporalReuse(s.temporal, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
                   r.passes.emplace_back());
   const Contributing temporal = s.temporal.enabled ? MeasureContributing(in, reservoirs_) : initial;
   if (s.spatial.enabled) SpatialPass(view, r);

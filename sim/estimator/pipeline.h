@@ -26,6 +26,11 @@ namespace restir {
 
 class InitialSamplingShare;
 
+// The settings as the passes read them: `settings` with the facts one pass decides for another copied into the
+// other's struct (TemporalParams::visibility and SpatialParams::visibility from shade.visibility,
+// SpatialParams::disocclusionBoost from temporal.enabled), so each pass takes only its own struct.
+PipelineSettings PassSettings(const PipelineSettings& settings);
+
 // Everything a frame reads about the current and previous frame. Owned by the frame loop; passes never write it.
 struct FrameInputs {
   const FrameState* state = nullptr;
@@ -114,6 +119,9 @@ class Pipeline {
   void SpatialPass(const FrameView& view, FrameResult& r);
 
   PipelineSettings settings_;
+  // What the passes read: settings_ with the cross-pass facts filled in once, when the pipeline is built (why: a
+  // pass's inputs all sit in its struct, and no frame can hand a pass a fact that disagrees with another pass).
+  PipelineSettings passes_ = PassSettings(settings_);
   ReservoirBuffer reservoirs_;          // this frame's reservoirs
   ReservoirBuffer previousReservoirs_;  // last frame's output (temporal input), then spatial scratch
   CellGrid cells_;

@@ -15,8 +15,8 @@ RngKey SpatialRngKey(const FrameView& view, size_t i, int iteration) {
                 static_cast<uint32_t>(RngPass::kSpatial) + 16u * static_cast<uint32_t>(iteration)};
 }
 
-void RunSpatialIterations(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                          ReservoirBuffer& reservoirs, ReservoirBuffer& spare, PassStats& stats,
+void RunSpatialIterations(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+                          ReservoirBuffer& spare, PassStats& stats,
                           const std::function<void(const ReservoirBuffer& input)>& beginIteration,
                           const std::function<void(const SpatialBatch& batch)>& batch) {
   const auto t0 = Clock::now();
@@ -24,8 +24,8 @@ void RunSpatialIterations(const SpatialParams& params, VisibilityReuse visibilit
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
   tbb::enumerable_thread_specific<BatchScratch> scratch;
-  const VisibilityCarry carry = CarryFor(visibility);
-  const bool carryVisibility = visibility != VisibilityReuse::kNone;
+  const VisibilityCarry carry = CarryFor(params.visibility);
+  const bool carryVisibility = params.visibility != VisibilityReuse::kNone;
   const bool rayTraced = params.bias == BiasCorrection::kRayTraced;
   const DomainFrame frames[1] = {{&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky}};
   for (int iteration = 0; iteration < params.iterations; ++iteration) {

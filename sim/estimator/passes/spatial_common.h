@@ -25,8 +25,9 @@ struct StochasticPairwiseParams {
   bool confidenceScaling = true;   // scale non-canonical confidences (and c̄) by N/M (§4.3)
 };
 
-// The spatial.* settings. mis selects the pass: stochastic-pairwise runs StochasticPairwiseReuse, every other
-// family SpatialReuse.
+// The spatial.* settings, and two facts other passes decide, which the pipeline fills in where it is built
+// (sim/estimator/pipeline.h PassSettings). mis selects the pass: stochastic-pairwise runs StochasticPairwiseReuse,
+// every other family SpatialReuse.
 struct SpatialParams {
   bool enabled = false;                          // reuse from screen-space neighbours
   MisFamily mis = MisFamily::kUniform;           // MIS family of the (1 + k)-input combination
@@ -42,6 +43,13 @@ struct SpatialParams {
   // at most a frame of history) is skipped, so fresh samples are not spread. k-neighbour pass only.
   bool discountNaiveSamples = false;
   StochasticPairwiseParams stochastic;           // the cell pass's own settings (mis = stochastic-pairwise)
+  // Not settings (sim/estimator/settings.cpp lists neither): filled by the pipeline from the other passes' structs.
+  // shade.visibility. Why here: the shading pass decides what visibility reuse must carry (with carried V a
+  // neighbour's V is re-traced from the pixel, seed 000 Algorithm 1), and the pass reads it from its own struct.
+  VisibilityReuse visibility = VisibilityReuse::kNone;
+  // temporal.enabled: pixels whose temporal reuse failed take disocclusionNeighbours. Why: without a temporal pass
+  // no pixel failed it, and its all-zero acceptance must not boost every pixel.
+  bool disocclusionBoost = false;
 };
 
 inline constexpr float kNaiveConfidence = 2.0f;
@@ -71,9 +79,9 @@ struct SpatialBatch {
 // buffer, Pipeline::kReservoirBuffers); an iteration's batches run in parallel (ForEachBatch), each with its
 // thread's scratch, its evaluator bound to the current frame (ray traced with params.bias = ray-traced). Ends with
 // the pass's statistics under the name "spatial". `beginIteration` (may be empty) runs before an iteration's
-// batches with its input; `batch` does one batch. Reads params.iterations and params.bias.
-void RunSpatialIterations(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                          ReservoirBuffer& reservoirs, ReservoirBuffer& spare, PassStats& stats,
+// batches with its input; `batch` does one batch. Reads params.iterations, params.bias and params.visibility.
+void RunSpatialIterations(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+                          ReservoirBuffer& spare, PassStats& stats,
                           const std::function<void(const ReservoirBuffer& input)>& beginIteration,
                           const std::function<void(const SpatialBatch& batch)>& batch);
 

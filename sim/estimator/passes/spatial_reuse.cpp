@@ -18,7 +18,7 @@ struct Neighbours {
 // Neighbours are random pixels up to `radius` away, so their G-buffer and reservoir lines miss the cache: pick
 // every pixel's neighbours first and prefetch their lines, so the misses overlap instead of stalling the
 // similarity tests one at a time. Pixels whose temporal reuse failed draw disocclusionNeighbours.
-void PickNeighbours(const SpatialParams& params, const std::vector<uint8_t>* temporalAccepted,
+void PickNeighbours(const SpatialParams& params, const std::vector<uint8_t>& temporalAccepted,
                     const SpatialBatch& b, Neighbours& nb) {
   const GBuffer& g = b.g;
   const int w = g.width, h = g.height, y = b.y;
@@ -27,7 +27,7 @@ void PickNeighbours(const SpatialParams& params, const std::vector<uint8_t>* tem
     int& k = nb.count[x - b.x0];
     k = 0;
     if (!g.IsSurface(i)) continue;
-    const bool boost = temporalAccepted && !(*temporalAccepted)[i];
+    const bool boost = params.disocclusionBoost && !temporalAccepted[i];
     k = std::min(boost ? params.disocclusionNeighbours : params.neighbours, kMaxGrisInputs - 1);
     Sampler s(SpatialRngKey(b.view, i, b.iteration));
     for (int t = 0; t < k; ++t) {
@@ -82,7 +82,7 @@ bool AssembleCombination(const SpatialParams& params, const SpatialBatch& b, int
 
 // One batch of an iteration: the neighbour draws, each pixel's combination, then the family's combination of the
 // whole batch (CombineFamilyBatch) and the outputs.
-void NeighbourBatch(const SpatialParams& params, MisFamily family, const std::vector<uint8_t>* temporalAccepted,
+void NeighbourBatch(const SpatialParams& params, MisFamily family, const std::vector<uint8_t>& temporalAccepted,
                     const SpatialBatch& b) {
   Neighbours nb;
   PickNeighbours(params, temporalAccepted, b, nb);
@@ -105,11 +105,10 @@ void NeighbourBatch(const SpatialParams& params, MisFamily family, const std::ve
 
 }  // namespace
 
-void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                  const std::vector<uint8_t>* temporalAccepted, ReservoirBuffer& reservoirs, ReservoirBuffer& spare,
-                  PassStats& stats) {
+void SpatialReuse(const SpatialParams& params, const FrameView& view, const std::vector<uint8_t>& temporalAccepted,
+                  ReservoirBuffer& reservoirs, ReservoirBuffer& spare, PassStats& stats) {
   const MisFamily family = EffectiveFamily(params.mis, params.bias);
-  RunSpatialIterations(params, visibility, view, reservoirs, spare, stats, nullptr,
+  RunSpatialIterations(params, view, reservoirs, spare, stats, nullptr,
                        [&](const SpatialBatch& b) { NeighbourBatch(params, family, temporalAccepted, b); });
 }
 

@@ -14,12 +14,12 @@
 namespace restir {
 
 // params.iterations passes over `reservoirs` (updated in place); `spare` is a second buffer the iterations
-// alternate with (its contents are lost). `temporalAccepted` (null: temporal reuse is off) marks the pixels whose
-// temporal reuse succeeded; the others get disocclusionNeighbours. `visibility` is what the shading pass will
-// use: with a carried visibility, a neighbour's V is re-traced from this pixel (seed 000 Algorithm 1).
-void SpatialReuse(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                  const std::vector<uint8_t>* temporalAccepted, ReservoirBuffer& reservoirs, ReservoirBuffer& spare,
-                  PassStats& stats);
+// alternate with (its contents are lost). With params.disocclusionBoost, `temporalAccepted` (one per pixel) marks
+// the pixels whose temporal reuse succeeded and the others get disocclusionNeighbours; without, it is not read
+// (may be empty). params.visibility is what the shading pass will use: with a carried visibility, a neighbour's V
+// is re-traced from this pixel (seed 000 Algorithm 1).
+void SpatialReuse(const SpatialParams& params, const FrameView& view, const std::vector<uint8_t>& temporalAccepted,
+                  ReservoirBuffer& reservoirs, ReservoirBuffer& spare, PassStats& stats);
 
 
 }  // namespace restir

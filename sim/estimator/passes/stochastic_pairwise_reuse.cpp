@@ -347,12 +347,11 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
   }
 }
 
-void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                             ReservoirBuffer& reservoirs, ReservoirBuffer& spare, CellGrid& grid,
-                             PassStats& stats) {
+void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+                             ReservoirBuffer& spare, CellGrid& grid, PassStats& stats) {
   tbb::enumerable_thread_specific<CellScratch> cellScratch;
   RunSpatialIterations(
-      params, visibility, view, reservoirs, spare, stats,
+      params, view, reservoirs, spare, stats,
       [&](const ReservoirBuffer& input) { BuildCells(*view.gbuffer, input, params.stochastic, grid); },
       [&](const SpatialBatch& b) { CellBatch(params, grid, b, cellScratch.local()); });
 }

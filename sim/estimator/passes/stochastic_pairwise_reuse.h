@@ -37,11 +37,10 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
                 CellGrid& grid);
 
 // spatial.iterations passes over `reservoirs` (updated in place); `spare` is a second buffer the iterations
-// alternate with (its contents are lost). `cells` holds the last iteration's cells afterwards. `visibility` is
-// what the shading pass will use. Reads params.bias, params.iterations, params.normalThreshold and
-// params.stochastic (sim/estimator/passes/spatial_reuse.h).
-void StochasticPairwiseReuse(const SpatialParams& params, VisibilityReuse visibility, const FrameView& view,
-                             ReservoirBuffer& reservoirs, ReservoirBuffer& spare, CellGrid& cells,
-                             PassStats& stats);
+// alternate with (its contents are lost). `cells` holds the last iteration's cells afterwards. Reads params.bias,
+// params.iterations, params.normalThreshold, params.stochastic and params.visibility (what the shading pass will
+// use; sim/estimator/passes/spatial_common.h).
+void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+                             ReservoirBuffer& spare, CellGrid& cells, PassStats& stats);
 
 }  // namespace restir

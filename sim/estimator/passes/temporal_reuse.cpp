@@ -158,9 +158,8 @@ void TemporalBatch(const TemporalFrame& f, int y, int x0, int x1, BatchScratch& 
 
 }  // namespace
 
-void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, const FrameView& view,
-                   const ReservoirBuffer& previous, ReservoirBuffer& current, std::vector<uint8_t>& accepted,
-                   PassStats& stats) {
+void TemporalReuse(const TemporalParams& params, const FrameView& view, const ReservoirBuffer& previous,
+                   ReservoirBuffer& current, std::vector<uint8_t>& accepted, PassStats& stats) {
   const auto t0 = Clock::now();
   const GBuffer& g = *view.gbuffer;
   const int w = g.width, h = g.height;
@@ -186,7 +185,7 @@ void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, con
       {&g, view.eye, &view.Lights(), SceneFrame::kCurrent, &view.sky},
       {&pg, view.previousEye, view.previousLights, SceneFrame::kPrevious, &view.previousSky}};
   const TemporalFrame f{params, view, g, pg, previous, current, accepted, frames,
-                        EffectiveFamily(params.mis, params.bias), CarryFor(visibility), permBits};
+                        EffectiveFamily(params.mis, params.bias), CarryFor(params.visibility), permBits};
   ForEachBatch(w, h, [&](int y, int x0, int x1) {
     TemporalBatch(f, y, x0, x1, scratch.local(), rays.local(), guarded.local(), crossObject.local());
   });

@@ -36,6 +36,10 @@ struct TemporalParams {
   // one pass does both reuses; a preset using it turns the spatial pass off. 0: the plain temporal pass.
   int fusedNeighbours = 0;
   float fusedRadius = 32.0f;  // pixels (RTXDI's default sampling radius)
+  // Not a setting (sim/estimator/settings.cpp does not list it): shade.visibility, filled by the pipeline where it
+  // is built (sim/estimator/pipeline.h PassSettings). Why here: the shading pass decides how the combination must
+  // carry visibility (CarryFor), and the pass reads it from its own struct.
+  VisibilityReuse visibility = VisibilityReuse::kNone;
 };
 
 // RTXDI's boiling-filter group: the 16×16 thread group its temporal pass runs in (RTXDI_BOILING_FILTER_GROUP_SIZE).
@@ -50,9 +54,8 @@ size_t BoilingFilter(float strength, int width, int height, ReservoirBuffer& res
 // Combines `current` (this frame's reservoirs, updated in place) with `previous` (last frame's output, one per
 // pixel of the previous G-buffer). `accepted` (resized to the frame) marks the pixels whose previous reservoir
 // entered the combination. Without history (the view has no previous frame, or `previous` does not match it)
-// nothing changes. `visibility` is what the shading pass will use, which decides how visibility is carried.
-void TemporalReuse(const TemporalParams& params, VisibilityReuse visibility, const FrameView& view,
-                   const ReservoirBuffer& previous, ReservoirBuffer& current, std::vector<uint8_t>& accepted,
-                   PassStats& stats);
+// nothing changes. params.visibility is what the shading pass will use, which decides how visibility is carried.
+void TemporalReuse(const TemporalParams& params, const FrameView& view, const ReservoirBuffer& previous,
+                   ReservoirBuffer& current, std::vector<uint8_t>& accepted, PassStats& stats);
 
 }  // namespace restir

@@ -65,10 +65,9 @@ TEST(StochasticPairwiseReuse, WinsWhereFewReservoirsOfALargeCellContribute) {
       ReservoirBuffer reservoirs = initial, spare;
       CellGrid grid;
       if (method == 0)
-        SpatialReuse(standard, VisibilityReuse::kNone, f.View(seed), nullptr, reservoirs, spare, stats);
+        SpatialReuse(standard, f.View(seed), {}, reservoirs, spare, stats);
       else
-        StochasticPairwiseReuse(stochastic, VisibilityReuse::kNone, f.View(seed), reservoirs, spare, grid,
-                                stats);
+        StochasticPairwiseReuse(stochastic, f.View(seed), reservoirs, spare, grid, stats);
       contributing[method] += ContributingFraction(f.gbuffer, reservoirs, nullptr).all / kSeeds;
       ImageRgb image;
       Shade(ShadeParams{}, f.View(seed), reservoirs, image, stats);

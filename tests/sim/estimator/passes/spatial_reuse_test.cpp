@@ -16,7 +16,8 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
   test::HandMadeFrame f(24, 12);
   // The right half faces another way: no pixel of one half may reuse the other's.
   for (size_t i = 0; i < f.gbuffer.Size(); ++i)
-    if (static_cast<int>(i % 24) >= 12) f.gbuffer.ngX[i] = 1, f.gbuffer.ngY[i] = 0, f.gbuffer.nsX[i] = 1, f.gbuffer.nsY[i] = 0;
+    if (static_cast<int>(i % 24) >= 12)
+      f.gbuffer.ngX[i] = 1, f.gbuffer.ngY[i] = 0, f.gbuffer.nsX[i] = 1, f.gbuffer.nsY[i] = 0;
   ReservoirBuffer reservoirs, spare;
   PassStats stats;
   InitialSampling(InitialSamplingParams{}, f.View(3), reservoirs, stats);
@@ -27,7 +28,7 @@ TEST(SpatialReuse, CombinesOnlySimilarNeighboursWithinTheRadius) {
   params.mis = MisFamily::kUniform;
   params.neighbours = 5;
   params.radius = 3.0f;
-  SpatialReuse(params, VisibilityReuse::kNone, f.View(3), nullptr, reservoirs, spare, stats);
+  SpatialReuse(params, f.View(3), {}, reservoirs, spare, stats);
   EXPECT_EQ(stats.name, "spatial");
   EXPECT_EQ(reservoirs.size(), input.size());
   int combined = 0;
@@ -65,10 +66,11 @@ TEST(SpatialReuse, WhereTemporalReuseFailedMoreNeighboursAreCombined) {
   params.neighbours = 2;
   params.disocclusionNeighbours = 10;
   params.radius = 6.0f;
+  params.disocclusionBoost = true;  // as the pipeline sets it when temporal reuse runs
   auto meanConfidence = [&](uint8_t accepted) {
     ReservoirBuffer r = initial;
     const std::vector<uint8_t> temporalAccepted(r.size(), accepted);
-    SpatialReuse(params, VisibilityReuse::kNone, f.View(5), &temporalAccepted, r, spare, stats);
+    SpatialReuse(params, f.View(5), temporalAccepted, r, spare, stats);
     double sum = 0.0;
     for (const StoredReservoir& x : r) sum += x.confidence;
     return sum / r.size();
@@ -76,6 +78,8 @@ TEST(SpatialReuse, WhereTemporalReuseFailedMoreNeighboursAreCombined) {
   const double accepted = meanConfidence(1), failed = meanConfidence(0);
   EXPECT_LE(accepted, 3.0);
   EXPECT_GT(failed, 6.0);
+  params.disocclusionBoost = false;  // temporal reuse off: no pixel failed it, whatever the buffer says
+  EXPECT_EQ(meanConfidence(0), accepted);
 }
 
 }  // namespace
@@ -101,7 +105,7 @@ TEST(SpatialReuse, DiscountingNaiveSamplesSkipsNeighboursWithoutHistory) {
   for (bool discount : {false, true}) {
     params.discountNaiveSamples = discount;
     ReservoirBuffer reservoirs = initial;
-    SpatialReuse(params, VisibilityReuse::kNone, f.View(4), nullptr, reservoirs, spare, stats);
+    SpatialReuse(params, f.View(4), {}, reservoirs, spare, stats);
     int fromNaive = 0;
     for (size_t i = 0; i < reservoirs.size(); ++i) {
       if (!reservoirs[i].HasSample()) continue;
@@ -109,7 +113,9 @@ TEST(SpatialReuse, DiscountingNaiveSamplesSkipsNeighboursWithoutHistory) {
         if (j != i && initial[j].position == reservoirs[i].position && initial[j].lightId == reservoirs[i].lightId)
           fromNaive += initial[j].confidence <= kNaiveConfidence;
       // Confidence is its own plus whole neighbours' confidences: with the discount, only multiples of 3 are added.
-      if (discount) EXPECT_EQ(std::fmod(reservoirs[i].confidence - initial[i].confidence, 3.0f), 0.0f) << i;
+      if (discount) {
+        EXPECT_EQ(std::fmod(reservoirs[i].confidence - initial[i].confidence, 3.0f), 0.0f) << i;
+      }
     }
     if (discount)
       EXPECT_EQ(fromNaive, 0);

@@ -63,7 +63,7 @@ TEST(StochasticPairwiseReuse, OutputConfidenceIsTheCanonicalsPlusTheScaledCell) 
   params.stochastic.cellTile = 8;
   params.stochastic.cellSearchRadius = 4.0f;
   CellGrid grid;
-  StochasticPairwiseReuse(params, VisibilityReuse::kNone, f.View(9), reservoirs, spare, grid, stats);
+  StochasticPairwiseReuse(params, f.View(9), reservoirs, spare, grid, stats);
   EXPECT_EQ(stats.name, "spatial");
   EXPECT_EQ(grid.cells.size(), 4u);
   EXPECT_GT(stats.rays, 0u);  // ray-traced targets

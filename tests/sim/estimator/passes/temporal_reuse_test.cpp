@@ -43,8 +43,7 @@ TEST(TemporalReuse, CombinesWithTheReprojectedReservoirAndCapsItsConfidence) {
   params.maxHistory = 20.0f;
   std::vector<uint8_t> accepted;
   PassStats stats;
-  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, /*history=*/true), b.previous, b.current, accepted,
-                stats);
+  TemporalReuse(params, f.View(1, 1, /*history=*/true), b.previous, b.current, accepted, stats);
   EXPECT_EQ(stats.name, "temporal");
   EXPECT_EQ(stats.rays, 0u);  // basic bias correction traces nothing
   EXPECT_EQ(stats.combinations, f.gbuffer.Size() - 1);
@@ -81,8 +80,7 @@ TEST(TemporalReuse, WithoutAPreviousFrameChangesNothing) {
   params.enabled = true;
   std::vector<uint8_t> accepted;
   PassStats stats;
-  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 0, /*history=*/false), b.previous, b.current, accepted,
-                stats);
+  TemporalReuse(params, f.View(1, 0, /*history=*/false), b.previous, b.current, accepted, stats);
   EXPECT_EQ(stats.combinations, 0u);
   for (size_t i = 0; i < before.size(); ++i) {
     EXPECT_EQ(accepted[i], 0);
@@ -108,7 +106,7 @@ TEST(TemporalReuse, RayTracedBiasCorrectionTracesVisibility) {
   TemporalParams params = RayTracedPairwise();
   std::vector<uint8_t> accepted;
   PassStats stats;
-  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+  TemporalReuse(params, f.View(1, 1, true), b.previous, b.current, accepted, stats);
   EXPECT_GT(stats.rays, f.gbuffer.Size());
   EXPECT_GT(stats.targets, 2 * f.gbuffer.Size() - 1);
   for (size_t i = 0; i < b.current.size(); ++i)
@@ -131,7 +129,7 @@ TEST(TemporalReuse, VisibilityShortcutSavesRaysAndChangesNothingWhereNothingMove
     params.visibilityShortcut = shortcut == 1;
     std::vector<uint8_t> accepted;
     PassStats stats;
-    TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+    TemporalReuse(params, f.View(1, 1, true), b.previous, b.current, accepted, stats);
     rays[shortcut] = stats.rays;
     out[shortcut] = b.current;
   }
@@ -161,7 +159,7 @@ TEST(TemporalReuse, FusedSpatiotemporalCombinesPreviousFrameNeighbours) {
   params.fusedRadius = 3.0f;
   std::vector<uint8_t> accepted;
   PassStats stats;
-  TemporalReuse(params, VisibilityReuse::kNone, f.View(1, 1, true), b.previous, b.current, accepted, stats);
+  TemporalReuse(params, f.View(1, 1, true), b.previous, b.current, accepted, stats);
   double neighbours = 0.0;
   for (size_t i = 0; i < b.current.size(); ++i) {
     const int x = static_cast<int>(i % 24), y = static_cast<int>(i / 24);
