@@ -30,8 +30,8 @@ CandidateCounts EffectiveCounts(const InitialSamplingParams& params, const Frame
 
 // What every row of the pass reads, decided once per frame.
 struct InitialFrame {
-  const InitialSamplingParams& params;
-  const FrameView& view;
+  const InitialSamplingParams& params;  // the pass's parameters
+  const FrameView& view;                // the frame
   const LightSampler& sampler;  // the lights the kernel and the other sources select from
   RisParams risParams;          // the RIS kernel's RNG key and candidate count
   CandidateCounts counts;       // the frame's effective counts per source
@@ -47,7 +47,7 @@ struct RisRow {
     for (auto& v : wo) v.resize(width);
     for (auto& v : out) v.resize(width);
   }
-  std::vector<float> wo[3];
+  std::vector<float> wo[3];      // unit direction towards the viewer (RisPixels::wo)
   std::vector<uint8_t> active;   // a surface in a frame with something to sample
   std::vector<int32_t> lightId;  // RisOutput::lightId
   std::vector<float> out[12];    // RisOutput's position, normal, radiance (3 each), pdfArea, weightSum, targetPdf

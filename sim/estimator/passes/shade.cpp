@@ -22,8 +22,8 @@ struct RowScratch {
 
 // What every row reads, decided once per frame.
 struct ShadeFrame {
-  const ShadeParams& params;
-  const FrameView& view;
+  const ShadeParams& params;                 // the pass's parameters
+  const FrameView& view;                     // the frame
   const GBuffer& g;                          // *view.gbuffer
   const std::vector<LightTriangle>& lights;  // view.Lights()
   bool carryVisibility;                      // shade with the reservoirs' carried V, no final ray

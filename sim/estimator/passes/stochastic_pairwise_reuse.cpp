@@ -28,7 +28,7 @@ struct DrawState {
 
 // Per-thread scratch of the cell search and the stochastic weights, beside the skeleton's BatchScratch.
 struct CellScratch {
-  StochasticPairwiseArrays spmis;
+  StochasticPairwiseArrays spmis;  // the batch's stochastic pairwise MIS inputs (core/spmis_kernel.h)
   // Per pixel of the batch: the cell (or -1) under each search position and its uniform, and the chosen cell.
   std::vector<int32_t> searchCell = std::vector<int32_t>(kBatchPixels * kMaxCellSearchIterations);
   std::vector<float> searchPick = std::vector<float>(kBatchPixels * kMaxCellSearchIterations);

@@ -25,8 +25,8 @@ constexpr float kPermutationDepthThreshold = 0.1f;
 
 // What every batch of the pass reads and writes, decided once per frame.
 struct TemporalFrame {
-  const TemporalParams& params;
-  const FrameView& view;
+  const TemporalParams& params;      // the pass's parameters
+  const FrameView& view;             // the frame, with its previous one
   const GBuffer& g;                  // this frame's G-buffer
   const GBuffer& pg;                 // the previous frame's
   const ReservoirBuffer& previous;   // last frame's output, one per pixel of pg
