@@ -174,7 +174,7 @@ void RunCase(const Case& c) {
   std::vector<std::vector<double>> seedImages(kSeeds, std::vector<double>(kSize * kSize, 0.0));
   std::vector<Pipeline> pipelines(kSeeds, Pipeline(settings));
   GBuffer g;
-  Vec3 eye;
+  Vec3 eye{0.0f};
   driver.Play(0, kFrames, [&](int frame) {
     ASSERT_EQ(MakeSky(seq, driver.State()).Empty(), !c.scene.environment && c.scene.sunDiameterDegrees == 0.0f)
         << "the frame state carries the sequence's sky";
