@@ -1,5 +1,6 @@
-// PipelineSettings, every field by its dotted name ("temporal.maxHistory"), for `--set KEY=VALUE`, run.json
-// and `restir-sim presets`, and the bounds of its fields. One table, so a new field is printable, recordable
+// PipelineSettings, every setting by its dotted name ("temporal.maxHistory"), for `--set KEY=VALUE`, run.json
+// and `restir-sim presets`, and the bounds of its fields. (The passes' cross-pass fields, such as
+// temporal.visibility, are not settings: the pipeline fills them from the others, PassSettings.) One table, so a new field is printable, recordable
 // and overridable at once; one table of bounds, so `--set` and the Pipeline cannot disagree on them.
 #pragma once
 
