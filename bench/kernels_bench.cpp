@@ -546,7 +546,6 @@ SpmisBenchBatch MakeSpmisBatch(std::mt19937& rng) {
     s.cBar[k] = m * 10.0f * scale;  // Σ c over the cell, c ≈ 10, scaled (seed 004 §4.3)
     s.drawCount[k] = bigN;
     s.canonicalDrawCount[k] = nc;
-    s.candidateCount[k] = m;
     for (int t = 0; t < kRows; ++t) {
       const size_t e = s.At(t, k);
       g.hasSample[e] = uni(rng) < 0.95f;
@@ -559,6 +558,7 @@ SpmisBenchBatch MakeSpmisBatch(std::mt19937& rng) {
     for (int d = 0; d < kDraws; ++d) {
       const size_t e = s.DrawAt(d, k);
       s.drawnMultiplicity[e] = static_cast<float>(1 + rng() % 2);
+      s.drawnProbability[e] = 1.0f / m;  // uniform canonical draws (P_c = 1/M)
       s.drawnConfidence[e] = static_cast<float>(1 + rng() % 20) * scale;
       s.drawnTarget[e] = target();
     }

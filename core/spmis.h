@@ -36,9 +36,13 @@ inline float StochasticPairwiseCanonicalTerm(float multiplicity, float drawCount
 
 // Confidence adjustment (seed 004 §4.3): each non-canonical confidence, hence c̄, is scaled by N/M, because
 // the estimator effectively reuses N of the M candidates; without it the canonical sample's share collapses as
-// M grows (dark pepper noise, seed 004 Fig. 2). The factor, computed once per pixel:
+// M grows (dark pepper noise, seed 004 Fig. 2). Capped at 1 when N > M (the paper is silent there): N draws
+// cannot reuse more than the M candidates, so the cell counts at most its own Σ c_i. Uncapped, a small cell
+// would claim more confidence than it holds (a 2-pixel cell drawn 10 times: 5× its history), shrinking the
+// canonical sample's share below what deterministic pairwise MIS over the whole cell gives it (the estimator's
+// limit as N grows) and inflating the output confidence temporal reuse carries on. The factor, once per pixel:
 inline float ConfidenceScale(float drawCount, float candidateCount) {
-  return candidateCount > 0.0f ? drawCount / candidateCount : 1.0f;
+  return candidateCount > 0.0f ? std::min(1.0f, drawCount / candidateCount) : 1.0f;
 }
 inline float ScaledConfidence(float confidence, float drawCount, float candidateCount) {
   return confidence * ConfidenceScale(drawCount, candidateCount);

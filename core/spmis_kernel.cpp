@@ -5,7 +5,7 @@
 // Bit-exactness (DESIGN §3), as core/gris_kernel.cpp: each lane evaluates the expression trees of core/spmis.h
 // and core/mis.h for its combination, grouped as written there (c_j / total · (c_c p̂_c / denom), K / (N P) · m,
 // the canonical sum from the base share over d = 0, 1, ... in order), with per-lane IEEE operations only: no
-// MulAdd, no approximate reciprocals (1/M is a true division, as the pipeline's 1.0f / M). Every scalar branch
+// MulAdd, no approximate reciprocals. Every scalar branch
 // becomes a mask built from the scalar test itself (!(x > 0) where it says so, which differs from x <= 0 for
 // NaN), so values the scalar code would not compute are computed on every lane but never selected.
 #undef HWY_TARGET_INCLUDE
@@ -41,7 +41,6 @@ struct Rows {
   const float* cBar;
   const float* drawCount;
   const float* canonicalDrawCount;
-  const float* candidateCount;
   const uint8_t* hasSample;
   const float* confidence;
   const float* multiplicity;
@@ -49,6 +48,7 @@ struct Rows {
   const float* canonicalTarget;
   const float* ownTarget;
   const float* drawnMultiplicity;
+  const float* drawnProbability;
   const float* drawnConfidence;
   const float* drawnTarget;
   size_t stride;
@@ -92,12 +92,12 @@ HWY_INLINE void SpmisPacket(const Rows& in, float* outMis, float* outPc) {
     const int maxD = PacketMaxCount(D, in.drawRows);
     if (maxD > 0) {
       const VF nc = hn::LoadU(df, in.canonicalDrawCount);
-      const VF invM = hn::Div(hn::Set(df, 1.0f), hn::LoadU(df, in.candidateCount));  // P_c = 1/M
       for (int d = 0; d < maxD; ++d) {
         const MF drawn = hn::RebindMask(df, hn::Gt(D, hn::Set(di, d)));
         const VF pair = PairwiseCanonicalTermV(hn::LoadU(df, in.drawnConfidence + d * s), cBar, cc, total,
                                               hn::LoadU(df, in.drawnTarget + d * s), pc[0]);
-        const VF term = StochasticMisWeight(hn::LoadU(df, in.drawnMultiplicity + d * s), nc, invM, pair);
+        const VF term = StochasticMisWeight(hn::LoadU(df, in.drawnMultiplicity + d * s), nc,
+                                            hn::LoadU(df, in.drawnProbability + d * s), pair);
         m = hn::IfThenElse(drawn, hn::Add(m, term), m);
       }
     }
@@ -134,7 +134,6 @@ Rows RowsAt(const StochasticPairwiseBatch& b, size_t k) {
   r.cBar = at(b.cBar);
   r.drawCount = at(b.drawCount);
   r.canonicalDrawCount = at(b.canonicalDrawCount);
-  r.candidateCount = at(b.candidateCount);
   r.hasSample = at(b.hasSample);
   r.confidence = at(b.confidence);
   r.multiplicity = at(b.multiplicity);
@@ -142,6 +141,7 @@ Rows RowsAt(const StochasticPairwiseBatch& b, size_t k) {
   r.canonicalTarget = at(b.canonicalTarget);
   r.ownTarget = at(b.ownTarget);
   r.drawnMultiplicity = at(b.drawnMultiplicity);
+  r.drawnProbability = at(b.drawnProbability);
   r.drawnConfidence = at(b.drawnConfidence);
   r.drawnTarget = at(b.drawnTarget);
   r.stride = b.stride;
@@ -169,9 +169,9 @@ void StochasticPairwiseKernel(const StochasticPairwiseBatch& b, const Stochastic
   const size_t inputRows = static_cast<size_t>(src.inputRows), drawRows = static_cast<size_t>(src.drawRows);
   HWY_ALIGN int32_t ints[2][kLanes];
   HWY_ALIGN uint8_t hasSample[kRows * kLanes];
-  HWY_ALIGN float perCombination[4][kLanes];
+  HWY_ALIGN float perCombination[3][kLanes];
   HWY_ALIGN float perInput[5][kRows * kLanes];
-  HWY_ALIGN float perDraw[3][kRows * kLanes];
+  HWY_ALIGN float perDraw[4][kRows * kLanes];
   const auto copy = [&](auto* dst, const auto* from, size_t rows) {
     for (size_t r = 0; r < rows; ++r)
       for (size_t l = 0; l < N; ++l) dst[r * N + l] = l < rest ? from[r * b.stride + l] : 0;
@@ -184,9 +184,9 @@ void StochasticPairwiseKernel(const StochasticPairwiseBatch& b, const Stochastic
   in.distinct = ints[1];
   copy(hasSample, src.hasSample, inputRows);
   in.hasSample = hasSample;
-  const float* const combinationFrom[4] = {src.cBar, src.drawCount, src.canonicalDrawCount, src.candidateCount};
-  const float** const combinationTo[4] = {&in.cBar, &in.drawCount, &in.canonicalDrawCount, &in.candidateCount};
-  for (int a = 0; a < 4; ++a) {
+  const float* const combinationFrom[3] = {src.cBar, src.drawCount, src.canonicalDrawCount};
+  const float** const combinationTo[3] = {&in.cBar, &in.drawCount, &in.canonicalDrawCount};
+  for (int a = 0; a < 3; ++a) {
     copy(perCombination[a], combinationFrom[a], 1);
     *combinationTo[a] = perCombination[a];
   }
@@ -198,9 +198,11 @@ void StochasticPairwiseKernel(const StochasticPairwiseBatch& b, const Stochastic
     copy(perInput[a], inputFrom[a], inputRows);
     *inputTo[a] = perInput[a];
   }
-  const float* const drawFrom[3] = {src.drawnMultiplicity, src.drawnConfidence, src.drawnTarget};
-  const float** const drawTo[3] = {&in.drawnMultiplicity, &in.drawnConfidence, &in.drawnTarget};
-  for (int a = 0; a < 3; ++a) {
+  const float* const drawFrom[4] = {src.drawnMultiplicity, src.drawnProbability, src.drawnConfidence,
+                                    src.drawnTarget};
+  const float** const drawTo[4] = {&in.drawnMultiplicity, &in.drawnProbability, &in.drawnConfidence,
+                                   &in.drawnTarget};
+  for (int a = 0; a < 4; ++a) {
     copy(perDraw[a], drawFrom[a], drawRows);
     *drawTo[a] = perDraw[a];
   }
@@ -252,11 +254,11 @@ void StochasticPairwiseWeightsScalar(const StochasticPairwiseBatch& b, const Sto
       mis[t] = 0.0f;
       pc[t] = b.hasSample[at(t, k)] ? b.canonicalTarget[at(t, k)] : 0.0f;
     }
-    // Seed 004 Eq. 18-19: base share plus the N_c uniform draws (P_c = 1/M) of the pairwise terms.
+    // Seed 004 Eq. 18-19: base share plus the N_c draws (by P_c) of the pairwise terms.
     if (b.hasSample[at(0, k)] && pc[0] > 0.0f) {
       mis[0] = MisPairwiseCanonicalBase(cBar, cc);
       for (int d = 0; d < distinct; ++d)
-        mis[0] += StochasticPairwiseCanonicalTerm(b.drawnMultiplicity[at(d, k)], nc, 1.0f / b.candidateCount[k],
+        mis[0] += StochasticPairwiseCanonicalTerm(b.drawnMultiplicity[at(d, k)], nc, b.drawnProbability[at(d, k)],
                                                   b.drawnConfidence[at(d, k)], cBar, cc, b.drawnTarget[at(d, k)],
                                                   pc[0]);
     }

@@ -5,18 +5,18 @@
 //
 //   pc[t]  = hasSample_t ? p̂_c(Y_t) : 0
 //   mis[0] = hasSample_0 && pc[0] > 0
-//              ? MisPairwiseCanonicalBase(c̄, c_c) + Σ_{d < D} StochasticPairwiseCanonicalTerm(K_c(d), N_c, 1/M,
+//              ? MisPairwiseCanonicalBase(c̄, c_c) + Σ_{d < D} StochasticPairwiseCanonicalTerm(K_c(d), N_c, P_c(d),
 //                                                       c_j(d), c̄, c_c, p̂_j(d)(Y_c), pc[0])   (left to right)
 //              : 0
 //   mis[t] = hasSample_t && pc[t] > 0                                                        (t >= 1)
 //              ? StochasticPairwiseNonCanonical(K(t), N, P(t), c_t, c̄, c_c, p̂_t(Y_t), pc[t]) : 0
 //
-// with c_c = confidence of input 0 and 1/M evaluated as 1.0f / M. Two implementations beside each other, as
-// core/gris_kernel.h: a Highway kernel (SSE4, AVX2, AVX-512, a packet of combinations per register) and its
+// with c_c = confidence of input 0 and P_c(d) the probability of drawing draw d's pixel (1/M uniform, or ∝ c_j).
+// Two implementations beside each other, as core/gris_kernel.h: a Highway kernel (SSE4, AVX2, AVX-512, a packet of combinations per register) and its
 // scalar twin (that loop, literally). Same bits on every target (DESIGN §3); core/simd.h chooses which runs.
 //
 // Values the loop does not read may hold anything, NaN included (they never reach a result): every entry past a
-// combination's input count or distinct-draw count, and c̄, M, N, N_c, K, P, c_j, p̂_t(Y_t), p̂_j(Y_c) of
+// combination's input count or distinct-draw count, and c̄, N, N_c, K, P, P_c, c_j, p̂_t(Y_t), p̂_j(Y_c) of
 // inputs whose weight the guards above set to 0.
 #pragma once
 
@@ -46,7 +46,6 @@ struct StochasticPairwiseBatch {
   const float* cBar = nullptr;         // c̄: scaled confidence sum of the cell (seed 004 §4.3)
   const float* drawCount = nullptr;    // N: non-canonical draws
   const float* canonicalDrawCount = nullptr;  // N_c: canonical draws
-  const float* candidateCount = nullptr;      // M: the cell's candidates (P_c = 1/M)
   // Per input t.
   const uint8_t* hasSample = nullptr;        // GrisInput::hasSample (nonzero: true)
   const float* confidence = nullptr;         // c_t, already scaled (input 0: c_c)
@@ -56,6 +55,7 @@ struct StochasticPairwiseBatch {
   const float* ownTarget = nullptr;          // p̂_t(Y_t): target(t, t) (t >= 1)
   // Per distinct canonical draw d (of pixel j).
   const float* drawnMultiplicity = nullptr;  // K_c(j)
+  const float* drawnProbability = nullptr;   // P_c(j): the probability of drawing j in one canonical draw
   const float* drawnConfidence = nullptr;    // c_j, scaled as the inputs' confidences are
   const float* drawnTarget = nullptr;        // p̂_j(Y_c): target(count + d, 0)
 };
@@ -77,9 +77,9 @@ struct StochasticPairwiseArrays {
   int inputRows = kMaxGrisInputs;
   int drawRows = kMaxCanonicalDraws;
   std::vector<int32_t> distinct;                                              // per combination
-  std::vector<float> cBar, drawCount, canonicalDrawCount, candidateCount;    // per combination
+  std::vector<float> cBar, drawCount, canonicalDrawCount;                    // per combination
   std::vector<float> multiplicity, probability, canonicalTarget, ownTarget;  // per input
-  std::vector<float> drawnMultiplicity, drawnConfidence, drawnTarget;        // per draw
+  std::vector<float> drawnMultiplicity, drawnProbability, drawnConfidence, drawnTarget;  // per draw
 
   // Sizes every array for `gris` (its stride and matrixSize) and `draws` rows of draws, zero-filled.
   void Resize(const GrisBatchArrays& gris, int draws = kMaxCanonicalDraws) {
@@ -87,10 +87,10 @@ struct StochasticPairwiseArrays {
     inputRows = gris.matrixSize;
     drawRows = draws;
     distinct.assign(stride, 0);
-    for (auto* v : {&cBar, &drawCount, &canonicalDrawCount, &candidateCount}) v->assign(stride, 0.0f);
+    for (auto* v : {&cBar, &drawCount, &canonicalDrawCount}) v->assign(stride, 0.0f);
     for (auto* v : {&multiplicity, &probability, &canonicalTarget, &ownTarget})
       v->assign(static_cast<size_t>(inputRows) * stride, 0.0f);
-    for (auto* v : {&drawnMultiplicity, &drawnConfidence, &drawnTarget})
+    for (auto* v : {&drawnMultiplicity, &drawnProbability, &drawnConfidence, &drawnTarget})
       v->assign(static_cast<size_t>(drawRows) * stride, 0.0f);
   }
   // Element of input t, and of canonical draw d, of combination k.
@@ -110,12 +110,12 @@ struct StochasticPairwiseArrays {
     b.cBar = cBar.data();
     b.drawCount = drawCount.data();
     b.canonicalDrawCount = canonicalDrawCount.data();
-    b.candidateCount = candidateCount.data();
     b.multiplicity = multiplicity.data();
     b.probability = probability.data();
     b.canonicalTarget = canonicalTarget.data();
     b.ownTarget = ownTarget.data();
     b.drawnMultiplicity = drawnMultiplicity.data();
+    b.drawnProbability = drawnProbability.data();
     b.drawnConfidence = drawnConfidence.data();
     b.drawnTarget = drawnTarget.data();
     return b;

@@ -109,7 +109,8 @@ Contributing Pipeline::InitialPass(const FrameInputs& in, const FrameView& view,
 void Pipeline::SpatialPass(const FrameView& view, FrameResult& r) {
   const SpatialParams& spatial = passes_.spatial;
   if (spatial.mis == MisFamily::kStochasticPairwise)
-    StochasticPairwiseReuse(spatial, view, reservoirs_, previousReservoirs_, cells_, r.passes.emplace_back());
+    StochasticPairwiseReuse(spatial, view, r.temporalAccepted, reservoirs_, previousReservoirs_, cells_,
+                            r.passes.emplace_back());
   else
     SpatialReuse(spatial, view, r.temporalAccepted, reservoirs_, previousReservoirs_, r.passes.emplace_back());
 }

@@ -34,12 +34,19 @@ const EnumNames<VisibilityReuse> kVisNames{{{VisibilityReuse::kNone, "final-ray"
                                             {VisibilityReuse::kSelected, "reuse-selected"},
                                             {VisibilityReuse::kWeighted, "wis-estimate"}}};
 const EnumNames<LightSelection> kSelNames{{{LightSelection::kPower, "power"}, {LightSelection::kUniform, "uniform"}}};
+const EnumNames<CanonicalPdf> kCanonicalPdfNames{
+    {{CanonicalPdf::kUniform, "uniform"}, {CanonicalPdf::kConfidence, "confidence"}}};
 
 std::string ToString(int v) { return std::to_string(v); }
 std::string ToString(bool v) { return v ? "true" : "false"; }
+// The shortest %g form that reads back as the same float: a printed setting (a run's manifest, a sweep's plan)
+// must reproduce the run, and defaults such as cellSearchRadius = 30/1080 need more than %g's 6 digits.
 std::string ToString(float v) {
   char buf[32];
-  std::snprintf(buf, sizeof(buf), "%g", v);
+  for (int precision = 6; precision <= 9; ++precision) {
+    std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
+    if (std::strtof(buf, nullptr) == v || v != v) break;
+  }
   return buf;
 }
 template <typename E>
@@ -133,7 +140,9 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("spatial.depthThreshold", spatial.depthThreshold),
       RESTIR_FIELD("spatial.discountNaiveSamples", spatial.discountNaiveSamples),
       RESTIR_FIELD("spatial.draws", spatial.stochastic.draws),
+      RESTIR_FIELD("spatial.disocclusionDraws", spatial.stochastic.disocclusionDraws),
       RESTIR_FIELD("spatial.canonicalDraws", spatial.stochastic.canonicalDraws),
+      RESTIR_ENUM_FIELD("spatial.canonicalPdf", spatial.stochastic.canonicalPdf, kCanonicalPdfNames),
       RESTIR_FIELD("spatial.cellTile", spatial.stochastic.cellTile),
       RESTIR_FIELD("spatial.normalBins", spatial.stochastic.normalBins),
       RESTIR_FIELD("spatial.cellSearchIterations", spatial.stochastic.cellSearchIterations),
@@ -211,6 +220,9 @@ std::vector<SettingBound> MakeBounds() {
             /*pipeline=*/false, /*highExclusive=*/true),
       Bound("spatial.draws", RESTIR_MEMBER(spatial.stochastic.draws), 1, kMaxGrisInputs - 1, draws,
             kPipeline),
+      Bound("spatial.disocclusionDraws", RESTIR_MEMBER(spatial.stochastic.disocclusionDraws), 1,
+            kMaxGrisInputs - 1, "disocclusionDraws must be in [1, " + std::to_string(kMaxGrisInputs - 1) + "]",
+            kPipeline),
       Bound("spatial.canonicalDraws", RESTIR_MEMBER(spatial.stochastic.canonicalDraws), 1, kMaxGrisInputs - 1,
             draws, kPipeline),
       Bound("spatial.cellTile", RESTIR_MEMBER(spatial.stochastic.cellTile), 1, kMaxCellTile, cells,
@@ -218,6 +230,10 @@ std::vector<SettingBound> MakeBounds() {
       Bound("spatial.normalBins", RESTIR_MEMBER(spatial.stochastic.normalBins), 1, 64, cells),
       Bound("spatial.cellSearchIterations", RESTIR_MEMBER(spatial.stochastic.cellSearchIterations), 1,
             kMaxCellSearchIterations, cells, kPipeline),
+      // In image heights since issue 39: a value in pixels (the old unit, 30 by default) is refused, not run.
+      Bound("spatial.cellSearchRadius", RESTIR_MEMBER(spatial.stochastic.cellSearchRadius), 1.0 / 4096.0, 1,
+            "cellSearchRadius is in image heights and must be in [1/4096, 1] (the paper's 30 px at 1080 rows is "
+            "0.0277778)"),
   };
 }
 

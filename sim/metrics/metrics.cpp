@@ -240,6 +240,16 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
   v.emplace_back("duplicate_fraction", d.duplicateFraction);
   v.emplace_back("cross_object_reuse", static_cast<double>(m.crossObjectReuse));
   v.emplace_back("guarded", static_cast<double>(m.guarded));
+  // The spatial pass's work per pixel, so a reader can price a method for other hardware (issue 39), and the
+  // share of its surface pixels that found nothing to reuse.
+  for (const char* name : kPassNames) {
+    const PassStats* ps = findPass(name);
+    v.emplace_back(std::string("targets_per_pixel_") + name, ps ? double(ps->targets) / double(pixels) : 0.0);
+  }
+  const PassStats* spatial = findPass("spatial");
+  v.emplace_back("reservoir_reads_per_pixel_spatial", spatial ? double(spatial->reservoirReads) / double(pixels) : 0.0);
+  v.emplace_back("spatial_failed_fraction",
+                 spatial && spatial->visited ? double(spatial->failed) / double(spatial->visited) : 0.0);
   row.imageHash = HexHash(HashImage(*m.image));
   return row;
 }

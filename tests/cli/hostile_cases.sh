@@ -286,7 +286,7 @@ expect2 6.22 "sweep --job 99" sweep "$W/tiny_sweep.json" --job 99 --out "$W/cl"
 axis() { printf '"%s": [%s]' "$1" "$(seq -s, "$2" "$3" "$4")"; }
 { printf '{"sequence": "%s/sequences/smoke.json", "presets": ["ris"], "grid": {' "$PWD"
   axis temporal.maxHistory 1 1 256; printf ', '; axis initial.candidates 1 1 256; printf ', '
-  axis spatial.radius 1 1 256; printf ', '; axis spatial.cellSearchRadius 1 1 256; printf ', '
+  axis spatial.radius 1 1 256; printf ', '; axis spatial.cellSearchRadius 0.001 0.001 0.256; printf ', '
   axis spatial.normalThreshold 0.5 0.001 0.755; printf ', '; axis spatial.depthThreshold 0.01 0.001 0.265
   printf ', '; axis spatial.cellSearchGrowth 1.1 0.001 1.355; printf ', '; axis spatial.neighbours 1 1 8
   printf ', '; axis spatial.draws 1 1 8; printf ', '; axis spatial.canonicalDraws 1 1 4; echo '}}'

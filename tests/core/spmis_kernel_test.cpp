@@ -41,12 +41,12 @@ enum Array {
   kCBar,
   kDrawCount,
   kCanonicalDrawCount,
-  kCandidateCount,
   kMultiplicity,
   kProbability,
   kCanonicalTargetIn,
   kOwnTarget,
   kDrawnMultiplicity,
+  kDrawnProbability,
   kDrawnConfidence,
   kDrawnTarget,
   kArrays
@@ -64,12 +64,12 @@ struct Batch {
       case kCBar: return sp.cBar;
       case kDrawCount: return sp.drawCount;
       case kCanonicalDrawCount: return sp.canonicalDrawCount;
-      case kCandidateCount: return sp.candidateCount;
       case kMultiplicity: return sp.multiplicity;
       case kProbability: return sp.probability;
       case kCanonicalTargetIn: return sp.canonicalTarget;
       case kOwnTarget: return sp.ownTarget;
       case kDrawnMultiplicity: return sp.drawnMultiplicity;
+      case kDrawnProbability: return sp.drawnProbability;
       case kDrawnConfidence: return sp.drawnConfidence;
       case kDrawnTarget: return sp.drawnTarget;
       case kArrays: break;
@@ -149,7 +149,6 @@ Batch RandomBatch(Gen& g, size_t count, size_t extraStride, int rows = kMaxGrisI
     s.cBar[k] = g.CBar(hard, scale);
     s.drawCount[k] = hard && g.Chance(0.1f) ? g.Count(true, 1, 15) : n;
     s.canonicalDrawCount[k] = g.Count(hard, 1, 15);
-    s.candidateCount[k] = hard && g.Chance(0.1f) ? g.Count(true, 1, 64) : m;
     // A fifth of the lanes: no canonical confidence or zero canonical targets, so pairs fall to the defensive
     // branch (c̄ p̂_j(Y_c) + c_c p̂_c(Y_c) not > 0).
     const bool defensive = g.Chance(0.2f);
@@ -166,6 +165,8 @@ Batch RandomBatch(Gen& g, size_t count, size_t extraStride, int rows = kMaxGrisI
     for (int d = 0; d < drawRows; ++d) {
       const size_t e = s.DrawAt(d, k);
       s.drawnMultiplicity[e] = g.Count(hard, 1, 5);
+      // P_c(j): uniform 1/M (as the pass computes it) or ∝ c_j (any fraction of the cell).
+      s.drawnProbability[e] = g.Chance(0.5f) ? 1.0f / m : g.Probability(hard);
       s.drawnConfidence[e] = g.Confidence(hard, scale);
       s.drawnTarget[e] = defensive && g.Chance(0.6f) ? 0.0f : g.Target(hard);
     }
@@ -206,7 +207,7 @@ void Reference(Batch& b, size_t k, float* mis, float* pc, Coverage* cov) {
       const float tj = F(kDrawnTarget, e);
       if (cov && cBar + cc > 0.0f && !(cBar * tj + cc * pc[0] > 0.0f)) ++cov->defensive;
       mis[0] += StochasticPairwiseCanonicalTerm(F(kDrawnMultiplicity, e), F(kCanonicalDrawCount, k),
-                                                1.0f / F(kCandidateCount, k), F(kDrawnConfidence, e), cBar, cc,
+                                                F(kDrawnProbability, e), F(kDrawnConfidence, e), cBar, cc,
                                                 tj, pc[0]);
     }
     if (cov) cov->canonicalWithDraws += b.sp.distinct[k] > 0;
@@ -385,12 +386,12 @@ TEST_F(StochasticPairwiseKernel, TailsReadAndWriteExactlyTheirCombinations) {
       view.cBar = f[kCBar]->data();
       view.drawCount = f[kDrawCount]->data();
       view.canonicalDrawCount = f[kCanonicalDrawCount]->data();
-      view.candidateCount = f[kCandidateCount]->data();
       view.multiplicity = f[kMultiplicity]->data();
       view.probability = f[kProbability]->data();
       view.canonicalTarget = f[kCanonicalTargetIn]->data();
       view.ownTarget = f[kOwnTarget]->data();
       view.drawnMultiplicity = f[kDrawnMultiplicity]->data();
+      view.drawnProbability = f[kDrawnProbability]->data();
       view.drawnConfidence = f[kDrawnConfidence]->data();
       view.drawnTarget = f[kDrawnTarget]->data();
       const std::vector<float> sentinel(b.g.mis.size(), Outputs::kSentinel);

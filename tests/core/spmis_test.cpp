@@ -49,6 +49,16 @@ TEST(StochasticPairwise, EveryCandidateOnceReducesToPairwise) {
   EXPECT_FLOAT_EQ(ScaledConfidence(3.0f, m, m), 3.0f);
 }
 
+// Seed 004 §4.3's N/M, capped at 1 when N > M (issue 39): scaled, a cell never counts more than its Σ c.
+TEST(StochasticPairwise, ConfidenceScaleIsCappedAtOne) {
+  EXPECT_FLOAT_EQ(ConfidenceScale(3.0f, 8.0f), 0.375f);
+  EXPECT_EQ(ConfidenceScale(8.0f, 8.0f), 1.0f);
+  EXPECT_EQ(ConfidenceScale(10.0f, 3.0f), 1.0f);
+  EXPECT_EQ(ConfidenceScale(5.0f, 0.0f), 1.0f);
+  for (int m = 1; m <= 40; ++m)
+    for (int n = 1; n <= 15; ++n) EXPECT_LE(ScaledConfidence(2.0f, float(n), float(m)) * float(m), 2.0f * m);
+}
+
 // E[m̃_i] = m_i: N = 3 draws with replacement by P(i) ∝ contribution, repeated 200,000 times; per candidate a
 // z-test of the mean stochastic weight against the deterministic one (false-failure rate 1e-6 each). Same for
 // the canonical weight with N_c = 2 uniform draws. Confidences scaled by N/M as the estimator does.

@@ -146,6 +146,10 @@ struct PassStats {
   uint64_t combinations = 0;  // combinations through the GRIS kernel (core/gris_kernel.h)
   uint64_t guarded = 0;       // non-finite values caught and reset (DESIGN §10)
   uint64_t crossObjectReuse = 0;  // temporal inputs whose previous surface had another object id (must be 0)
+  // Spatial only, summed over its iterations (issue 39's equal-work and failed-search counts):
+  uint64_t reservoirReads = 0;  // reservoirs read: each pixel's own, its neighbours' or its cell's, and the cells'
+  uint64_t failed = 0;          // surface pixels that found nothing to reuse (no cell, or no qualifying neighbour)
+  uint64_t visited = 0;         // surface pixels the pass visited (its iterations times the frame's surface pixels)
   // Shading only: surface pixels whose reservoir reaches the image, f(Y) V(Y) W > 0 in some channel (seed 004's
   // "contributing path"; visibility included, unlike the reservoirs' p̂ W > 0).
   uint64_t contributing = 0;

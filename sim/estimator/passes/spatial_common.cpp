@@ -23,6 +23,8 @@ void RunSpatialIterations(const SpatialParams& params, const FrameView& view, Re
   const GBuffer& g = *view.gbuffer;
   tbb::combinable<uint64_t> rays([] { return uint64_t{0}; });
   tbb::combinable<uint64_t> guarded([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> reads([] { return uint64_t{0}; });
+  tbb::combinable<uint64_t> failed([] { return uint64_t{0}; });
   tbb::enumerable_thread_specific<BatchScratch> scratch;
   const VisibilityCarry carry = CarryFor(params.visibility);
   const bool carryVisibility = params.visibility != VisibilityReuse::kNone;
@@ -37,11 +39,14 @@ void RunSpatialIterations(const SpatialParams& params, const FrameView& view, Re
       BatchScratch& sc = scratch.local();
       sc.evaluator.Bind(frames, *view.materials, *view.scene, rayTraced);
       batch(SpatialBatch{view, g, iteration, y, x0, x1, input, output, carry, carryVisibility, sc, rays.local(),
-                         guarded.local()});
+                         guarded.local(), reads.local(), failed.local()});
     });
     std::swap(reservoirs, spare);
   }
   FinishReusePass("spatial", t0, rays, guarded, scratch, stats);
+  stats.reservoirReads = reads.combine(std::plus<uint64_t>());
+  stats.failed = failed.combine(std::plus<uint64_t>());
+  for (size_t i = 0; i < g.Size(); ++i) stats.visited += g.IsSurface(i) ? uint64_t(params.iterations) : 0u;
 }
 
 }  // namespace restir

@@ -54,6 +54,7 @@ bool AssembleCombination(const SpatialParams& params, const SpatialBatch& b, int
   const int w = g.width, y = b.y;
   const size_t i = static_cast<size_t>(y) * w + x;
   const StoredReservoir& self = b.input[i];
+  ++b.reservoirReads;
   c.Reset(static_cast<uint32_t>(i), 1, 0);
   c.AddDomain(0, static_cast<uint32_t>(i));
   c.samples[0] = SampleOf(self);
@@ -64,6 +65,7 @@ bool AssembleCombination(const SpatialParams& params, const SpatialBatch& b, int
     const size_t ni = static_cast<size_t>(neighbour[t]);
     if (!g.IsSurface(ni) || !SimilarSurface(g, i, g, ni, params.normalThreshold, params.depthThreshold)) continue;
     const StoredReservoir& nr = b.input[ni];
+    ++b.reservoirReads;
     if (!FiniteReservoir(nr)) continue;
     if (params.discountNaiveSamples && nr.HasSample() && nr.confidence <= kNaiveConfidence) continue;
     const int slot = c.AddInput();
@@ -92,7 +94,10 @@ void NeighbourBatch(const SpatialParams& params, MisFamily family, const std::ve
     const size_t i = static_cast<size_t>(b.y) * b.g.width + x;
     b.output[i] = b.input[i];  // kept unless a combination below replaces it
     if (!b.g.IsSurface(i)) continue;
-    if (AssembleCombination(params, b, x, nb.pixel[x - b.x0], nb.count[x - b.x0], combos[count])) ++count;
+    if (AssembleCombination(params, b, x, nb.pixel[x - b.x0], nb.count[x - b.x0], combos[count]))
+      ++count;
+    else
+      ++b.failed;
   }
   CombineFamilyBatch(b.scratch, nullptr, count, family, b.carry, b.rays);
   for (int k = 0; k < count; ++k) {

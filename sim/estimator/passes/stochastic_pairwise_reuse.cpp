@@ -19,10 +19,12 @@ struct DrawState {
   float multiplicity[kMaxGrisInputs];  // K(i) of non-canonical input i
   float probability[kMaxGrisInputs];   // P(i)
   float drawnCount[kMaxGrisInputs];    // multiplicity of the d-th distinct canonical draw (domain count + d)
+  float drawnProbability[kMaxGrisInputs];  // its P_c
   uint32_t drawnPixel[kMaxGrisInputs];
   int distinct = 0;                    // distinct canonical draws
+  float bigN = 0.0f;                   // N: this pixel's non-canonical draws (draws or disocclusionDraws)
   float bigM = 0.0f;                   // M: the cell's candidates
-  float scale = 1.0f;                  // N / M with confidence scaling, else 1 (§4.3)
+  float scale = 1.0f;                  // min(1, N / M) with confidence scaling, else 1 (§4.3)
   float cBar = 0.0f;                   // scaled Σ c_i over the cell
 };
 
@@ -54,16 +56,18 @@ int32_t ChooseCell(const SpatialParams& params, const CellGrid& grid, size_t i, 
   return chosen;
 }
 
-// In the chosen cell, N draws with replacement by P(i) ∝ c_i p̂_i(X_i) W_i (Eq. 17) become the combination's
-// non-canonical inputs with multiplicities K(i); N_c uniform draws (P_c = 1/M) are kept for the canonical weight.
-// Consumes every random number of the pixel in a fixed layout. False when the pixel keeps its reservoir.
-bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i, int32_t chosen,
-          const ReservoirBuffer& input, Sampler& s, Combination& c, DrawState& draws) {
+// In the chosen cell, `bigN` draws with replacement by P(i) ∝ c_i p̂_i(X_i) W_i (Eq. 17) become the combination's
+// non-canonical inputs with multiplicities K(i); N_c draws by P_c (params.canonicalPdf) are kept for the canonical
+// weight. Consumes every random number of the pixel in a layout fixed by bigN and N_c. False when the pixel keeps
+// its reservoir. `reads` counts the reservoirs read.
+bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i, int32_t chosen, int bigN,
+          const ReservoirBuffer& input, Sampler& s, Combination& c, DrawState& draws, uint64_t& reads) {
   if (chosen < 0) return false;
   const CellGrid::Cell& cell = grid.cells[static_cast<size_t>(chosen)];
   // The cell's candidates, the current pixel excluded: all M of them, and the contributing ones with P(i).
   uint32_t candidates[kMaxCellPixels];
   float cumulative[kMaxCellPixels];
+  float confidenceCumulative[kMaxCellPixels];  // running Σ c over candidates (P_c ∝ c)
   uint32_t contributing[kMaxCellPixels];
   int m = 0, k = 0;
   float confidenceSum = 0.0f, contributionSum = 0.0f;
@@ -73,6 +77,7 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
     candidates[m++] = p;
     const StoredReservoir& r = input[p];
     confidenceSum += r.confidence;
+    confidenceCumulative[m - 1] = confidenceSum;
     const float contribution = r.HasSample() ? StochasticPairwiseDrawWeight(r.confidence, r.targetPdf, r.W) : 0.0f;
     if (contribution > 0.0f && std::isfinite(contribution)) {
       contributionSum += contribution;
@@ -80,9 +85,11 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
       cumulative[k++] = contributionSum;
     }
   }
+  reads += static_cast<uint64_t>(m) + 1;  // the cell's candidates and the pixel's own
   if (m == 0) return false;
+  draws.bigN = static_cast<float>(bigN);
   draws.bigM = static_cast<float>(m);
-  draws.scale = params.confidenceScaling ? ConfidenceScale(static_cast<float>(params.draws), draws.bigM) : 1.0f;
+  draws.scale = params.confidenceScaling ? ConfidenceScale(draws.bigN, draws.bigM) : 1.0f;
   draws.cBar = confidenceSum * draws.scale;
 
   const StoredReservoir& self = input[i];
@@ -91,7 +98,7 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
   c.samples[0] = SampleOf(self);
   c.inputs[0] = InputOf(self, self.confidence);
   c.history[0] = self.history;
-  for (int d = 0; d < params.draws; ++d) {
+  for (int d = 0; d < bigN; ++d) {
     const float u = s.Next();
     if (k == 0) continue;
     const int idx = SampleCumulative(cumulative, k, u);
@@ -112,13 +119,23 @@ bool Draw(const StochasticPairwiseParams& params, const CellGrid& grid, size_t i
     }
     draws.multiplicity[slot] += 1.0f;
   }
-  // Canonical: N_c uniform draws, always consumed so every pixel's stream has the same layout.
+  // Canonical: N_c draws by P_c, always consumed so every pixel's stream has the same layout. With P_c ∝ c and
+  // no confidence in the cell, every term is 0 and nothing is drawn.
   draws.distinct = 0;
+  const bool byConfidence = params.canonicalPdf == CanonicalPdf::kConfidence;
   for (int d = 0; d < params.canonicalDraws; ++d) {
-    const uint32_t p = candidates[std::min(m - 1, static_cast<int>(s.Next() * draws.bigM))];
+    const float u = s.Next();
+    if (byConfidence && !(confidenceSum > 0.0f)) continue;
+    const uint32_t p = byConfidence ? candidates[SampleCumulative(confidenceCumulative, m, u)]
+                                    : candidates[std::min(m - 1, static_cast<int>(u * draws.bigM))];
     int slot = 0;
     while (slot < draws.distinct && draws.drawnPixel[slot] != p) ++slot;
-    if (slot == draws.distinct) draws.drawnPixel[draws.distinct] = p, draws.drawnCount[draws.distinct++] = 0.0f;
+    if (slot == draws.distinct) {
+      draws.drawnPixel[slot] = p;
+      draws.drawnCount[slot] = 0.0f;
+      draws.drawnProbability[slot] = byConfidence ? input[p].confidence / confidenceSum : 1.0f / draws.bigM;
+      ++draws.distinct;
+    }
     draws.drawnCount[slot] += 1.0f;
   }
   for (int t = 0; t < c.count; ++t) c.u[t] = s.Next();
@@ -138,7 +155,7 @@ void DrawSearchPositions(const StochasticPairwiseParams& sp, const CellGrid& gri
     float* pick = cs.searchPick.data() + static_cast<size_t>(x - b.x0) * iterations;
     if (!g.IsSurface(i)) continue;
     Sampler s(SpatialRngKey(b.view, i, b.iteration));
-    float radius = sp.cellSearchRadius;
+    float radius = CellSearchRadiusPixels(sp, h);
     for (int it = 0; it < iterations; ++it, radius *= sp.cellSearchGrowth) {
       const float u0 = s.Next(), u1 = s.Next();
       const PixelOffset d = RoundedDiskOffset(radius, u0, u1);
@@ -187,8 +204,9 @@ void ChooseBatchCells(const SpatialParams& params, const CellGrid& grid, const S
 
 // Each surface pixel's combination from its chosen cell (Draw); a pixel keeps its reservoir unless one replaces
 // it. The drawn pixels' surfaces are prefetched for the target evaluations. Returns the batch's combinations.
-int DrawInputs(const StochasticPairwiseParams& sp, const CellGrid& grid, const SpatialBatch& b,
-               const CellScratch& cs, DrawState* draws) {
+int DrawInputs(const SpatialParams& params, const std::vector<uint8_t>& temporalAccepted, const CellGrid& grid,
+               const SpatialBatch& b, const CellScratch& cs, DrawState* draws) {
+  const StochasticPairwiseParams& sp = params.stochastic;
   const GBuffer& g = b.g;
   const int w = g.width;
   std::vector<Combination>& combos = b.scratch.combinations;
@@ -200,7 +218,12 @@ int DrawInputs(const StochasticPairwiseParams& sp, const CellGrid& grid, const S
     Combination& c = combos[count];
     // The search used the first three dimensions of each iteration.
     Sampler s(SpatialRngKey(b.view, i, b.iteration), 3u * static_cast<uint32_t>(sp.cellSearchIterations));
-    if (!Draw(sp, grid, i, cs.chosenCell[x - b.x0], b.input, s, c, draws[count])) continue;
+    const bool boost = params.disocclusionBoost && !temporalAccepted[i];
+    if (!Draw(sp, grid, i, cs.chosenCell[x - b.x0], boost ? sp.disocclusionDraws : sp.draws, b.input, s, c,
+              draws[count], b.reservoirReads)) {
+      ++b.failed;
+      continue;
+    }
     // The second Resolve evaluates targets at the drawn pixels' surfaces: start loading them now.
     for (int t = 1; t < c.count; ++t) PrefetchSurface(g, c.domainPixel[t]);
     for (int j = 0; j < draws[count].distinct; ++j) PrefetchSurface(g, draws[count].drawnPixel[j]);
@@ -252,9 +275,8 @@ void StochasticBatchWeights(const StochasticPairwiseParams& sp, const SpatialBat
     const DrawState& d = draws[k];
     sw.distinct[k] = d.distinct;
     sw.cBar[k] = d.cBar;
-    sw.drawCount[k] = static_cast<float>(sp.draws);
+    sw.drawCount[k] = d.bigN;
     sw.canonicalDrawCount[k] = static_cast<float>(sp.canonicalDraws);
-    sw.candidateCount[k] = d.bigM;
     for (int t = 0; t < c.count; ++t) {
       const size_t e = sw.At(t, static_cast<size_t>(k));
       sw.canonicalTarget[e] = c.Known(0, t);
@@ -266,6 +288,7 @@ void StochasticBatchWeights(const StochasticPairwiseParams& sp, const SpatialBat
     for (int j = 0; j < d.distinct; ++j) {
       const size_t e = sw.DrawAt(j, static_cast<size_t>(k));
       sw.drawnMultiplicity[e] = d.drawnCount[j];
+      sw.drawnProbability[e] = d.drawnProbability[j];
       sw.drawnConfidence[e] = b.input[d.drawnPixel[j]].confidence * d.scale;
       sw.drawnTarget[e] = c.domains > c.count + j ? c.Known(c.count + j, 0) : 0.0f;
     }
@@ -277,13 +300,14 @@ void StochasticBatchWeights(const StochasticPairwiseParams& sp, const SpatialBat
 // cells, then the chosen cell's reservoirs: three dependent cache misses per search. Each stage runs over the
 // whole batch and prefetches what the next one reads, so the misses overlap. Then the draws, their targets and
 // weights, and the resampling with the given weights.
-void CellBatch(const SpatialParams& params, const CellGrid& grid, const SpatialBatch& b, CellScratch& cs) {
+void CellBatch(const SpatialParams& params, const std::vector<uint8_t>& temporalAccepted, const CellGrid& grid,
+               const SpatialBatch& b, CellScratch& cs) {
   const StochasticPairwiseParams& sp = params.stochastic;
   DrawState draws[kBatchPixels];
   DrawSearchPositions(sp, grid, b, cs);
   LookUpSearchCells(sp, grid, b, cs);
   ChooseBatchCells(params, grid, b, cs);
-  const int count = DrawInputs(sp, grid, b, cs, draws);
+  const int count = DrawInputs(params, temporalAccepted, grid, b, cs, draws);
   ResolveCellTargets(b, draws, count);
   StochasticBatchWeights(sp, b, draws, count, cs.spmis);
   b.scratch.combine.Resample(b.carry);
@@ -347,13 +371,19 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
   }
 }
 
-void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view,
+                             const std::vector<uint8_t>& temporalAccepted, ReservoirBuffer& reservoirs,
                              ReservoirBuffer& spare, CellGrid& grid, PassStats& stats) {
   tbb::enumerable_thread_specific<CellScratch> cellScratch;
+  uint64_t cellReads = 0;  // BuildCells reads every surface pixel's confidence once per iteration
   RunSpatialIterations(
       params, view, reservoirs, spare, stats,
-      [&](const ReservoirBuffer& input) { BuildCells(*view.gbuffer, input, params.stochastic, grid); },
-      [&](const SpatialBatch& b) { CellBatch(params, grid, b, cellScratch.local()); });
+      [&](const ReservoirBuffer& input) {
+        BuildCells(*view.gbuffer, input, params.stochastic, grid);
+        cellReads += grid.pixels.size();
+      },
+      [&](const SpatialBatch& b) { CellBatch(params, temporalAccepted, grid, b, cellScratch.local()); });
+  stats.reservoirReads += cellReads;
 }
 
 }  // namespace restir

@@ -39,8 +39,11 @@ void BuildCells(const GBuffer& g, const ReservoirBuffer& reservoirs, const Stoch
 // spatial.iterations passes over `reservoirs` (updated in place); `spare` is a second buffer the iterations
 // alternate with (its contents are lost). `cells` holds the last iteration's cells afterwards. Reads params.bias,
 // params.iterations, params.normalThreshold, params.stochastic and params.visibility (what the shading pass will
-// use; sim/estimator/passes/spatial_common.h).
-void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view, ReservoirBuffer& reservoirs,
+// use; sim/estimator/passes/spatial_common.h). With params.disocclusionBoost, `temporalAccepted` (one per pixel)
+// marks the pixels whose temporal reuse succeeded and the others draw stochastic.disocclusionDraws; without, it is
+// not read (may be empty).
+void StochasticPairwiseReuse(const SpatialParams& params, const FrameView& view,
+                             const std::vector<uint8_t>& temporalAccepted, ReservoirBuffer& reservoirs,
                              ReservoirBuffer& spare, CellGrid& cells, PassStats& stats);
 
 }  // namespace restir

@@ -220,7 +220,7 @@ TEST(AssetClosedForm, UnbiasedPresetsMatchReferenceOnImportedScene) {
     PipelineSettings settings = preset->settings;
     settings.spatial.radius =
         4.0f;  // reuse stays within a 16 × 16 block's neighbourhood (the RMS test's units)
-    settings.spatial.stochastic.cellSearchRadius = 4.0f;
+    settings.spatial.stochastic.cellSearchRadius = 4.0f / kSize;  // 4 px (in image heights)
     FrameLoop driver(seq, kSize, kSize);
     std::vector<Pipeline> pipelines(kSeeds, Pipeline(settings));
     std::vector<std::vector<double>> luma(kSeeds,

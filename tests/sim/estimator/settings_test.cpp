@@ -144,10 +144,11 @@ TEST(Settings, ParserAndPipelineAgreeOnTheBounds) {
       EXPECT_EQ(pipelineTakes, BrokenBound(direct, BoundsScope::kPipeline) == nullptr);
     }
   }
-  // The Pipeline checks the bounds it checked before they were one table, no more: a value set in code
-  // beyond the others still runs.
+  // The Pipeline checks the bounds it checked before they were one table, and issue 39's disocclusionDraws (a
+  // pixel's combination holds at most that many inputs), no more: a value set in code beyond the others still runs.
   const std::set<std::string> checkedBefore = {"spatial.draws", "spatial.canonicalDraws", "spatial.cellTile",
-                                               "spatial.cellSearchIterations", "temporal.fusedNeighbours"};
+                                               "spatial.cellSearchIterations", "temporal.fusedNeighbours",
+                                               "spatial.disocclusionDraws"};
   EXPECT_EQ(pipelineKeys, checkedBefore);
 }
 
@@ -179,6 +180,48 @@ TEST(Settings, BoundMessagesAreUnchanged) {
       EXPECT_EQ(e.what(), "--set: error at " + assignment.substr(0, assignment.find('=')) + ": " + reason);
     }
   }
+}
+
+// Issue 39's settings: the cell search's radius is in image heights, so a value in the old unit (pixels) is
+// refused rather than run as a search across 30 images; the boost and the canonical pdf have their bounds.
+TEST(Settings, CellPassSettingsHaveTheirUnitsAndBounds) {
+  const std::string gris = std::to_string(kMaxGrisInputs - 1);
+  const std::pair<std::string, std::string> refused[] = {
+      {"spatial.cellSearchRadius=30",
+       "cellSearchRadius is in image heights and must be in [1/4096, 1] (the paper's 30 px at 1080 rows is "
+       "0.0277778)"},
+      {"spatial.cellSearchRadius=0", ""},
+      {"spatial.cellSearchRadius=nan", ""},
+      {"spatial.disocclusionDraws=0", "disocclusionDraws must be in [1, " + gris + "]"},
+      {"spatial.disocclusionDraws=" + std::to_string(kMaxGrisInputs), ""},
+      {"spatial.canonicalPdf=cells", ""},
+  };
+  for (const auto& [assignment, reason] : refused) {
+    PipelineSettings s;
+    try {
+      ApplySettingAssignment(s, assignment);
+      ADD_FAILURE() << assignment << ": no error";
+    } catch (const InputError& e) {
+      if (!reason.empty())
+        EXPECT_EQ(e.what(), "--set: error at " + assignment.substr(0, assignment.find('=')) + ": " + reason);
+    }
+  }
+  PipelineSettings s;
+  EXPECT_EQ(s.spatial.stochastic.disocclusionDraws, s.spatial.disocclusionNeighbours);  // equal boosts
+  ApplySettingAssignment(s, "spatial.canonicalPdf=confidence");
+  EXPECT_EQ(s.spatial.stochastic.canonicalPdf, CanonicalPdf::kConfidence);
+  ApplySettingAssignment(s, "spatial.cellSearchRadius=0.5");
+  EXPECT_EQ(s.spatial.stochastic.cellSearchRadius, 0.5f);
+  ApplySettingAssignment(s, "spatial.disocclusionDraws=12");
+  EXPECT_EQ(s.spatial.stochastic.disocclusionDraws, 12);
+}
+
+// A printed float setting reads back as the same float (the default cell-search radius 30/1080 needs 8 digits).
+TEST(Settings, PrintedFloatsReadBackExactly) {
+  PipelineSettings s, back;
+  for (const auto& [key, value] : SettingsToStrings(s)) ApplySetting(back, key, value);
+  EXPECT_EQ(back.spatial.stochastic.cellSearchRadius, s.spatial.stochastic.cellSearchRadius);
+  EXPECT_EQ(SettingsToStrings(back), SettingsToStrings(s));
 }
 
 TEST(Presets, EveryDesignPresetExistsWithItsSource) {

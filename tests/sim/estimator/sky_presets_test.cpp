@@ -166,7 +166,7 @@ void RunCase(const Case& c) {
   settings.initial.brdfCandidates = c.mix.brdf;
   settings.initial.brdfCutoff = c.mix.cutoff;
   settings.spatial.radius = 4.0f;
-  settings.spatial.stochastic.cellSearchRadius = 4.0f;
+  settings.spatial.stochastic.cellSearchRadius = 4.0f / kSize;  // 4 px (in image heights)
   constexpr int kFrames = 4;
   constexpr int kSeeds = 32;
   const Sequence seq = MakeSequence(c.scene);

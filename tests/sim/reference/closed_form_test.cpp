@@ -332,7 +332,7 @@ TEST_P(ClosedFormPreset, FrameMeanMatchesLambert) {
     settings.spatial.enabled = false;
   }
   settings.spatial.radius = 4.0f;
-  settings.spatial.stochastic.cellSearchRadius = 4.0f;
+  settings.spatial.stochastic.cellSearchRadius = 4.0f / 64.0f;  // 4 px of the 64-row frame (image heights)
   constexpr int kSeeds = 48, kFrames = 4;
   for (const Config& c : Grid()) {
     if (glm::length(c.translation) > 0.0f && glm::length(c.translation) < 999.0f) continue;
