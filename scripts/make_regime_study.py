@@ -24,6 +24,25 @@ def post_reveal(rows, column):
     return mean([float(r[column]) for r in revealed])
 
 
+# Columns of issue 39 (absent in older runs: their figures are then None and print as "—"): the share of surface
+# pixels whose spatial search found nothing to reuse, and the spatial pass's work per pixel (shadow rays, target
+# function evaluations, reservoir reads), over the same frames as ms/frame (every frame but the first), so that a
+# reader can re-price the equal-time verdict for a machine with other costs (a GPU, where the cell pass is a
+# parallel sort).
+OPTIONAL = (("failed", "spatial_failed_fraction"), ("rays_sp", "rays_per_pixel_spatial"),
+            ("targets_sp", "targets_per_pixel_spatial"), ("reads_sp", "reservoir_reads_per_pixel_spatial"))
+
+
+def optional_mean(rows, column):
+    if not rows or column not in rows[0]:
+        return None
+    return mean([float(r[column]) for r in rows[1:]])
+
+
+def opt(v, digits):
+    return "—" if v is None else f"{v:.{digits}f}"
+
+
 def regime_summary(run_dir):
     s = summarize(run_dir)
     _, rows = load(run_dir)
@@ -33,24 +52,32 @@ def regime_summary(run_dir):
     s["contrib_shaded"] = mean([float(r["contrib_shaded"]) for r in rows])
     s["ref_stderr"] = mean([float(r["reference_rel_stderr"]) for r in rows])
     s["duplicates"] = mean([float(r["duplicate_fraction"]) for r in rows])
+    s["flip_disocc"] = post_reveal(rows, "flip_disocc")
+    for key, column in OPTIONAL:
+        s[key] = optional_mean(rows, column)
     return s
 
 
 def combine_regime(seeds):
     out = combine(seeds)
     for k in ("relmse_c_disocc", "contrib_initial_disocc", "contrib_spatial_disocc", "contrib_shaded",
-              "ref_stderr", "duplicates"):
+              "ref_stderr", "duplicates", "flip_disocc"):
         out[k] = mean([s[k] for s in seeds])
+    for k, _ in OPTIONAL:
+        xs = [s[k] for s in seeds if s[k] is not None]
+        out[k] = mean(xs) if xs else None
     n = len(seeds)
     # 95% half-width over seeds (Student t), as make_window_bars_study.combine gives relmse_disocc's.
     out["relmse_c_disocc_ci"] = (t975(n - 1) * statistics.stdev([s["relmse_c_disocc"] for s in seeds]) / n ** 0.5
                                  if n > 1 else None)
+    out["flip_disocc_ci"] = (t975(n - 1) * statistics.stdev([s["flip_disocc"] for s in seeds]) / n ** 0.5
+                             if n > 1 else None)
     return out
 
 
-def err(r):
-    ci = r.get("relmse_c_disocc_ci")
-    return f"{r['relmse_c_disocc']:.4f}" + (f" ± {ci:.4f}" if ci is not None else "")
+def err(r, key="relmse_c_disocc"):
+    ci = r.get(key + "_ci")
+    return f"{r[key]:.4f}" + (f" ± {ci:.4f}" if ci is not None else "")
 
 
 def pairings(rows):
@@ -133,7 +160,16 @@ def main(argv):
           "variance subtracted; docs/metrics.md) averaged over the frames with such pixels. Contributing fraction: "
           "`restir-unbiased` (k = 5)'s `contrib_initial_disocc` over the same frames, the share of revealed pixels "
           "whose initial sample is visible (its initial sampling traces visibility). ms/frame: median over frames, "
-          "measured job after job on one machine.\n")
+          "measured job after job on one machine, the two methods' configurations interleaved. `flip_disocc`: "
+          "mean HDR-FLIP over the same pixels and frames (what tone mapping shows), ± its 95% interval over seeds. "
+          "Failed: `spatial_failed_fraction`, the share of surface pixels per spatial iteration whose search found "
+          "nothing to reuse. Equal work: the spatial pass's shadow rays, target-function evaluations and reservoir "
+          "reads per pixel, over the frames ms/frame covers, to re-price the verdict for other hardware (on a GPU "
+          "the stochastic pass's cell building is a parallel sort); — where the runs predate these counters.\n")
+    print("| config | preset | settings |\n| --- | --- | --- |")
+    for r in any_rows:
+        print(f"| {r['label']} | `{r['preset']}` | {r['overrides']} |")
+    print()
     points, summary = [], []
     for seq, rows in sorted(by_seq.items(), key=lambda kv: -next(
             (r["contrib_initial_disocc"] for r in kv[1] if r["label"] == "unbiased-k5"), 0.0)):
@@ -145,12 +181,14 @@ def main(argv):
               f"sample (restir-unbiased, k = 5); over whole frames its shading reaches "
               f"{base['contrib_shaded']:.3f} of the pixels; the reference's mean relative standard error is "
               f"{base['ref_stderr']:.3f}.\n")
-        print("| config | relmse_corrected_disocc | relmse_disocc | relmse | contrib_spatial_disocc | duplicates | "
-              "ms/frame |")
-        print("| --- | --- | --- | --- | --- | --- | --- |")
+        print("| config | relmse_corrected_disocc | flip_disocc | relmse_disocc | relmse | contrib_spatial_disocc | "
+              "duplicates | failed | rays/px spatial | targets/px spatial | reservoir reads/px spatial | ms/frame |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for r in sorted(rows, key=lambda r: (r["preset"], r["ms"])):
-            print(f"| {r['label']} | {err(r)} | {r['relmse_disocc']:.4f} | {r['relmse']:.4f} | "
-                  f"{r['contrib_spatial_disocc']:.3f} | {r['duplicates']:.4f} | {r['ms']:.0f} |")
+            print(f"| {r['label']} | {err(r)} | {err(r, 'flip_disocc')} | {r['relmse_disocc']:.4f} | "
+                  f"{r['relmse']:.4f} | {r['contrib_spatial_disocc']:.3f} | {r['duplicates']:.4f} | "
+                  f"{opt(r['failed'], 3)} | {opt(r['rays_sp'], 2)} | {opt(r['targets_sp'], 1)} | "
+                  f"{opt(r['reads_sp'], 1)} | {r['ms']:.0f} |")
         pairs = pairings(rows)
         print()
         if pairs:
