@@ -244,7 +244,7 @@ def main(argv):
         print(f"| {c[0]['label']} | `{c[0]['preset']}` | {sets} |")
     print()
 
-    ranks, ratios, seqnames, verdict_lines = {}, {}, [], []
+    ranks, ratios, seqnames = {}, {}, []
     for seq, labels in jobs.items():
         base_label = "unbiased-k5x10" if "unbiased-k5x10" in labels else next(
             (lab for lab, js in labels.items() if is_baseline({"label": lab, "preset": js[0]["preset"]})),
@@ -307,7 +307,6 @@ def main(argv):
         verdict = "is not told apart from" if res is False else "beats" if win else "loses to"
         line = (f"**Verdict on {seq}:** the best stochastic configuration, {bs['label']}, {verdict} the best "
                 f"baseline, {bb['label']}: " + "; ".join(words) + ".")
-        verdict_lines.append(line)
         print(line + "\n")
 
     if seqnames:
@@ -330,8 +329,6 @@ def main(argv):
                     print(f"| {lab} (not at equal candidates) | " + " | ".join("—" for _ in seqnames) + " | — | " +
                           " | ".join(f"{r[s]:.3f}" if s in r else "—" for s in seqnames) + " |")
             print()
-            for line in verdict_lines:
-                print(line + "\n")
             best = common[0]
             c = next(js[0] for seq in jobs.values() for lab, js in seq.items() if lab == best)
             # The line scripts/regime_study.sh reads (SPMIS_SET=ablation): keep its form.
