@@ -144,7 +144,7 @@ HWY_INLINE void DrawPacket(const DrawContext& ctx, const LightDrawLights& L, con
   }
   VF y[3];
   SampleTrianglePointV(p0, e1, e2, hn::LoadU(df, uPoint0 + k), hn::LoadU(df, uPoint1 + k), y);
-  const LightPathV path = ConnectToLightV(ctx.sp, y, ny);
+  const LightPathV path = ConnectToLightOnPlaneV(ctx.sp, y, ny, p0);
   VF f[3];
   UnshadowedContributionV(ctx.sp, path, radiance, f);
 
@@ -273,14 +273,13 @@ size_t DrawLightSamplesScalar(const LightDrawReceiver& r, const BsdfSoa& materia
     y.normal = t.normal;
     y.radiance = t.radiance;
     y.pdfArea = CdfPmf(cdf, L.groups, SampleCdf(cdf, L.groups, draws.uSelect[k])) * invArea;
-    const Vec3 f = UnshadowedContribution(sp, y);
+    const LightPath path = ConnectToLightOnPlane(sp, y.position, y.normal, t.p0);
+    const Vec3 f = ContributionAlong(sp, y.radiance, path);
     for (int c = 0; c < 3; ++c) out.term[c][k] = 0.0f;
     if (!((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f)) continue;
     float weight = 1.0f;
     if (r.bsdfMis) {
-      const LightPath path = ConnectToLight(sp, y.position, y.normal);
-      const float cosY = -glm::dot(y.normal, path.wi);
-      const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+      const float pLight = y.pdfArea * path.distance * path.distance / path.cosY;
       weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
     }
     const Vec3 term = f * (weight / y.pdfArea);

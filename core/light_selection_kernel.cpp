@@ -307,6 +307,15 @@ float LightIrradianceEstimate(const Vec3& x, const Vec3& n, const SelectionLight
   return L.vertices == 4 ? IrradianceEstimate<4>(x, n, L) : IrradianceEstimate<3>(x, n, L);
 }
 
+float TileLightWeight(const Vec3& x, const SelectionLight& L) {
+  const Vec3 d = x - L.centroid;
+  const float facing = glm::dot(L.normal, d);
+  if (!(facing > 0.0f) || !(L.lumArea > 0.0f)) return 0.0f;
+  const float d2 = std::max(glm::dot(d, d), L.size2);
+  const float w = L.lumArea * facing / (d2 * std::sqrt(d2));
+  return std::fabs(w) <= std::numeric_limits<float>::max() ? w : 0.0f;
+}
+
 float LightSelectionWeight(const ShadingPoint& sp, const SelectionLight& L) {
   float w = LightIrradianceEstimate(sp.position, sp.shadingNormal, L) * (Luminance(sp.bsdf.albedo) * kInvPi);
   if (sp.bsdf.type != BsdfType::kDiffuse) {

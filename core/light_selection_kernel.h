@@ -66,6 +66,13 @@ std::vector<SelectionLight> MakeSelectionLights(const std::vector<LightTriangle>
 // (core/polygon_irradiance.h).
 float LightIrradianceEstimate(const Vec3& x, const Vec3& n, const SelectionLight& light);
 
+// Above the reference's per-pixel light limit, one weight per light group for a whole screen tile, at one surface
+// point x of it whatever the tile's normals: the light's radiance (luminance) times the solid angle it subtends
+// from x, A cos θy / d², d² no smaller than the light's squared size (so a point beside a light does not give it
+// all the weight). 0 where the light faces away from x or is dark. Only shapes a distribution that keeps the
+// defensive power share.
+float TileLightWeight(const Vec3& x, const SelectionLight& light);
+
 // w at a receiver: LightIrradianceEstimate × albedo / π at a diffuse receiver (the reflected radiance, exact
 // but for the point estimates); at any other, kGlossyDiffuseShare of that plus the BSDF's value towards the
 // centroid times the area (TargetFunction(UnshadowedContribution) of the centroid), which follows a narrow lobe.

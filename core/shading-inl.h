@@ -163,26 +163,45 @@ struct LightPathV {
   VF cosY;        // -dot(n_y, wi), the emitter's cosine
 };
 
-// ConnectToLight (core/shading.h).
-HWY_INLINE LightPathV ConnectToLightV(const ShadingPointV& sp, const VF (&y)[3], const VF (&ny)[3]) {
-  const DF df;
-  const VF zero = hn::Zero(df);
-  LightPathV p;
+// ConnectToLight's stages (core/shading.h): the segment, then the geometry from the emitter's cosine.
+HWY_INLINE VF LightSegmentV(const ShadingPointV& sp, const VF (&y)[3], LightPathV& p) {
   VF d[3];
   for (int c = 0; c < 3; ++c) d[c] = hn::Sub(y[c], sp.x[c]);
   const VF d2 = Dot(d, d);
   const VF dist = hn::Sqrt(d2);
   for (int c = 0; c < 3; ++c) p.wi[c] = hn::Div(d[c], dist);
-  p.cosI = Dot(sp.n, p.wi);
-  const VF cosY = hn::Neg(Dot(ny, p.wi));
   p.distance = dist;
+  return d2;
+}
+HWY_INLINE void LightGeometryV(const ShadingPointV& sp, VF d2, VF cosY, LightPathV& p) {
+  const DF df;
+  const VF zero = hn::Zero(df);
+  p.cosI = Dot(sp.n, p.wi);
   p.cosY = cosY;
   const VF cosG = Dot(sp.ng, p.wi);
   p.geometry = hn::Div(hn::Mul(p.cosI, cosY), d2);
   // Path geometry is nonzero only past every ConnectToLight test; UnshadowedContribution then needs G > 0.
-  p.connects = hn::And(hn::And(hn::And(hn::Gt(dist, hn::Set(df, kMinLightDistance)), NotLe(p.cosI, zero)),
+  p.connects = hn::And(hn::And(hn::And(hn::Gt(p.distance, hn::Set(df, kMinLightDistance)), NotLe(p.cosI, zero)),
                                hn::And(NotLe(cosY, zero), NotLe(cosG, zero))),
                        NotLe(p.geometry, zero));
+}
+
+// ConnectToLight (core/shading.h).
+HWY_INLINE LightPathV ConnectToLightV(const ShadingPointV& sp, const VF (&y)[3], const VF (&ny)[3]) {
+  LightPathV p;
+  const VF d2 = LightSegmentV(sp, y, p);
+  LightGeometryV(sp, d2, hn::Neg(Dot(ny, p.wi)), p);
+  return p;
+}
+
+// ConnectToLightOnPlane (core/shading.h): the emitter's cosine from its plane through the vertex p0.
+HWY_INLINE LightPathV ConnectToLightOnPlaneV(const ShadingPointV& sp, const VF (&y)[3], const VF (&ny)[3],
+                                             const VF (&p0)[3]) {
+  LightPathV p;
+  const VF d2 = LightSegmentV(sp, y, p);
+  VF fromVertex[3];
+  for (int c = 0; c < 3; ++c) fromVertex[c] = hn::Sub(sp.x[c], p0[c]);
+  LightGeometryV(sp, d2, hn::Div(Dot(ny, fromVertex), p.distance), p);
   return p;
 }
 

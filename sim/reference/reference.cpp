@@ -18,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <filesystem>
+#include <array>
 
 #include "core/light_sampler.h"
 #include "core/light_selection_kernel.h"
@@ -29,6 +30,7 @@
 #include "sim/util/hash.h"
 #include "sim/util/input_file.h"
 #include "sim/reference/reference_cache.h"
+#include "sim/reference/reference_learning.h"
 #include "sim/reference/reference_samples.h"
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/shading_point.h"
@@ -40,8 +42,8 @@ namespace {
 
 // Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
-// the triangle in double, not Embree's vendor-dependent reciprocal).
-constexpr uint32_t kReferenceVersion = 9;
+// the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection).
+constexpr uint32_t kReferenceVersion = 10;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -50,8 +52,9 @@ constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 // reference mixes, per pixel, selection proportional to each light's unshadowed contribution there with a
 // defensive share by power. Every light with power keeps P > 0, so the estimator stays unbiased; only visibility
 // and the variation across a light remain as noise. The distributions of a block of receivers are built at once,
-// one receiver per SIMD lane. Above kMaxPerPixelLights, selection by power alone (per-pixel tables would cost more
-// than the rays they save).
+// one receiver per SIMD lane. Above kMaxPerPixelLights, one distribution per learning tile instead (TileCdf:
+// per-pixel tables would cost more than the rays they save). The main pass reshapes either by the visibility the
+// pilot found (sim/reference/reference_learning.h).
 constexpr size_t kMaxPerPixelLights = 4096;
 // Memory the pilot's per-pixel light distributions may take to be kept for the main pass (beyond it, the main pass
 // builds them again: the same bits).
@@ -220,7 +223,8 @@ uint64_t HashFrameState(const FrameState& state) {
 std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state, const ReferenceParams& params) {
   // The error target, when set, replaces the budget: two runs with different spp share its entry.
   const bool target = params.targetRelativeError > 0.0;
-  const int32_t fields[3] = {target ? 0 : params.samplesPerPixel, static_cast<int32_t>(kReferenceVersion),
+  const int32_t fields[3] = {target ? 0 : params.samplesPerPixel,
+                             static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30),
                              static_cast<int32_t>(kReferenceSeed)};
   const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
@@ -302,8 +306,19 @@ struct ReferenceFrame {
   const bool hasLocal;
   const uint32_t stateKey;
   std::vector<uint8_t> active;  // the pixels that take samples: surfaces, where the frame has light to sample
-  // Under a sky, each pixel's light mixture, set by the pilot from its estimates, read by the main pass.
+  // Under a sky, each pixel's light mixture: the pilot's from its unshadowed estimates (kept in skyEstimates:
+  // local, sun, environment), then reshaped by what the pilot's samples delivered (sim/reference/reference_learning.h)
+  // for the main pass.
   std::vector<LightMixture> mixtures;
+  std::vector<std::array<float, 3>> skyEstimates;
+  // The learning tiles (kLearningTile pixels a side, row-major): what each tile's pilot learned of the light groups'
+  // visibility, which reshapes the main pass's light distributions there.
+  const int tilesX, tilesY;
+  std::vector<TileLightLearning> learning;
+  size_t TileOf(size_t pixel) const {
+    const size_t x = pixel % static_cast<size_t>(w), y = pixel / static_cast<size_t>(w);
+    return (y / kLearningTile) * static_cast<size_t>(tilesX) + x / kLearningTile;
+  }
   tbb::combinable<uint64_t> rays{[] { return uint64_t{0}; }};
   tbb::combinable<uint64_t> samples{[] { return uint64_t{0}; }};
 };
@@ -326,7 +341,11 @@ ReferenceFrame::ReferenceFrame(const Sequence& sequence, const FrameState& state
       hasLocal(!lights.Empty()),
       stateKey(StateKey(state)),
       active(pixels, 0),
-      mixtures(hasSky ? pixels : 0) {
+      mixtures(hasSky ? pixels : 0),
+      skyEstimates(hasSky ? pixels : 0),
+      tilesX((w + kLearningTile - 1) / kLearningTile),
+      tilesY((h + kLearningTile - 1) / kLearningTile),
+      learning(static_cast<size_t>(tilesX) * tilesY) {
   for (size_t i = 0; i < pixels; ++i) active[i] = g.IsSurface(i) && (hasLocal || hasSky);
 }
 
@@ -343,8 +362,8 @@ ReferenceImage StartImage(const ReferenceFrame& frame) {
 }
 
 // How the passes build their blocks' light distributions. Per-pixel distributions
-// (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, every pixel's is the same (power alone):
-// built once, viewed by all. Without local lights (none, or all switched off) under a sky, no pixel has a
+// (core/light_selection_kernel.h) up to kMaxPerPixelLights; above, one per learning tile (TileCdf), made by
+// each worker as it meets the tile. Without local lights (none, or all switched off) under a sky, no pixel has a
 // light distribution.
 struct BlockPlan {
   explicit BlockPlan(const ReferenceFrame& frame);
@@ -355,7 +374,7 @@ struct BlockPlan {
   const bool perPixelLights;
   std::vector<SelectionLight> selectionLights;
   SelectionLights selection;
-  std::vector<float> shared;  // the one distribution above kMaxPerPixelLights
+  std::vector<float> groupPowerPmf;  // per group, its triangles' Φ / Σ Φ (the reshaping's defensive share)
   // The pilot's distributions, kept for the main pass where they fit in kKeptDistributionBytes: each row's blocks
   // in order (both passes form the same blocks), row y's from keptRow[y] on, kSelectionBlock × nGroups floats a
   // block, light-major as the selection kernel writes them (whole cache lines); each pass copies a block's to rows
@@ -391,33 +410,55 @@ BlockPlan::BlockPlan(const ReferenceFrame& frame)
   const size_t nLights = frame.lightList.size();
   std::vector<float> powerPmf;
   for (uint32_t l = 0; frame.hasLocal && l < nLights; ++l) powerPmf.push_back(frame.lights.SelectionPmf(l));
-  if (perPixelLights) selectionLights = MakeSelectionLights(frame.lightList, groups, powerPmf);
-  selection = SelectionLights{selectionLights.data(), selectionLights.size()};
-  if (frame.hasLocal && !perPixelLights) {
-    float running = 0.0f;
-    for (size_t g = 0; g < nGroups; ++g) {
-      const uint32_t t = groups.first[g];
-      shared.push_back(running += groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
-    }
+  if (frame.hasLocal) selectionLights = MakeSelectionLights(frame.lightList, groups, powerPmf);
+  for (size_t g = 0; frame.hasLocal && g < nGroups; ++g) {
+    const uint32_t t = groups.first[g];
+    groupPowerPmf.push_back(groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
   }
+  selection = SelectionLights{perPixelLights ? selectionLights.data() : nullptr,
+                              perPixelLights ? selectionLights.size() : 0};
 }
+
+// What one band of learning tiles' pilot carried, accumulated by the thread that runs the band: per tile, per light
+// group and per sky strategy; per pixel, per sky strategy.
+struct BandLearning {
+  int band = -1;
+  std::vector<TileLightSums> tiles;
+  std::vector<StrategySums> tileStrategies;
+  std::vector<StrategySums> pixelStrategies;  // the band's pixels, row-major from its first row
+
+  void Start(const ReferenceFrame& frame, int b) {
+    band = b;
+    tiles.resize(static_cast<size_t>(frame.tilesX));
+    for (TileLightSums& t : tiles) t.Clear();
+    tileStrategies.assign(static_cast<size_t>(frame.tilesX), StrategySums{});
+    pixelStrategies.assign(frame.hasSky ? static_cast<size_t>(kLearningTile) * frame.w : 0, StrategySums{});
+  }
+};
 
 // One worker's scratch over a range of rows: a block's receivers, light distributions and samples at a time.
 struct BlockWorker {
-  BlockWorker(const BlockPlan& plan, bool pilot)
+  BlockWorker(const ReferenceFrame& frame, const BlockPlan& plan, bool pilot)
       : columns(plan.perPixelLights && !plan.keep ? plan.nGroups * kSelectionBlock : 0),
         cdfs(plan.perPixelLights ? plan.nGroups * kSelectionBlock : 0),
-        work(plan.perPixelLights && (pilot || !plan.keep) ? plan.nGroups * kSelectionBlock : 0) {}
+        work(plan.perPixelLights && (pilot || !plan.keep) ? plan.nGroups * kSelectionBlock : 0),
+        tileCdfs(frame.hasLocal && !plan.perPixelLights ? plan.nGroups * frame.tilesX : 0),
+        tileCdfOf(tileCdfs.empty() ? 0 : frame.tilesX, -1) {}
 
   std::vector<float> columns;
   std::vector<float> cdfs;
   std::vector<float> work;
+  // Above kMaxPerPixelLights: each tile column's distribution (TileCdf), for the tile row tileCdfOf[column] (-1:
+  // none yet).
+  std::vector<float> tileCdfs;
+  std::vector<int> tileCdfOf;
   float estimates[kSelectionBlock] = {};
   SelectionReceivers receivers{};
   ReceiverBlock block;
   BlockScratch scratch;
   std::vector<size_t> rowPixels;
   uint64_t rays = 0, samples = 0;
+  BandLearning learning;  // the pilot's sums over the band this worker runs
 };
 
 // The row's active pixels, diffuse receivers first: a block of one kind skips the other's work (the
@@ -456,18 +497,62 @@ void GatherBlock(const ReferenceFrame& frame, const size_t* pixels, size_t count
   receivers.count = count;
 }
 
-// The pilot's light mixture at a receiver under a sky: the local lights' estimate where the distribution has
-// one; where it has none (above kMaxPerPixelLights), as much as the sky's, so that the local lights get about
-// half the draws.
-LightMixture PilotMixture(const ReferenceFrame& frame, const ShadingPoint& sp,
-                          const PixelLightDistribution& dist) {
+// The pilot's estimates of what each strategy gives a receiver under a sky, unshadowed (local, sun, environment;
+// -1: cannot contribute): the local lights' from the distribution where it has one; where it has none (above
+// kMaxPerPixelLights), as much as the sky's, so that the local lights get about half the pilot's draws.
+std::array<float, 3> PilotEstimates(const ReferenceFrame& frame, const ShadingPoint& sp,
+                                    const PixelLightDistribution& dist) {
   const float sunEstimate = SunEstimate(sp, frame.sky, frame.skySummary);
   const float environmentEstimate = EnvironmentEstimate(sp, frame.sky, frame.skySummary);
   const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
   const float localEstimate = !frame.hasLocal           ? -1.0f
                               : dist.Estimate() >= 0.0f ? dist.Estimate()
                                                         : skyEstimate;
-  return MixLightStrategies(localEstimate, sunEstimate, environmentEstimate);
+  return {localEstimate, sunEstimate, environmentEstimate};
+}
+
+// The tile's anchor: its active pixel nearest the tile's centre (the first in row order among equals), or none.
+std::optional<size_t> TileAnchor(const ReferenceFrame& frame, size_t tile) {
+  const int tx = static_cast<int>(tile % static_cast<size_t>(frame.tilesX)) * kLearningTile;
+  const int ty = static_cast<int>(tile / static_cast<size_t>(frame.tilesX)) * kLearningTile;
+  std::optional<size_t> best;
+  int bestDistance = 0;
+  for (int y = ty; y < std::min(frame.h, ty + kLearningTile); ++y)
+    for (int x = tx; x < std::min(frame.w, tx + kLearningTile); ++x) {
+      const size_t i = static_cast<size_t>(y) * frame.w + x;
+      const int dx = 2 * (x - tx) - (kLearningTile - 1), dy = 2 * (y - ty) - (kLearningTile - 1);
+      if (frame.active[i] && (!best || dx * dx + dy * dy < bestDistance)) {
+        best = i;
+        bestDistance = dx * dx + dy * dy;
+      }
+    }
+  return best;
+}
+
+// Above kMaxPerPixelLights, pixel i's light distribution: one per tile, P(l) = (1 − δ) w_l / Σ w + δ Φ_l with w_l
+// the light's TileLightWeight at the tile's anchor (per-pixel distributions over so many lights would cost more
+// than the rays they save; one per tile costs a 64th), then, in the main pass, reshaped by what the tile's pilot
+// learned. Made once per tile row and column by each worker.
+const float* TileCdf(const ReferenceFrame& frame, const BlockPlan& plan, bool pilot, size_t i, BlockWorker& worker) {
+  const size_t tile = frame.TileOf(i);
+  const int tileRow = static_cast<int>(tile / static_cast<size_t>(frame.tilesX));
+  const size_t column = tile % static_cast<size_t>(frame.tilesX);
+  float* const cdf = worker.tileCdfs.data() + column * plan.nGroups;
+  if (worker.tileCdfOf[column] == tileRow) return cdf;
+  worker.tileCdfOf[column] = tileRow;
+  const Vec3 x = frame.g.Position(*TileAnchor(frame, tile));  // i is active: the tile has an anchor
+  double total = 0.0;
+  for (size_t l = 0; l < plan.nGroups; ++l) total += cdf[l] = TileLightWeight(x, plan.selectionLights[l]);
+  const bool weighted = total > 0.0 && std::isfinite(total);
+  const double share = weighted ? (1.0 - kDefensivePowerShare) / total : 0.0;
+  const double power = weighted ? kDefensivePowerShare : 1.0;
+  double running = 0.0;
+  for (size_t l = 0; l < plan.nGroups; ++l) {
+    running += double(cdf[l]) * share + power * double(plan.groupPowerPmf[l]);
+    cdf[l] = static_cast<float>(running);
+  }
+  if (!pilot) ReshapeLightRow(frame.learning[tile], plan.groupPowerPmf.data(), plan.nGroups, cdf);
+  return cdf;
 }
 
 // The light distributions of the block in worker.block, whose first pixel is the row's firstPixel-th: built
@@ -488,34 +573,46 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
   for (size_t r = 0; r < count; ++r) {
     const size_t i = block.index[r];
     PixelLightDistribution& dist = block.dists[r];
-    if (plan.perPixelLights)
-      dist = PixelLightDistribution(blockCdfs + r * nGroups, &plan.groups, worker.estimates[r]);
-    else if (frame.hasLocal)
-      dist = PixelLightDistribution(plan.shared.data(), &plan.groups, -1.0f);
+    if (plan.perPixelLights) {
+      float* const row = blockCdfs + r * nGroups;
+      // The main pass draws from the distribution reshaped by what the pixel's tile learned.
+      if (!pilot) ReshapeLightRow(frame.learning[frame.TileOf(i)], plan.groupPowerPmf.data(), nGroups, row);
+      dist = PixelLightDistribution(row, &plan.groups, worker.estimates[r]);
+    } else if (frame.hasLocal) {
+      dist = PixelLightDistribution(TileCdf(frame, plan, pilot, i, worker), &plan.groups, -1.0f);
+    }
     SkySampling& skySampling = block.sky[r];
     if (frame.hasSky) {
       skySampling.sky = &frame.sky;
-      if (pilot) frame.mixtures[i] = PilotMixture(frame, block.points[r], dist);
+      if (pilot) {
+        const std::array<float, 3>& e = frame.skyEstimates[i] = PilotEstimates(frame, block.points[r], dist);
+        frame.mixtures[i] = MixLightStrategies(e[0], e[1], e[2]);
+      }
       skySampling.mixture = frame.mixtures[i];
     }
   }
 }
 
-// Runs sampleBlock on every active pixel, rows in parallel, each row's active pixels in blocks of
-// kSelectionBlock whose light distributions are built together by the pilot (and again by the main pass where
-// they are not kept).
-template <typename SampleBlock>
-void ForEachBlock(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, SampleBlock&& sampleBlock) {
-  tbb::parallel_for(tbb::blocked_range<int>(0, frame.h), [&](const tbb::blocked_range<int>& range) {
-    BlockWorker worker(plan, pilot);
-    for (int y = range.begin(); y < range.end(); ++y) {
-      RowReceivers(frame, y, worker.rowPixels);
-      for (size_t firstPixel = 0; firstPixel < worker.rowPixels.size(); firstPixel += kSelectionBlock) {
-        const size_t count = std::min(kSelectionBlock, worker.rowPixels.size() - firstPixel);
-        GatherBlock(frame, worker.rowPixels.data() + firstPixel, count, worker.block, worker.receivers);
-        SetBlockLights(frame, plan, pilot, y, firstPixel, worker);
-        sampleBlock(worker.block, worker.scratch, worker.rays, worker.samples);
+// Runs sampleBlock on every active pixel, bands of bandRows rows in parallel, each band's rows in order by one
+// thread (then endBand(band)), each row's active pixels in blocks of kSelectionBlock whose light distributions are
+// built together by the pilot (and again by the main pass where they are not kept).
+template <typename SampleBlock, typename EndBand>
+void ForEachBlock(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, int bandRows, SampleBlock&& sampleBlock,
+                  EndBand&& endBand) {
+  const int bands = (frame.h + bandRows - 1) / bandRows;
+  tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
+    BlockWorker worker(frame, plan, pilot);
+    for (int band = range.begin(); band < range.end(); ++band) {
+      for (int y = band * bandRows; y < std::min(frame.h, (band + 1) * bandRows); ++y) {
+        RowReceivers(frame, y, worker.rowPixels);
+        for (size_t firstPixel = 0; firstPixel < worker.rowPixels.size(); firstPixel += kSelectionBlock) {
+          const size_t count = std::min(kSelectionBlock, worker.rowPixels.size() - firstPixel);
+          GatherBlock(frame, worker.rowPixels.data() + firstPixel, count, worker.block, worker.receivers);
+          SetBlockLights(frame, plan, pilot, y, firstPixel, worker);
+          sampleBlock(worker.block, worker.scratch, worker.rays, worker.samples, worker.learning);
+        }
       }
+      endBand(band, worker.learning);
     }
     frame.rays.local() += worker.rays;
     frame.samples.local() += worker.samples;
@@ -551,17 +648,60 @@ void BlockSamples(const ReferenceFrame& frame, const BlockPlan& plan, const Rece
   for (size_t p = 0; p < block.count; ++p) {
     float* const out[3] = {values[0] + first[p], values[1] + first[p], values[2] + first[p]};
     SkySamples(block.points[p], frame.scene, frame.lightList, block.dists[p], block.sky[p],
-               scratch.u.data() + uFirst[p], counts[p], scratch.batch, out, rayCount);
+               scratch.u.data() + uFirst[p], counts[p], scratch.batch, out, rayCount, scratch.RecordAt(first[p]));
   }
 }
 
-// Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass), only
-// their relative variance is kept (negative where the pilot saw no light).
-std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan) {
+// The block's recorded light draws into its band's sums, in the block's sample order.
+void LearnFromBlock(const ReferenceFrame& frame, const BlockPlan& plan, const ReceiverBlock& block,
+                    const BlockScratch& scratch, const size_t* first, BandLearning& band) {
+  for (size_t p = 0; p < block.count; ++p) {
+    const size_t i = block.index[p];
+    const size_t x = i % static_cast<size_t>(frame.w), y = i / static_cast<size_t>(frame.w);
+    const size_t column = x / kLearningTile;
+    StrategySums* const pixel =
+        frame.hasSky ? &band.pixelStrategies[(y % kLearningTile) * static_cast<size_t>(frame.w) + x] : nullptr;
+    for (size_t k = 0; k < kPilotSamples; ++k) {
+      const size_t e = first[p] + k;
+      const float unshadowed = scratch.recordUnshadowed[e];
+      const bool visible = scratch.recordVisible[e] != 0;
+      const uint8_t strategy = scratch.recordStrategy[e];
+      if (scratch.recordLight[e] != kNoRecordedLight)
+        band.tiles[column].Add(plan.groups.groupOf[scratch.recordLight[e]], unshadowed, visible);
+      band.tileStrategies[column].s[strategy].Add(unshadowed, visible);
+      if (pixel) pixel->s[strategy].Add(unshadowed, visible);
+    }
+  }
+}
+
+// The band's tiles learned: their light factors, and, under a sky, each pixel's reshaped light mixture.
+void FinishBand(ReferenceFrame& frame, const BandLearning& band) {
+  for (int column = 0; column < frame.tilesX; ++column)
+    frame.learning[static_cast<size_t>(band.band) * frame.tilesX + column] = band.tiles[column].Learn();
+  if (!frame.hasSky) return;
+  for (int y = band.band * kLearningTile; y < std::min(frame.h, (band.band + 1) * kLearningTile); ++y)
+    for (int x = 0; x < frame.w; ++x) {
+      const size_t i = static_cast<size_t>(y) * frame.w + x;
+      if (!frame.active[i]) continue;
+      const float e[3] = {frame.skyEstimates[i][0], frame.skyEstimates[i][1], frame.skyEstimates[i][2]};
+      frame.mixtures[i] = ReshapeMixture(e, band.pixelStrategies[static_cast<size_t>(y % kLearningTile) * frame.w + x],
+                                         band.tileStrategies[static_cast<size_t>(x / kLearningTile)]);
+    }
+}
+
+// Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass). Kept: their
+// relative variance (negative where the pilot saw no light), and what their light draws delivered, learned per tile
+// (sim/reference/reference_learning.h). Bands of kLearningTile rows run in parallel, each band's rows in order by
+// one thread: the tiles' sums see their samples in the same order on any thread count.
+std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool learn) {
   const int dims = frame.dims;
   std::vector<float> relVar(frame.pixels, -1.0f);
-  ForEachBlock(frame, plan, /*pilot=*/true, [&](const ReceiverBlock& block, BlockScratch& scratch,
-                                                uint64_t& rayCount, uint64_t& sampleCount) {
+  const auto bandOf = [&](const ReceiverBlock& block) {
+    return static_cast<int>(block.index[0] / static_cast<size_t>(frame.w)) / kLearningTile;
+  };
+  ForEachBlock(frame, plan, /*pilot=*/true, kLearningTile, [&](const ReceiverBlock& block, BlockScratch& scratch,
+                                                               uint64_t& rayCount, uint64_t& sampleCount,
+                                                               BandLearning& band) {
     const RngKey key{kReferenceSeed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
     uint32_t ids[kSelectionBlock];
     size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
@@ -580,7 +720,15 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan) {
         RobertsCoordinates(&scratch.words[static_cast<size_t>(j) * block.count + p], 1, kPilotSamples,
                            RobertsAlpha(frame, j),
                            scratch.u.data() + uFirst[p] + static_cast<size_t>(j) * kPilotSamples);
+    scratch.record = true;
+    scratch.recordUnshadowed.resize(block.count * kPilotSamples);
+    scratch.recordVisible.resize(block.count * kPilotSamples);
+    scratch.recordLight.resize(block.count * kPilotSamples);
+    scratch.recordStrategy.resize(block.count * kPilotSamples);
     BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
+    scratch.record = false;
+    if (band.band != bandOf(block)) band.Start(frame, bandOf(block));
+    LearnFromBlock(frame, plan, block, scratch, first, band);
     sampleCount += block.count * kPilotSamples;
     for (size_t p = 0; p < block.count; ++p) {
       double sum = 0.0, sumSq = 0.0;
@@ -594,6 +742,10 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan) {
       const double var = std::max(0.0, (sumSq - sum * mean) / (kPilotSamples - 1));
       if (mean > 0.0) relVar[block.index[p]] = static_cast<float>(std::min(var / (mean * mean), 1e30));
     }
+  }, [&](int band, BandLearning& learned) {
+    if (learned.band != band) learned.Start(frame, band);  // a band without an active pixel learns nothing
+    if (learn) FinishBand(frame, learned);
+    learned.band = -1;
   });
   return relVar;
 }
@@ -671,8 +823,8 @@ void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_
 void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<uint32_t>& perReplicate,
               ReferenceImage& ref) {
   const int dims = frame.dims;
-  ForEachBlock(frame, plan, /*pilot=*/false, [&](const ReceiverBlock& block, BlockScratch& scratch,
-                                                 uint64_t& rayCount, uint64_t& sampleCount) {
+  ForEachBlock(frame, plan, /*pilot=*/false, 1, [&](const ReceiverBlock& block, BlockScratch& scratch,
+                                                    uint64_t& rayCount, uint64_t& sampleCount, BandLearning&) {
     size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
     size_t uTotal = 0, total = 0;
     for (size_t p = 0; p < block.count; ++p) {
@@ -687,7 +839,7 @@ void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<ui
     sampleCount += total;
     for (size_t p = 0; p < block.count; ++p)
       AddPixelEstimate(scratch, first[p], counts[p] / kReplicates, block.index[p], ref);
-  });
+  }, [](int, BandLearning&) {});
 }
 
 }  // namespace
@@ -703,7 +855,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ReferenceFrame frame(sequence, state, scene, g);
   ReferenceImage ref = StartImage(frame);
   const BlockPlan plan(frame);
-  const std::vector<float> relVar = Pilot(frame, plan);
+  const std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
   const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params);
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   MainPass(frame, plan, perReplicate, ref);
@@ -719,20 +871,35 @@ double ReferenceMaxSamplesPerPixel(const ReferenceParams& params) {
   return std::max(double(kPilotSamples), MeanPerReplicate(params) * kMaxAllocationScale * kReplicates);
 }
 
-double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky) {
+double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky,
+                             double width) {
   // Per worker thread (as many as TBB runs here), a block's light distributions (rows and columns), its selection
   // weights and its samples: BlockScratch holds every sample of a block at once (its points, values, the two draw
   // kernels' rays and their answers; under a sky SampleBatch's per-sample terms too), in vectors that may reserve
   // up to twice what the largest block asked for.
   const double threads = double(tbb::this_task_arena::max_concurrency());
   const double perFrame = groups * sizeof(SelectionLight) + lights * (kLightDrawRecordFloats + 4.0) * sizeof(float);
-  const double perSample = (kSkySampleDims + 3.0 + 7.0 + 10.0) * sizeof(float) + 2.0 * sizeof(uint32_t) + 1.0 +
+  const double perSample = (kSkySampleDims + 3.0 + 7.0 + 10.0) * sizeof(float) + 2.0 * sizeof(uint32_t) + 1.0 + 10.0 +
                            (sky ? 2.0 * sizeof(Vec3) + sizeof(ShadowRay) + sizeof(uint32_t) + 1.0 : 0.0);
   const double blockSamples = double(kSelectionBlock) * std::max(maxSamplesPerPixel, double(kPilotSamples));
-  const double perThread = 3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample;
-  // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture
-  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) : 0.0);
-  return perFrame + threads * perThread + pixels * perPixel;
+  // The learning (sim/reference/reference_learning.h): per thread, a band's sums (a tile meets at most its pilot's
+  // samples' worth of groups, each an entry and a hash node; under a sky each pixel's strategy sums) and, above
+  // kMaxPerPixelLights, a distribution per tile column; per frame, each tile's learned groups and factors.
+  const double tilesPerRow = std::ceil((width > 0.0 ? width : std::sqrt(pixels)) / kLearningTile);
+  const double tiles = std::ceil(pixels / (kLearningTile * kLearningTile));
+  const double tileGroups = std::min(groups, double(kLearningTile * kLearningTile * kPilotSamples));
+  const double bandBytes =
+      tilesPerRow * (tileGroups * 64.0 + sizeof(StrategySums)) +
+      (sky ? kLearningTile * tilesPerRow * kLearningTile * double(sizeof(StrategySums)) : 0.0) +
+      (lights > double(kMaxPerPixelLights) ? tilesPerRow * groups * sizeof(float) : 0.0);
+  const double perThread =
+      3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample + bandBytes;
+  const double learned = tiles * (sizeof(TileLightLearning) + tileGroups * 8.0);
+  // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture and the
+  // pilot's three estimates
+  const double perPixel =
+      1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) + 3.0 * sizeof(float) : 0.0);
+  return perFrame + threads * perThread + pixels * perPixel + learned;
 }
 
 double ReferenceKeptBytes(double width, double height, double groups) {
@@ -754,6 +921,26 @@ double MeanRelativeStandardError(const ReferenceImage& ref) {
     }
   }
   return count ? sum / double(count) : 0.0;
+}
+
+ReferenceConvergence MeasureReferenceConvergence(const ReferenceImage& ref) {
+  ReferenceConvergence n;
+  std::vector<double> relative;
+  for (size_t i = 0; i < ref.mean.Size(); ++i) {
+    const double y = Luminance(ref.mean.pixels[i]);
+    if (y > 1e-4) relative.push_back(ref.lumaStandardError[i] / y);
+    if (i < ref.pixelSamples.size() && ref.pixelSamples[i] > 0 && y == 0.0 && ref.lumaStandardError[i] == 0.0f)
+      ++n.darkSampled;
+  }
+  n.litPixels = relative.size();
+  if (relative.empty()) return n;
+  double sum = 0.0;
+  for (double r : relative) sum += r;
+  n.meanRelative = sum / double(relative.size());
+  const size_t rank = std::min(relative.size() - 1, static_cast<size_t>(std::ceil(0.99 * double(relative.size()))) - 1);
+  std::nth_element(relative.begin(), relative.begin() + static_cast<std::ptrdiff_t>(rank), relative.end());
+  n.p99Relative = relative[rank];
+  return n;
 }
 
 }  // namespace restir

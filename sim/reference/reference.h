@@ -7,7 +7,9 @@
 // their shadow rays traced as one batch of packets (sim/reference/reference_samples.h). Under a sky (an environment,
 // a sun: issue 18) light sampling is a per-pixel mixture of the local lights, the sun and the environment
 // (sim/reference/reference_sky.h), BSDF sampling runs on every surface, and pixels whose primary ray escaped show the
-// sky. A pilot pass estimates each pixel's relative variance; the main pass spends the samples in proportion to it.
+// sky. A pilot pass estimates each pixel's relative variance and learns, per tile, how much of each light group's
+// and sky strategy's unshadowed contribution its shadow rays let through (sim/reference/reference_learning.h); the
+// main pass draws from the distributions reshaped by it and spends the samples in proportion to the variance.
 // Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also reports an honest
 // per-pixel standard error. Cached on disk.
 #pragma once
@@ -31,6 +33,10 @@ struct ReferenceParams {
   // error (between 16 and 65536), instead of a share of a fixed budget.
   double targetRelativeError = 0.0;
   std::string cacheDir;  // where converged frames are kept; empty: no cache
+  // Reshape the main pass's light selection by the visibility the pilot's shadow rays found, per tile
+  // (sim/reference/reference_learning.h). Off only to measure what it gains (bench/reference_quality_bench.cpp):
+  // the distributions are then the unshadowed ones.
+  bool learnVisibility = true;
 };
 
 struct ReferenceImage {
@@ -66,10 +72,11 @@ double ReferenceMaxSamplesPerPixel(const ReferenceParams& params);
 // The most RenderReference allocates while it runs beyond its result and its kept distributions, for a frame of
 // `pixels` pixels and `lights` light triangles in `groups` light groups, no pixel taking more than
 // `maxSamplesPerPixel` samples (the workers' scratch, a block's samples at once among it, and the pilot's per-pixel
-// state, with each pixel's light mixture when the frame has a sky); for the run's memory estimate
-// (sim/run/memory_estimate.h).
+// state, with each pixel's light mixture when the frame has a sky, and what the pilot learned per tile); for the
+// run's memory estimate (sim/run/memory_estimate.h). `width`: the frame's, for its learning tiles per row (0: a
+// square frame's).
 double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel,
-                             bool sky = false);
+                             bool sky = false, double width = 0.0);
 
 // The pilot's per-pixel light distributions kept for the main pass, for a frame of width × height pixels and
 // `groups` light groups: 0 where they would pass kKeptDistributionBytes (then the main pass builds them again).
@@ -80,5 +87,17 @@ double ReferenceKeptBytes(double width, double height, double groups);
 // Mean over lit pixels (reference luminance > 1e-4) of the luminance's standard error / the luminance: the
 // reference's own relative noise.
 double MeanRelativeStandardError(const ReferenceImage& ref);
+
+// The reference's noise as issue 40's goals state it: over lit pixels (luminance > 1e-4), the mean and the 99th
+// percentile of the relative standard error of the luminance; and the pixels that took samples yet came out exactly
+// black with every replicate agreeing (a surface whose samples found no light: either truly unlit, or lit by a light
+// the reference never reached, which only a closed form or another reference can tell).
+struct ReferenceConvergence {
+  double meanRelative = 0.0;  // MeanRelativeStandardError
+  double p99Relative = 0.0;   // 99th percentile over lit pixels (nearest rank)
+  size_t litPixels = 0;       // pixels with luminance > 1e-4
+  size_t darkSampled = 0;     // pixels with samples (pixelSamples > 0) whose estimate and standard error are 0
+};
+ReferenceConvergence MeasureReferenceConvergence(const ReferenceImage& ref);
 
 }  // namespace restir

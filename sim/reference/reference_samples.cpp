@@ -62,7 +62,7 @@ Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vecto
 // (out[0][k], out[1][k], out[2][k]). Frames without a sky take SkylessBlockSamples.
 void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
                 const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
-                SampleBatch& b, float* const (&out)[3], uint64_t& rays) {
+                SampleBatch& b, float* const (&out)[3], uint64_t& rays, const LightTermRecord& record) {
   const LightMixture& mix = sky.mixture;
   b.lightTerm.assign(count, Vec3(0.0f));
   b.bsdfTerm.assign(count, Vec3(0.0f));
@@ -71,19 +71,23 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
   for (size_t k = 0; k < count; ++k) {
     const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
     const LightStrategy strategy = ChooseLightStrategy(mix, uk(kStrategyDim));
+    if (record.unshadowed) {
+      record.strategy[k] = static_cast<uint8_t>(strategy);
+      record.light[k] = kNoRecordedLight;
+    }
     if (strategy == LightStrategy::kLocal && mix.local > 0.0f) {
       LightSample y;
       y.lightId = dist.Sample(uk(0));
+      if (record.unshadowed) record.light[k] = y.lightId;
       const LightTriangle& lt = lights[y.lightId];
       y.position = SampleTrianglePoint(lt, uk(1), uk(2));
       y.normal = lt.normal;
       y.radiance = lt.radiance;
       y.pdfArea = dist.AreaDensity(y.lightId) * mix.local;
-      const Vec3 f = UnshadowedContribution(sp, y);
+      const LightPath path = ConnectToLightOnPlane(sp, y.position, y.normal, lt.p0);
+      const Vec3 f = ContributionAlong(sp, y.radiance, path);
       if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && y.pdfArea > 0.0f) {
-        const LightPath path = ConnectToLight(sp, y.position, y.normal);
-        const float cosY = -glm::dot(y.normal, path.wi);
-        const float pLight = y.pdfArea * path.distance * path.distance / cosY;
+        const float pLight = y.pdfArea * path.distance * path.distance / path.cosY;
         const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, path.wi));
         b.lightTerm[k] = f * (weight / y.pdfArea);
         const ShadowRaySegment s =
@@ -116,6 +120,13 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
   rays += b.rays.size();
   for (size_t k = 0; k < count; ++k)
     for (int c = 0; c < 3; ++c) out[c][k] = b.bsdfTerm[k][c];
+  if (record.unshadowed) {
+    for (size_t k = 0; k < count; ++k) {
+      record.unshadowed[k] = Luminance(b.lightTerm[k]);
+      record.visible[k] = 0;
+    }
+    for (size_t r = 0; r < b.rays.size(); ++r) record.visible[b.rayOf[r]] = !b.occluded[r];
+  }
   for (size_t r = 0; r < b.rays.size(); ++r)
     if (!b.occluded[r]) {
       const Vec3 v = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
@@ -170,6 +181,17 @@ void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const
   s.occluded.resize(written);
   scene.OccludedBatch(shadowRays, s.occluded.data());
   rays += written;
+  if (s.record) {
+    for (size_t p = 0; p < block.count; ++p)
+      for (size_t k = 0; k < counts[p]; ++k) {
+        const size_t e = first[p] + k;
+        s.recordUnshadowed[e] = Luminance(Vec3(out[0][e], out[1][e], out[2][e]));
+        s.recordVisible[e] = 0;
+        s.recordLight[e] = block.dists[p].Sample(s.u[uFirst[p] + k]);
+        s.recordStrategy[e] = static_cast<uint8_t>(LightStrategy::kLocal);
+      }
+    for (size_t r = 0; r < written; ++r) s.recordVisible[s.drawOf[r]] = !s.occluded[r];
+  }
   // The light term stays where its ray is unoccluded.
   for (size_t r = 0; r < written; ++r)
     if (s.occluded[r])

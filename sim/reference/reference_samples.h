@@ -113,6 +113,16 @@ struct ReceiverBlock {
   SkySampling sky[kSelectionBlock];                // its sky and light mixture
 };
 
+// What the pilot keeps of each sample's light-sampling draw, for the visibility-aware selection
+// (sim/reference/reference_learning.h): the samplers write one entry per sample where these point somewhere.
+struct LightTermRecord {
+  float* unshadowed = nullptr;  // luminance of the light term (its MIS weight included) before visibility; 0: none
+  uint8_t* visible = nullptr;   // 1 where its shadow ray was unoccluded
+  uint32_t* light = nullptr;    // the light triangle drawn (a local-light draw), else kNoRecordedLight
+  uint8_t* strategy = nullptr;  // the LightStrategy drawn (kLocal in a skyless frame)
+};
+inline constexpr uint32_t kNoRecordedLight = 0xFFFFFFFFu;
+
 // Per-thread scratch of a block's samples.
 struct BlockScratch {
   std::vector<uint32_t> words;    // random words (PixelRandomWords4's layout)
@@ -124,6 +134,17 @@ struct BlockScratch {
   std::vector<float> bsdfDrawn[10];  // the BSDF-draw kernel's outputs: origin, direction, throughput r g b, density
   std::vector<uint32_t> bsdfOf;      // the block sample each of its rays belongs to
   SampleBatch batch;              // SkySamples' scratch
+  // The block's LightTermRecord arrays (receiver p's sample k at first[p] + k), written where `record` is set.
+  bool record = false;
+  std::vector<float> recordUnshadowed;
+  std::vector<uint8_t> recordVisible;
+  std::vector<uint32_t> recordLight;
+  std::vector<uint8_t> recordStrategy;
+  LightTermRecord RecordAt(size_t first) {
+    if (!record) return {};
+    return {recordUnshadowed.data() + first, recordVisible.data() + first, recordLight.data() + first,
+            recordStrategy.data() + first};
+  }
 };
 
 // `count` direct-lighting samples at a receiver in a frame with a sky, from the points whose coordinate j is
@@ -132,9 +153,10 @@ struct BlockScratch {
 // PathIntegrator::SampleLd style, restricted to direct light); BSDF sampling on every surface, as a BSDF ray that
 // escapes is the only way to reach the sky's directions the light mixture samples rarely. Sample k's value is
 // (out[0][k], out[1][k], out[2][k]). Frames without a sky take SkylessBlockSamples.
+// With record.unshadowed set, each sample's light-sampling draw is recorded there too.
 void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
                 const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
-                SampleBatch& b, float* const (&out)[3], uint64_t& rays);
+                SampleBatch& b, float* const (&out)[3], uint64_t& rays, const LightTermRecord& record = {});
 
 // The direct-lighting samples of a block of receivers in a frame without a sky: receiver p's counts[p] samples
 // from the points at u + uFirst[p] (SkySamples' layout, kSampleDims coordinates), into out + first[p]. Light
@@ -142,7 +164,7 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
 // heuristic. The light half is the light-draw kernel (a packet of draws per register, its MIS weight included),
 // every receiver's shadow rays then traced as one batch; the BSDF half the BSDF-draw kernel, each of its rays asking
 // EmbreeScene::FirstEmitter. Reads coordinates 0-2 at a diffuse receiver, 0-4 at others; out[c] is the block's
-// samples' channel c.
+// samples' channel c. Where s.record is set, every sample's light draw is recorded in s's record arrays.
 void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const size_t* uFirst, const size_t* first,
                          const EmbreeScene& scene, const BsdfSoa& materials,
                          const std::vector<LightTriangle>& lightList, const LightDrawLights& lights, BlockScratch& s,

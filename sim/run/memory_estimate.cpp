@@ -107,7 +107,7 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =
       s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), double(s.lightGroups),
-                                          s.referenceSamplesPerPixel, s.sky)
+                                          s.referenceSamplesPerPixel, s.sky, double(s.width))
                   : 0.0;
   // The background writer, when images are written, beside the frame loop's transients: the image jobs (the
   // waiting ones, the one it writes and the one being submitted), each a preset's estimate, FLIP map and ensemble

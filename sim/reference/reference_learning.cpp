@@ -1,0 +1,80 @@
+#include "sim/reference/reference_learning.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/light_selection_kernel.h"  // kDefensivePowerShare
+
+namespace restir {
+
+namespace {
+// A share of a row (normalised to 1) below which its unshadowed weight counts as none: float rounding of
+// P(l) − δ Φ_l for a light that has only its power share is a few 1e-8.
+constexpr float kNoWeight = 1e-6f;
+}  // namespace
+
+void TileLightSums::Add(uint32_t group, float unshadowedLuma, bool visible) {
+  const auto [it, inserted] = index_.try_emplace(group, static_cast<uint32_t>(entries_.size()));
+  if (inserted) entries_.push_back(Entry{group, {}});
+  entries_[it->second].sums.Add(unshadowedLuma, visible);
+}
+
+TileLightLearning TileLightSums::Learn() const {
+  TileLightLearning t;
+  LightTermSums all;
+  for (const Entry& e : entries_) all.Add(e.sums);  // first-seen order: fixed by the caller's sample order
+  if (!(all.delivered > 0.0)) return t;             // nothing arrived: nothing to learn from
+  t.reshape = true;
+  const double prior = all.Ratio(1.0);
+  t.unsampled = static_cast<float>(prior);
+  std::vector<const Entry*> sorted;
+  for (const Entry& e : entries_) sorted.push_back(&e);
+  std::sort(sorted.begin(), sorted.end(), [](const Entry* a, const Entry* b) { return a->group < b->group; });
+  for (const Entry* e : sorted) {
+    t.groups.push_back(e->group);
+    t.factor.push_back(ShrunkVisibility(e->sums, prior));
+  }
+  return t;
+}
+
+bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf) {
+  if (!tile.reshape || groups == 0) return false;
+  // q_l into cdf[] (one pass from the back keeps the cdf's earlier entries for the differences), then Σ q.
+  const float scale = 1.0f / cdf[groups - 1];
+  size_t next = tile.groups.size();  // the learned entries, walked from the back
+  double total = 0.0;
+  for (size_t l = groups; l-- > 0;) {
+    float v = tile.unsampled;
+    while (next > 0 && tile.groups[next - 1] > l) --next;
+    if (next > 0 && tile.groups[next - 1] == l) v = tile.factor[next - 1];
+    // What is left of P(l) after the power share; below kNoWeight it is the rounding of a light the row gave none.
+    float base = (cdf[l] - (l ? cdf[l - 1] : 0.0f)) * scale - kDefensivePowerShare * powerPmf[l];
+    if (!(base > kNoWeight)) base = 0.0f;
+    cdf[l] = base * v;
+    total += cdf[l];
+  }
+  const bool weighted = total > 0.0 && std::isfinite(total);
+  const double share = weighted ? (1.0 - kDefensivePowerShare) / total : 0.0;
+  const double power = weighted ? kDefensivePowerShare : 1.0;
+  double running = 0.0;
+  for (size_t l = 0; l < groups; ++l) {
+    running += double(cdf[l]) * share + power * double(powerPmf[l]);
+    cdf[l] = static_cast<float>(running);
+  }
+  return true;
+}
+
+LightMixture ReshapeMixture(const float (&estimates)[3], const StrategySums& pixel, const StrategySums& tile) {
+  float e[3];
+  for (int s = 0; s < 3; ++s) {
+    if (estimates[s] < 0.0f) {  // cannot contribute: stays out
+      e[s] = estimates[s];
+      continue;
+    }
+    const double tilePrior = ShrunkVisibility(tile.s[s], 1.0);
+    e[s] = estimates[s] * ShrunkVisibility(pixel.s[s], tilePrior);
+  }
+  return MixLightStrategies(e[0], e[1], e[2]);
+}
+
+}  // namespace restir

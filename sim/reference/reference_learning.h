@@ -1,0 +1,110 @@
+// Visibility-aware selection for the converged reference (issue 40; docs/metrics.md "How the reference is
+// sampled"). The pilot's light distributions weigh each light by what it would give unshadowed; in an occluded
+// many-light scene, or under a sun that a wall hides, most of those samples then go where the pixel cannot see.
+// The pilot traces their shadow rays anyway: this learns from them, per screen tile, how much of each light
+// group's and each sky strategy's unshadowed contribution actually arrives, and the main pass reshapes its
+// distributions by it.
+//
+// What stays unbiased: the learned factors are a function of the pilot's random numbers only, which are
+// independent of the main pass's; the main pass's densities are those of the reshaped distributions it draws from;
+// every light with power keeps the defensive power share δ (core/light_selection_kernel.h) and every sky strategy
+// that can contribute keeps its defensive share (sim/reference/reference_sky.h), so nothing that contributes can
+// get probability 0 however wrong the learning is. The learning only decides how much noise is left.
+//
+// The statistic: for a group (or strategy) s of a tile, over the pilot samples that chose it, the ratio
+// r_s = Σ delivered / Σ unshadowed of their light terms (the visible share of what they carried: a
+// contribution-weighted visibility), shrunk towards a prior by pseudo-samples: V_s = (n_s r_s + κ V₀) / (n_s + κ).
+// A group the tile never sampled gets the tile's overall ratio V₀ (in a many-room scene, the share of the tile's
+// unshadowed contribution that arrives at all: small, as it should be for a light the pilot never found useful).
+// Pure functions of their inputs; sim/reference/reference.cpp feeds them in a fixed order (a tile's rows by one
+// thread), so the result is the same bits on any thread count.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "sim/reference/reference_sky.h"
+
+namespace restir {
+
+// Pixels per side of a learning tile: 8 × 8 pixels × 16 pilot samples = 1024 samples to share between the groups.
+inline constexpr int kLearningTile = 8;
+// Pseudo-samples of the prior in V_s's shrinkage.
+inline constexpr float kLearningPseudoSamples = 1.0f;
+
+// Sums over the pilot samples that chose one group or strategy.
+struct LightTermSums {
+  double unshadowed = 0.0;  // Σ luminance of the light term, visibility not applied
+  double delivered = 0.0;   // Σ luminance of the light term where its shadow ray was unoccluded
+  uint32_t samples = 0;     // how many chose it
+
+  void Add(float unshadowedLuma, bool visible) {
+    unshadowed += unshadowedLuma;
+    if (visible) delivered += unshadowedLuma;
+    ++samples;
+  }
+  void Add(const LightTermSums& o) {
+    unshadowed += o.unshadowed;
+    delivered += o.delivered;
+    samples += o.samples;
+  }
+  // r_s, or `otherwise` where nothing unshadowed was carried.
+  double Ratio(double otherwise) const { return unshadowed > 0.0 ? delivered / unshadowed : otherwise; }
+};
+
+// V_s = (n r + κ prior) / (n + κ): the learned factor of a group or strategy, shrunk towards `prior`.
+inline float ShrunkVisibility(const LightTermSums& s, double prior) {
+  const double n = s.samples;
+  return static_cast<float>((n * s.Ratio(prior) + kLearningPseudoSamples * prior) / (n + kLearningPseudoSamples));
+}
+
+// One tile's learned factors over the light groups: sampled groups by their own shrunk ratio, the rest by the
+// tile's overall ratio. `reshape` is false where the tile learned nothing it can use (its pilot carried no light
+// that arrived): its distributions then stay as they were.
+struct TileLightLearning {
+  std::vector<uint32_t> groups;  // the groups its pilot sampled, ascending
+  std::vector<float> factor;     // their V_s
+  float unsampled = 1.0f;        // V₀: every other group's factor
+  bool reshape = false;
+};
+
+// What a tile's pilot carried per light group, accumulated sample by sample (in the order the samples come, which
+// the caller keeps fixed), then turned into the tile's factors.
+class TileLightSums {
+ public:
+  void Add(uint32_t group, float unshadowedLuma, bool visible);
+  TileLightLearning Learn() const;
+  void Clear() {
+    entries_.clear();
+    index_.clear();
+  }
+
+ private:
+  struct Entry {
+    uint32_t group;
+    LightTermSums sums;
+  };
+  std::vector<Entry> entries_;  // in first-seen order; a tile meets at most its pilot's sample count of groups
+  std::unordered_map<uint32_t, uint32_t> index_;  // group → its entry (lookup only: nothing iterates it)
+};
+
+// Reshapes one receiver's light distribution (a cdf over the groups, as core/light_selection_kernel.h writes a row;
+// any positive scale) in place: P'(l) = (1 − δ) q_l / Σ q + δ Φ_l, q_l = max(0, P(l) − δ Φ_l) × V_l, i.e. the
+// unshadowed weight the row was built from, times the group's learned factor. powerPmf[l] is group l's Φ / Σ Φ.
+// Where Σ q is 0 or not finite, the row becomes the power distribution. Returns false, leaving the row alone,
+// where the tile does not reshape.
+bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf);
+
+// The sky strategies' sums at one pixel or tile: local lights, sun, environment.
+struct StrategySums {
+  LightTermSums s[3];
+};
+
+// The receiver's light mixture with each strategy's estimate scaled by its learned factor: the pixel's own ratio
+// shrunk towards the tile's (itself shrunk towards 1, unshadowed, where the tile saw little), then
+// MixLightStrategies as the pilot did, so every strategy that could contribute keeps its defensive share.
+LightMixture ReshapeMixture(const float (&estimates)[3], const StrategySums& pixel, const StrategySums& tile);
+
+}  // namespace restir

@@ -1,0 +1,141 @@
+#include "sim/reference/reference_learning.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/light_selection_kernel.h"  // kDefensivePowerShare
+#include "core/sampling.h"
+
+namespace restir {
+namespace {
+
+// A cdf from a pmf, at scale `scale` (the rows the selection kernel writes are at any positive scale).
+std::vector<float> Cdf(const std::vector<double>& pmf, double scale) {
+  std::vector<float> cdf;
+  double running = 0.0;
+  for (double p : pmf) cdf.push_back(static_cast<float>(running += p * scale));
+  return cdf;
+}
+
+// A row as the selection kernel builds it: P(l) = (1 − δ) w_l / Σ w + δ Φ_l.
+std::vector<double> SelectionPmf(const std::vector<double>& power, const std::vector<double>& unshadowed) {
+  std::vector<double> p;
+  for (size_t l = 0; l < power.size(); ++l)
+    p.push_back((1.0 - kDefensivePowerShare) * unshadowed[l] + kDefensivePowerShare * power[l]);
+  return p;
+}
+
+std::vector<double> Pmf(const std::vector<float>& cdf) {
+  std::vector<double> p;
+  for (size_t l = 0; l < cdf.size(); ++l) p.push_back(CdfPmf(cdf.data(), cdf.size(), static_cast<uint32_t>(l)));
+  return p;
+}
+
+// The shrinkage is the stated formula: a group seen n times with ratio r gets (n r + κ V₀) / (n + κ).
+TEST(TileLightSums, LearnsEachSampledGroupsShrunkRatioAndTheTilesOverallRatioForTheRest) {
+  TileLightSums sums;
+  // Group 7: three samples, one visible carrying 2 of 6 unshadowed. Group 3: one visible sample of 4. Group 9:
+  // two occluded samples of 1.
+  sums.Add(7, 2.0f, true);
+  sums.Add(9, 1.0f, false);
+  sums.Add(7, 3.0f, false);
+  sums.Add(3, 4.0f, true);
+  sums.Add(7, 1.0f, false);
+  sums.Add(9, 1.0f, false);
+  const TileLightLearning t = sums.Learn();
+  ASSERT_TRUE(t.reshape);
+  const double prior = (2.0 + 4.0) / (6.0 + 4.0 + 2.0);
+  EXPECT_NEAR(t.unsampled, prior, 1e-6);
+  ASSERT_EQ(t.groups, (std::vector<uint32_t>{3, 7, 9}));  // ascending
+  const double k = kLearningPseudoSamples;
+  EXPECT_NEAR(t.factor[0], (1.0 * 1.0 + k * prior) / (1.0 + k), 1e-6);
+  EXPECT_NEAR(t.factor[1], (3.0 * (2.0 / 6.0) + k * prior) / (3.0 + k), 1e-6);
+  EXPECT_NEAR(t.factor[2], (2.0 * 0.0 + k * prior) / (2.0 + k), 1e-6);
+}
+
+// A tile whose pilot delivered nothing (every draw occluded, or no draw carried light) learns nothing: its
+// distributions stay as they are rather than collapsing onto the defensive share.
+TEST(TileLightSums, LearnsNothingWhereNothingArrived) {
+  TileLightSums sums;
+  EXPECT_FALSE(sums.Learn().reshape);
+  sums.Add(1, 5.0f, false);
+  sums.Add(2, 0.0f, true);
+  EXPECT_FALSE(sums.Learn().reshape);
+}
+
+// The reshaped distribution is P'(l) = (1 − δ) q_l / Σ q + δ Φ_l with q_l = (P(l) − δ Φ_l) V_l, whatever the row's
+// scale; every light with power keeps at least δ Φ_l (the estimator's unbiasedness), and a tile that does not
+// reshape leaves the row's bits alone.
+TEST(ReshapeLightRow, KeepsTheDefensivePowerShareAndScalesTheUnshadowedWeightsByTheLearnedFactors) {
+  const std::vector<double> power = {0.1, 0.2, 0.3, 0.15, 0.25};
+  const std::vector<double> unshadowed = {0.5, 0.0, 0.2, 0.3, 0.0};  // w_l / Σ w
+  const std::vector<double> p = SelectionPmf(power, unshadowed);
+  std::vector<float> powerPmf(power.begin(), power.end());
+  TileLightLearning tile;
+  tile.reshape = true;
+  tile.groups = {0, 3};
+  tile.factor = {0.02f, 0.9f};
+  tile.unsampled = 0.25f;
+  for (double scale : {1.0, 1e-30, 3e20}) {
+    std::vector<float> cdf = Cdf(p, scale);
+    ASSERT_TRUE(ReshapeLightRow(tile, powerPmf.data(), cdf.size(), cdf.data()));
+    const std::vector<double> v = {0.02, 0.25, 0.25, 0.9, 0.25};
+    double sumQ = 0.0;
+    for (size_t l = 0; l < p.size(); ++l) sumQ += (1.0 - kDefensivePowerShare) * unshadowed[l] * v[l];
+    const std::vector<double> got = Pmf(cdf);
+    for (size_t l = 0; l < p.size(); ++l) {
+      const double want = (1.0 - kDefensivePowerShare) * (1.0 - kDefensivePowerShare) * unshadowed[l] * v[l] / sumQ +
+                          kDefensivePowerShare * power[l];
+      EXPECT_NEAR(got[l], want, 2e-6) << "light " << l << " at scale " << scale;
+      EXPECT_GE(got[l], kDefensivePowerShare * power[l] * (1.0 - 1e-5));
+    }
+  }
+  std::vector<float> cdf = Cdf(p, 1.0);
+  const std::vector<float> before = cdf;
+  EXPECT_FALSE(ReshapeLightRow(TileLightLearning{}, powerPmf.data(), cdf.size(), cdf.data()));
+  EXPECT_EQ(cdf, before);
+}
+
+// Where every learned factor is 0 (Σ q = 0: the pilot saw every weighted light occluded), the row is power alone;
+// it never loses a light with power.
+TEST(ReshapeLightRow, FallsBackToPowerWhereNoWeightIsLeft) {
+  const std::vector<double> power = {0.4, 0.35, 0.25};
+  const std::vector<double> unshadowed = {0.0, 1.0, 0.0};
+  const std::vector<double> p = SelectionPmf(power, unshadowed);
+  std::vector<float> powerPmf(power.begin(), power.end());
+  TileLightLearning tile;
+  tile.reshape = true;
+  tile.groups = {1};
+  tile.factor = {0.0f};
+  tile.unsampled = 0.5f;
+  std::vector<float> cdf = Cdf(p, 1.0);
+  ASSERT_TRUE(ReshapeLightRow(tile, powerPmf.data(), cdf.size(), cdf.data()));
+  const std::vector<double> got = Pmf(cdf);
+  for (size_t l = 0; l < power.size(); ++l) EXPECT_NEAR(got[l], power[l], 1e-6);
+}
+
+// Sky strategies: a pixel whose sun draws were all occluded moves its draws to what arrives, yet every strategy
+// that can contribute keeps its defensive share, and one that cannot stays at 0.
+TEST(ReshapeMixture, MovesDrawsFromAnOccludedSunAndKeepsEveryDefensiveShare) {
+  const float estimates[3] = {-1.0f, 9.0f, 1.0f};  // no local lights; the sun looks 9× the environment
+  StrategySums pixel, tile;
+  for (int k = 0; k < 14; ++k) pixel.s[1].Add(1.0f, false);  // the sun: all occluded
+  for (int k = 0; k < 2; ++k) pixel.s[2].Add(0.5f, true);    // the environment: arrives
+  tile = pixel;
+  const LightMixture before = MixLightStrategies(estimates[0], estimates[1], estimates[2]);
+  const LightMixture after = ReshapeMixture(estimates, pixel, tile);
+  EXPECT_EQ(after.local, 0.0f);
+  EXPECT_LT(after.sun, 0.25f * before.sun);
+  EXPECT_GE(after.sun, kDefensiveStrategyShare / 2 - 1e-6f);
+  EXPECT_GT(after.environment, 0.5f);
+  EXPECT_NEAR(after.sun + after.environment, 1.0f, 1e-6f);
+  // A pixel with no samples of its own follows its tile; a tile with none stays unshadowed (factor 1).
+  const LightMixture unlearned = ReshapeMixture(estimates, StrategySums{}, StrategySums{});
+  EXPECT_EQ(unlearned.sun, before.sun);
+  EXPECT_EQ(unlearned.environment, before.environment);
+}
+
+}  // namespace
+}  // namespace restir
