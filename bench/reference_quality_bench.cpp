@@ -9,9 +9,12 @@
 //   rel_var_per_ray          mean_rel_se² × rays_per_px: the relative variance one ray per pixel would leave,
 //                            the sampler's efficiency with the budget taken out (lower is better)
 //
+//   spp, capped_frames       mean samples per sampled pixel, pilot included; frames whose error target hit the cap
+//
 // Environment: RESTIR_BENCH_FRAMES (default 3: the first, middle and last frame), RESTIR_BENCH_WIDTH / _HEIGHT
-// (default: the sequence's), RESTIR_BENCH_REFERENCE_SPP (default: the sequence's render.referenceSpp),
-// RESTIR_BENCH_REFERENCE_ERROR (> 0: the error target instead of a budget), RESTIR_BENCH_REFERENCE_LEARN=0 (the
+// (default: the sequence's); the sequence's reference defaults (its referenceError and referenceSppCap, else its
+// referenceSpp) unless RESTIR_BENCH_REFERENCE_SPP (a fixed budget), RESTIR_BENCH_REFERENCE_ERROR (the error target)
+// or RESTIR_BENCH_REFERENCE_CAP (its cap) say otherwise; RESTIR_BENCH_REFERENCE_LEARN=0 (the
 // unshadowed selection, without the pilot's visibility learning: the before of issue 40).
 #include <benchmark/benchmark.h>
 
@@ -54,12 +57,15 @@ void BM_ReferenceQuality(benchmark::State& state) {
   const int frames = std::max(1, std::min(EnvInt("RESTIR_BENCH_FRAMES", 3), seq.frameCount));
   ReferenceParams params;
   params.samplesPerPixel = EnvInt("RESTIR_BENCH_REFERENCE_SPP", seq.defaults.referenceSpp);
-  params.targetRelativeError = EnvDouble("RESTIR_BENCH_REFERENCE_ERROR", 0.0);
+  const bool budget = std::getenv("RESTIR_BENCH_REFERENCE_SPP") != nullptr;
+  params.targetRelativeError = budget ? 0.0 : EnvDouble("RESTIR_BENCH_REFERENCE_ERROR", seq.defaults.referenceError);
+  if (params.targetRelativeError > 0.0)
+    params.maxMeanSamplesPerPixel = EnvInt("RESTIR_BENCH_REFERENCE_CAP", seq.defaults.referenceSppCap);
   params.learnVisibility = EnvInt("RESTIR_BENCH_REFERENCE_LEARN", 1) != 0;
   FrameLoop loop(seq, w, h);
-  double meanRel = 0.0, p99 = 0.0, dark = 0.0, rays = 0.0, ms = 0.0;
+  double meanRel = 0.0, p99 = 0.0, dark = 0.0, rays = 0.0, ms = 0.0, capped = 0.0, spp = 0.0;
   for (auto _ : state) {
-    meanRel = p99 = dark = rays = ms = 0.0;
+    meanRel = p99 = dark = rays = ms = capped = spp = 0.0;
     for (int k = 0; k < frames; ++k) {
       const int frame = frames == 1 ? 0 : static_cast<int>(int64_t{k} * (seq.frameCount - 1) / (frames - 1));
       loop.BeginFrame(frame);
@@ -71,6 +77,8 @@ void BM_ReferenceQuality(benchmark::State& state) {
       p99 += noise.p99Relative;
       dark += double(noise.darkSampled);
       rays += double(ref.rays) / (double(w) * h);
+      spp += ref.allocation.meanSamplesPerPixel;
+      capped += ref.allocation.scale < 1.0 ? 1.0 : 0.0;
     }
   }
   state.counters["mean_rel_se"] = meanRel / frames;
@@ -78,6 +86,8 @@ void BM_ReferenceQuality(benchmark::State& state) {
   state.counters["dark_sampled"] = dark / frames;
   state.counters["rays_per_px"] = rays / frames;
   state.counters["ms"] = ms / frames;
+  state.counters["spp"] = spp / frames;
+  state.counters["capped_frames"] = capped;
   state.counters["rel_var_per_ray"] = (meanRel / frames) * (meanRel / frames) * (rays / frames);
 }
 

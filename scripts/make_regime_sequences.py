@@ -217,7 +217,7 @@ def door_ajar():
             {"frame": 0, "position": [-6.3, 1.6, -0.6], "lookAt": [-0.5, 0.7, -4.0], "fov": 60, "interpolation": "smooth"},
             {"frame": 63, "position": [-5.4, 1.55, -1.1], "lookAt": [-2.0, 0.6, -5.6], "fov": 60},
         ]},
-        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceSpp": 256},
+        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 256},
     }
 
 
@@ -316,7 +316,7 @@ def many_rooms():
              "interpolation": "smooth"},
             {"frame": 63, "position": [xd + 0.1, 1.65, zline + 0.0], "lookAt": [xd - 1.8, 1.2, zline - 4.5], "fov": 65},
         ]},
-        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceSpp": 256},
+        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 256},
     }
 
 
@@ -413,7 +413,7 @@ def sliding_reveal():
             {"frame": 28, "position": [0.0, 1.6, 4.5], "lookAt": [0.0, 1.4, 0.0], "fov": 50, "interpolation": "smooth"},
             {"frame": 63, "position": [0.3, 1.6, 3.5], "lookAt": [-0.5, 1.3, -1.0], "fov": 50},
         ]},
-        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceSpp": 256},
+        "render": {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 256},
     }
 
 
@@ -443,7 +443,7 @@ def sun_street_night():
         "the interior lamps (the cafe's 48 emissive triangles and 7 quads) reaching the street through the bars. "
         "The facade and most of the street see no light at all, and the lamps' candidates on the street are "
         "mostly occluded.")
-    seq["render"] = {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceSpp": 256}
+    seq["render"] = {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 256}
     return seq
 
 

@@ -56,9 +56,23 @@ def summarize(run_dir):
             "rays": mean([float(r["rays"]) for r in pr]) / (run["resolution"][0] * run["resolution"][1]),
             "acceptance": mean([float(r["temporal_acceptance"]) for r in later]),
             "ref_stderr": mean([float(r["reference_rel_stderr"]) for r in pr]),
+            "ref_spp": mean([float(r.get("reference_spp", "nan")) for r in pr]),
+            "ref_capped": sum(float(r.get("reference_capped", "0")) > 0 for r in pr),
             "disocc": [float(r["disocc_fraction"]) for r in later],
         })
     return run, out
+
+
+def reference_text(run, row):
+    """How the reference was sampled: a fixed budget, or an error target with its cap and the frames that hit it."""
+    ref = run["reference"]
+    target = ref.get("targetRelativeError", 0.0)
+    if not target:
+        return f"{ref['samplesPerPixel']} spp"
+    text = f"error target {100 * target:g}%"
+    if ref.get("sppCap"):
+        text += f", at most {ref['sppCap']} spp a frame (hit on {row['ref_capped']} of {row['frames']} frames)"
+    return text + f", {row['ref_spp']:.0f} spp on average"
 
 
 def pct(a, b):
@@ -95,7 +109,7 @@ def main(argv):
                   f"is in candidates, as in seed 003's code.\n")
         else:
             print(f"## {seq} — {w}×{h}, frames {f0}–{f1 - 1}, seed {run['seed']}\n")
-            print(f"Reference: {run['reference']['samplesPerPixel']} spp, mean relative standard error over lit "
+            print(f"Reference: {reference_text(run, rows[0])}, mean relative standard error over lit "
                   f"pixels {100 * rows[0]['ref_stderr']:.2f}%. Disoccluded fraction per frame: "
                   f"{100 * min(rows[0]['disocc']):.2f}%–{100 * max(rows[0]['disocc']):.2f}%.\n")
         head = ("| preset | relmse | relmse_corrected | luma_rmse | rmspe | flip | stability_luma_rmse | flicker | "

@@ -30,6 +30,7 @@ for d in sorted(os.listdir(sys.argv[1])):
     b = open(f[0], 'rb').read()
     n = struct.unpack_from('<I', b, 8)[0]; p = 12 + n
     w, h = struct.unpack_from('<ii', b, p); p += 8
+    p += 16  # the allocation: mean samples per pixel, scale (RSREF004)
     size = struct.unpack_from('<Q', b, p)[0]; p += 8
     print(d, w, h, '0x%016xull' % fnv(b[p:p+size]))
 PY

@@ -156,12 +156,20 @@ void AddRunWorkOptions(CLI::App* run, RunArgs& a) {
       ->check(ThreadLimit(1));
   run->add_option("--seed", a.seed, "Override the sequence's seed")
       ->check(CLI::Range(int64_t{0}, int64_t{4294967295}));
-  run->add_option("--reference-spp", opt.referenceSpp, "Reference samples per pixel (default: the sequence's)")
+  run->add_option("--reference-spp", opt.referenceSpp,
+                  "Reference samples per pixel, a fixed budget (default: the sequence's referenceError when it has "
+                  "one, else its referenceSpp)")
       ->check(CLI::Range(1, 1 << 24));
   run->add_option("--reference-error", opt.referenceError,
                   "Instead of a sample budget: sample each reference pixel until its estimated relative standard "
                   "error is this (e.g. 0.01), from a pilot pass; 16 to 65536 samples per pixel")
       ->check(Finite() & CLI::Range(1e-4, 1.0))
+      ->excludes("--reference-spp");
+  run->add_option("--reference-cap", opt.referenceSppCap,
+                  "With an error target (--reference-error or the sequence's referenceError): the most samples a "
+                  "frame's reference may take, as a mean per pixel; a frame that hits it is marked "
+                  "reference_capped in metrics.csv (default: the sequence's referenceSppCap)")
+      ->check(CLI::Range(32, 1 << 20))
       ->excludes("--reference-spp");
   run->add_option("--checkpoint-seconds", opt.checkpointSeconds,
                   "Seconds of work between checkpoints for --resume (the first frame's is always written; 0: every "

@@ -193,6 +193,8 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
     v.emplace_back("luma_sum", a.lumaSum);
     v.emplace_back("reference_luma_sum", a.referenceLumaSum);
     v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
+    v.emplace_back("reference_spp", m.referenceSpp);
+    v.emplace_back("reference_capped", m.referenceCapped ? 1.0 : 0.0);
     corrected(a, "");
     // The same errors over the recently revealed pixels and over the others.
     for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {

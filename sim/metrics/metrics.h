@@ -109,6 +109,8 @@ struct FrameMeasurement {
   double msReference = 0.0;                        // its wall time
   bool referenceCached = false;                    // it was read from the cache
   double referenceRelStdError = 0.0;               // MeanRelativeStandardError
+  double referenceSpp = 0.0;                       // its mean samples per pixel, the pilot's included
+  bool referenceCapped = false;                    // its error target was cut down to the frame's sample cap
   ReferenceNoise referenceNoise;                   // its per-pixel noise: the *_corrected columns (when set)
   const ImageRgb* previousReference = nullptr;     // the previous frame's (flicker)
   const FlipMap* flip = nullptr;                   // per-pixel HDR-FLIP of the estimate against the reference

@@ -566,7 +566,11 @@ void HtmlConfiguration(std::ostream& o, const RunInfo& run) {
         {"frames [begin, end)", get({"frames"})},
         {"resolution", get({"resolution"})},
         {"seed", get({"seed"})},
-        {"reference spp", get({"reference", "samplesPerPixel"})},
+        {"reference spp (fixed budget)", get({"reference", "targetRelativeError"}) == Json(0.0)
+                                              ? get({"reference", "samplesPerPixel"})
+                                              : Json(nullptr)},
+        {"reference error target", get({"reference", "targetRelativeError"})},
+        {"reference spp cap", get({"reference", "sppCap"})},
         {"threads", get({"threads"})},
         {"overrides (--set)", get({"overrides"})},
         {"program version", get({"version"})},
@@ -648,6 +652,15 @@ void HtmlSummaryNote(std::ostream& o, const MetricsTable& t, const std::vector<P
     const double rs = sums.front().means[refc];
     o << " The reference's own mean relative standard error is " << Fmt(rs)
       << ": a relmse below about its square (" << Fmt(rs * rs) << ") is within the reference's noise.";
+    // A capped frame's reference stopped short of its error target: said here, not only in metrics.csv.
+    if (const int capc = t.Column("reference_capped"); capc >= 0) {
+      const PresetSummary& first = sums.front();
+      const long capped = std::lround(first.means[capc] * first.rows);
+      if (capped > 0)
+        o << " <strong>The reference hit its sample cap on " << capped << " of " << first.rows
+          << " frames</strong> (mean " << Fmt(SummaryMean(t, first, "reference_spp"))
+          << " samples per pixel): there it did not reach its error target, and its noise is larger than asked.";
+    }
     if (hasCorrected)
       o << " The noise share is how much of each mean (over frames) the reference's own variance explains: "
            "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <string>
 
+#include "sim/reference/reference_cache.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/util/image.h"
@@ -32,6 +33,12 @@ struct ReferenceParams {
   // When > 0 (--reference-error): each pixel gets the samples its pilot says it needs for this relative standard
   // error (between 16 and 65536), instead of a share of a fixed budget.
   double targetRelativeError = 0.0;
+  // With targetRelativeError: the most samples a frame may take, as a mean per pixel over the pixels that take
+  // samples, the pilot's included (the sequence's referenceSppCap, --reference-cap). When the target would cost
+  // more, the frame spends the cap as a fixed budget (the same bits as samplesPerPixel = the cap) and reports that
+  // it was capped (ReferenceImage::allocation). In samples rather than seconds so that a capped reference has the
+  // same bits on every machine. 0: no cap.
+  int maxMeanSamplesPerPixel = 0;
   std::string cacheDir;  // where converged frames are kept; empty: no cache
   // Reshape the main pass's light selection by the visibility the pilot's shadow rays found, per tile
   // (sim/reference/reference_learning.h). Off only to measure what it gains (bench/reference_quality_bench.cpp):
@@ -50,6 +57,7 @@ struct ReferenceImage {
   uint64_t rays = 0;        // rays traced (0 when cached)
   uint64_t samples = 0;     // direct-lighting samples taken, the pilot's included (0 when cached)
   std::vector<uint32_t> pixelSamples;  // per pixel, the samples it took, pilot included (empty when cached)
+  ReferenceAllocation allocation;      // how the samples were spent (cached with the images)
 };
 
 // Renders (or reads from the cache) the reference of the scene's current frame, at the G-buffer's pixels.

@@ -12,7 +12,7 @@ namespace restir {
 
 namespace {
 
-constexpr char kMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '3'};
+constexpr char kMagic[8] = {'R', 'S', 'R', 'E', 'F', '0', '0', '4'};
 
 template <typename T>
 void Put(std::string& out, const T& v) {
@@ -50,12 +50,13 @@ size_t PayloadSize(int width, int height) {
 }  // namespace
 
 size_t ReferenceCacheEntrySize(const std::string& key, int width, int height) {
-  return sizeof(kMagic) + sizeof(uint32_t) + key.size() + 2 * sizeof(int32_t) + sizeof(uint64_t) +
+  return sizeof(kMagic) + sizeof(uint32_t) + key.size() + 2 * sizeof(int32_t) + 2 * sizeof(double) + sizeof(uint64_t) +
          PayloadSize(width, height) + sizeof(uint64_t);
 }
 
 std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& mean, const ImageRgb& standardError,
-                                      const std::vector<float>& lumaStandardError) {
+                                      const std::vector<float>& lumaStandardError,
+                                      const ReferenceAllocation& allocation) {
   std::string out;
   out.reserve(ReferenceCacheEntrySize(key, mean.width, mean.height));
   out.append(kMagic, sizeof(kMagic));
@@ -63,6 +64,8 @@ std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& me
   out.append(key);
   Put(out, static_cast<int32_t>(mean.width));
   Put(out, static_cast<int32_t>(mean.height));
+  Put(out, allocation.meanSamplesPerPixel);
+  Put(out, allocation.scale);
   Put(out, static_cast<uint64_t>(PayloadSize(mean.width, mean.height)));
   out.append(reinterpret_cast<const char*>(mean.pixels.data()), mean.pixels.size() * sizeof(Vec3));
   out.append(reinterpret_cast<const char*>(standardError.pixels.data()), standardError.pixels.size() * sizeof(Vec3));
@@ -73,7 +76,7 @@ std::string EncodeReferenceCacheEntry(const std::string& key, const ImageRgb& me
 
 bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key, int width, int height,
                                ImageRgb& mean, ImageRgb& standardError, std::vector<float>& lumaStandardError,
-                               std::string& problem) {
+                               std::string& problem, ReferenceAllocation* allocation) {
   Cursor c(bytes);
   const char* magic = nullptr;
   if (!c.Bytes(sizeof(kMagic), magic) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) {
@@ -103,8 +106,9 @@ bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key,
     return false;
   }
   int32_t w = 0, h = 0;
+  ReferenceAllocation spent;
   uint64_t payload = 0;
-  if (!c.Get(w) || !c.Get(h) || !c.Get(payload)) {
+  if (!c.Get(w) || !c.Get(h) || !c.Get(spent.meanSamplesPerPixel) || !c.Get(spent.scale) || !c.Get(payload)) {
     problem = "truncated";
     return false;
   }
@@ -113,6 +117,12 @@ bool DecodeReferenceCacheEntry(const std::string& bytes, const std::string& key,
               std::to_string(height);
     return false;
   }
+  if (!(std::isfinite(spent.meanSamplesPerPixel) && spent.meanSamplesPerPixel >= 0.0 && spent.scale > 0.0 &&
+        spent.scale <= 1.0)) {
+    problem = "an allocation out of range";
+    return false;
+  }
+  if (allocation) *allocation = spent;
   const char* data = nullptr;
   if (payload != PayloadSize(width, height) || !c.Bytes(payload, data) ||
       c.Position() + sizeof(stored) != bytes.size()) {

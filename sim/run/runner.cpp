@@ -222,6 +222,19 @@ bool CompleteRunExists(const std::string& runJsonPath, const std::string& config
   return true;
 }
 
+// The reference's sampling: a budget given on the command line wins, then an error target given there, then the
+// sequence's error target, then its budget. A cap applies to an error target only.
+ReferenceParams ReferenceParamsFor(const RunOptions& opt, const RenderDefaults& defaults) {
+  ReferenceParams params;
+  params.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : defaults.referenceSpp;
+  if (opt.referenceSpp <= 0) {
+    params.targetRelativeError = opt.referenceError > 0.0 ? opt.referenceError : defaults.referenceError;
+    if (params.targetRelativeError > 0.0)
+      params.maxMeanSamplesPerPixel = opt.referenceSppCap > 0 ? opt.referenceSppCap : defaults.referenceSppCap;
+  }
+  return params;
+}
+
 // run.json as the run starts, so an interrupted run still says what it was.
 nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan& plan) {
   const ReferenceParams& refParams = plan.refParams;
@@ -240,6 +253,7 @@ nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan
       {"exrCompression", opt.writeImages ? nlohmann::json(ExrCompressionName(opt.exrCompression)) : nullptr},
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"targetRelativeError", refParams.targetRelativeError},
+                                                    {"sppCap", refParams.maxMeanSamplesPerPixel},
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
@@ -262,6 +276,20 @@ nlohmann::json ReferenceThroughputJson(const ReferenceTally& refRendered, int wi
       {"samplesPerPixel", refRendered.frames > 0
                               ? double(refRendered.samples) / (double(width) * height * refRendered.frames)
                               : 0.0}};
+}
+
+// Which frames' references stopped at their sample cap short of the error target, read from the kept rows (so a
+// resumed run counts the frames before its checkpoint too): one row per frame, the first preset's.
+nlohmann::json ReferenceCappedJson(const std::vector<FrameMetricsRow>& rows) {
+  nlohmann::json frames = nlohmann::json::array();
+  std::string firstPreset;
+  for (const FrameMetricsRow& r : rows) {
+    if (firstPreset.empty()) firstPreset = r.preset;
+    if (r.preset != firstPreset) continue;
+    for (const auto& [name, value] : r.values)
+      if (name == "reference_capped" && value > 0.0) frames.push_back(r.frame);
+  }
+  return {{"frames", frames}, {"count", frames.size()}};
 }
 
 // The other ensemble members, for the bias²/variance split of this frame (DESIGN §6 seed ensembles).
@@ -352,7 +380,8 @@ void RunState::InPresetOrder(std::vector<FrameMetricsRow>& restored) const {
 std::string ConfigurationKey(nlohmann::json runJson) {
   // exrCompression changes the EXRs' bytes, never their pixels, like the thread count their timing.
   for (const char* volatileField :
-       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput", "outputs"})
+       {"commandLine", "status", "threads", "simd", "exrCompression", "wallSeconds", "referenceThroughput",
+        "referenceCapped", "outputs"})
     runJson.erase(volatileField);
   return runJson.dump();
 }
@@ -428,8 +457,7 @@ RunPlan PlanRun(const RunOptions& opt, const Sequence& seq) {
   if (!opt.relativeErrorPath.empty() && (plan.presets.size() != 1 || !opt.reference || opt.resume))
     throw InputError(opt.relativeErrorPath + ": error: relative-error frames need one preset, a reference and no "
                      "--resume");
-  plan.refParams.samplesPerPixel = opt.referenceSpp > 0 ? opt.referenceSpp : seq.defaults.referenceSpp;
-  plan.refParams.targetRelativeError = opt.referenceError;
+  plan.refParams = ReferenceParamsFor(opt, seq.defaults);
   plan.refParams.cacheDir = opt.cacheDir;
   CheckRunMemory(opt, seq, plan.refParams, plan.width, plan.height, plan.frameEnd - opt.frameBegin,
                  plan.presets, plan.members);
@@ -555,6 +583,8 @@ void MeasurePresets(RunContext& run, RunFrame& f) {
       m.msReference = ref.ms;
       m.referenceCached = ref.fromCache;
       m.referenceRelStdError = referenceRelStdError;
+      m.referenceSpp = ref.allocation.meanSamplesPerPixel;
+      m.referenceCapped = ref.allocation.scale < 1.0;
       m.referenceNoise = ReferenceNoise{&ref.standardError, &ref.lumaStandardError};
       m.previousReference = &run.state.previousReference;
       m.flip = &pf.flipMap;
@@ -610,9 +640,11 @@ void FinishRun(RunContext& run, Clock::time_point start, RunResult& result) {
   runJson["status"] = "complete";
   runJson["wallSeconds"] = result.wallSeconds;
   if (opt.writeImages) runJson["outputs"] = OutputFilesJson(run.written.Files());
-  if (opt.reference)
+  if (opt.reference) {
     runJson["referenceThroughput"] =
         ReferenceThroughputJson(run.refRendered, run.plan.width, run.plan.height);
+    runJson["referenceCapped"] = ReferenceCappedJson(run.state.rows);
+  }
   if (run.relativeErrors) run.relativeErrors->Commit();
   WriteFileAtomic(run.plan.runJsonPath, runJson.dump(2) + "\n");
   if (opt.report) WriteReport(opt.outDir);

@@ -21,8 +21,9 @@ struct RunOptions {
   int height = 0;
   int threads = 0;                       // 0: every core
   std::optional<uint32_t> seed;          // unset: the sequence's seed
-  int referenceSpp = 0;                  // 0: the sequence's render.referenceSpp
+  int referenceSpp = 0;                  // > 0: a fixed reference budget, whatever the sequence says
   double referenceError = 0.0;           // > 0: reference sampled to this relative standard error per pixel
+  int referenceSppCap = 0;               // > 0: the error target's cap (else the sequence's referenceSppCap)
   bool reference = true;                 // false: no reference, no error metrics
   std::string outDir = "out";            // where frames, metrics.csv and run.json go
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it

@@ -115,7 +115,13 @@ struct CameraKey {
 
 struct RenderDefaults {
   std::vector<std::string> presets{"ris"};  // presets a plain `restir-sim run FILE` replays
-  int referenceSpp = 1024;                  // reference samples per pixel
+  int referenceSpp = 1024;                  // reference samples per pixel (when referenceError is 0)
+  // The relative standard error each pixel's reference is sampled to (sim/reference/reference.h
+  // ReferenceParams::targetRelativeError); 0: a fixed budget of referenceSpp instead.
+  double referenceError = 0.0;
+  // With referenceError: the most samples a frame's reference may take, as a mean per pixel (0: no cap). Hitting
+  // it is reported per frame (metrics.csv reference_capped), never silent.
+  int referenceSppCap = 0;
 };
 
 struct Sequence {

@@ -530,7 +530,7 @@ void Reader::ReadCamera(const Json& camera, const std::string& p, Sequence& seq)
 }
 
 void Reader::ReadRender(const Json& render, const std::string& p, Sequence& seq) {
-  CheckKeys(render, p, {"presets", "referenceSpp"});
+  CheckKeys(render, p, {"presets", "referenceSpp", "referenceError", "referenceSppCap"});
   if (const Json* v = Find(render, "presets")) {
     AsArray(*v, p + "/presets", true);
     seq.defaults.presets.clear();
@@ -548,6 +548,19 @@ void Reader::ReadRender(const Json& render, const std::string& p, Sequence& seq)
   if (const Json* v = Find(render, "referenceSpp")) {
     seq.defaults.referenceSpp =
         static_cast<int>(Integer(*v, p + "/referenceSpp", 1, 1 << 20, "referenceSpp"));
+  }
+  if (const Json* v = Find(render, "referenceError")) {
+    const double e = Number(*v, p + "/referenceError");
+    if (!(e >= 1e-4 && e <= 1.0))
+      Fail(p + "/referenceError", "referenceError must be a relative standard error in [0.0001, 1], got " +
+                                      FormatNumber(e));
+    seq.defaults.referenceError = e;
+  }
+  if (const Json* v = Find(render, "referenceSppCap")) {
+    if (!Find(render, "referenceError")) Fail(p + "/referenceSppCap", "referenceSppCap needs referenceError");
+    // The pilot's 16 samples and one per replicate are the least any pixel takes.
+    seq.defaults.referenceSppCap =
+        static_cast<int>(Integer(*v, p + "/referenceSppCap", 32, 1 << 20, "referenceSppCap"));
   }
 }
 
@@ -659,7 +672,13 @@ std::string SummarizeSequence(const Sequence& seq) {
   std::snprintf(buf, sizeof(buf), "camera      %zu keys, path length %.3f m, vertical fov %g..%g deg\n",
                 seq.cameraKeys.size(), pathLength, fovMin, fovMax);
   out << buf;
-  out << "render      reference " << seq.defaults.referenceSpp << " spp; presets:";
+  if (seq.defaults.referenceError > 0.0) {
+    out << "render      reference to " << sequence_internal::FormatNumber(seq.defaults.referenceError) << " relative standard error";
+    if (seq.defaults.referenceSppCap > 0) out << ", at most " << seq.defaults.referenceSppCap << " spp";
+    out << "; presets:";
+  } else {
+    out << "render      reference " << seq.defaults.referenceSpp << " spp; presets:";
+  }
   for (const std::string& p : seq.defaults.presets) out << " " << p;
   out << "\n";
   return out.str();

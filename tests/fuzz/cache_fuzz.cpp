@@ -16,8 +16,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   restir::ImageRgb mean, standardError;
   std::vector<float> lumaStandardError;
   std::string problem;
+  restir::ReferenceAllocation allocation;
   if (!restir::DecodeReferenceCacheEntry(bytes, "fuzz0000fuzz0000", 3, 2, mean, standardError, lumaStandardError,
-                                         problem)) {
+                                         problem, &allocation)) {
     if (!IsOneCleanLine(problem)) __builtin_trap();
     return 0;
   }
@@ -27,6 +28,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (!std::isfinite(p[k]) || p[k] < 0.0f) __builtin_trap();
   for (float v : lumaStandardError)
     if (!std::isfinite(v) || v < 0.0f) __builtin_trap();
-  if (restir::EncodeReferenceCacheEntry("fuzz0000fuzz0000", mean, standardError, lumaStandardError) != bytes) __builtin_trap();
+  if (!std::isfinite(allocation.meanSamplesPerPixel) || !(allocation.scale > 0.0 && allocation.scale <= 1.0))
+    __builtin_trap();
+  if (restir::EncodeReferenceCacheEntry("fuzz0000fuzz0000", mean, standardError, lumaStandardError, allocation) !=
+      bytes)
+    __builtin_trap();
   return 0;
 }

@@ -58,6 +58,7 @@ TEST_F(Cli, BadInputExitsTwoWithOneMessage) {
   // The error target is a relative standard error in [1e-4, 1], and replaces the budget rather than joining it.
   for (const char* bad : {"--reference-error 0", "--reference-error -0.01", "--reference-error 2",
                           "--reference-error nan", "--reference-error 0.01 --reference-spp 64",
+                          "--reference-cap 31", "--reference-cap 64 --reference-spp 64",
                           "--checkpoint-seconds -1"}) {
     r = RunCli(std::string("run sequences/smoke.json --frames 0:1 ") + bad + " --out " + ::testing::TempDir() +
                "/restir-cli-out");

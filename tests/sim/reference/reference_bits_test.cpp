@@ -45,7 +45,7 @@ struct Case {
 
 const Case kCases[] = {
     {"flagship", "sequences/window_bars_pan.json", 96, 54, 8, 48, 0.0, 0xaa98d66f17e635b8ull},
-    {"flagship_error", "sequences/window_bars_pan.json", 64, 36, 3, 0, 0.05, 0x849408a13ff030ccull},
+    {"flagship_error", "sequences/window_bars_pan.json", 64, 36, 3, 0, 0.05, 0x3fa56cde49b624ddull},
     {"glossy_floor", "sequences/hard/glossy_floor.json", 64, 36, 0, 48, 0.0, 0xc87a09bb892f6d72ull},
     {"sky_smoke", "tests/data/sky_smoke.json", 48, 27, 1, 64, 0.0, 0x629a8b62fc5e8bddull},
     {"asset_table", "sequences/asset_table.json", 64, 36, 0, 32, 0.0, 0xa52c72f96fdd9db3ull},

@@ -133,6 +133,35 @@ TEST(ReferenceCacheEntry, NonFiniteOrNegativeValuesAreRefusedEvenWithAValidCheck
   EXPECT_TRUE(Decodes(Encode(negativeZero, zero), kKey, 2, 2));
 }
 
+// How the samples were spent travels with the entry (a cached frame reports a cap as a rendered one does), and a
+// scale outside (0, 1] or a non-finite or negative sample count is refused like a bad pixel.
+TEST(ReferenceCacheEntry, AllocationRoundTripsAndOutOfRangeIsRefused) {
+  const ImageRgb mean = Ramp(3, 2, 0.5f), se = Ramp(3, 2, 0.01f);
+  const std::vector<float> lumaSe = LumaRamp(3, 2, 0.01f);
+  for (const ReferenceAllocation a : {ReferenceAllocation{48.0, 1.0}, ReferenceAllocation{4095.75, 0.0371},
+                                      ReferenceAllocation{0.0, std::ldexp(1.0, -20)}}) {
+    ImageRgb m, s;
+    std::vector<float> l;
+    std::string problem;
+    ReferenceAllocation back{-1.0, -1.0};
+    ASSERT_TRUE(DecodeReferenceCacheEntry(EncodeReferenceCacheEntry(kKey, mean, se, lumaSe, a), kKey, 3, 2, m, s, l,
+                                          problem, &back))
+        << problem;
+    EXPECT_EQ(back.meanSamplesPerPixel, a.meanSamplesPerPixel);
+    EXPECT_EQ(back.scale, a.scale);
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  for (const ReferenceAllocation a : {ReferenceAllocation{48.0, 0.0}, ReferenceAllocation{48.0, 1.0000001},
+                                      ReferenceAllocation{48.0, -0.5}, ReferenceAllocation{48.0, nan},
+                                      ReferenceAllocation{-1.0, 1.0}, ReferenceAllocation{inf, 1.0},
+                                      ReferenceAllocation{nan, 0.5}}) {
+    std::string why;
+    EXPECT_FALSE(Decodes(EncodeReferenceCacheEntry(kKey, mean, se, lumaSe, a), kKey, 3, 2, &why))
+        << a.meanSamplesPerPixel << " " << a.scale;
+    EXPECT_NE(why.find("allocation"), std::string::npos) << why;
+  }
+}
+
 // The fuzz target's seed (tests/fuzz/cache_seeds/) stays a valid entry for the key and size the target asks for,
 // so the fuzzer starts from the accepting path.
 TEST(ReferenceCacheEntry, FuzzSeedIsAValidEntry) {

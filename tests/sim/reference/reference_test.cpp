@@ -193,5 +193,60 @@ TEST(Reference, CacheRoundTripsBitExactly) {
   EXPECT_EQ(key(r.state, 16), key(later, 16));
 }
 
+// An error target the frame cannot afford stops at the cap: the frame is then the fixed-budget frame at the cap, to
+// the bit, its scale (the cap over what the target would take) below 1 and its measured noise above the target; a
+// cap the target does not reach changes nothing, to the bit. A cached frame reports the same allocation as the
+// rendered one. The cap is part of an error target's cache key, not a budget's.
+TEST(Reference, ErrorTargetStopsAtTheFramesSampleCapAndSaysSo) {
+  Rendered r = MakeFloorScene(24, 16);
+  ReferenceParams params;
+  params.targetRelativeError = 0.002;
+  for (const int cap : {64, 256, 1000}) {
+    params.maxMeanSamplesPerPixel = cap;
+    const ReferenceImage capped = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+    ReferenceParams budget;
+    budget.samplesPerPixel = cap;
+    const ReferenceImage fixed = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, budget);
+    EXPECT_LT(capped.allocation.scale, 1.0) << cap;
+    EXPECT_EQ(HashImage(capped.mean), HashImage(fixed.mean)) << cap;
+    EXPECT_EQ(capped.pixelSamples, fixed.pixelSamples) << cap;
+    EXPECT_EQ(capped.allocation.meanSamplesPerPixel, fixed.allocation.meanSamplesPerPixel) << cap;
+    EXPECT_EQ(fixed.allocation.scale, 1.0);
+    EXPECT_GT(MeanRelativeStandardError(capped), params.targetRelativeError) << cap;
+    double sum = 0.0;
+    size_t n = 0;
+    for (uint32_t s : capped.pixelSamples)
+      if (s > 0) sum += s, ++n;
+    EXPECT_EQ(capped.allocation.meanSamplesPerPixel, sum / double(n));
+  }
+  params.targetRelativeError = 0.05;
+  params.maxMeanSamplesPerPixel = 0;
+  const ReferenceImage free = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  params.maxMeanSamplesPerPixel = 1 << 20;
+  params.cacheDir = ::testing::TempDir() + "/restir-ref-cap-test";
+  std::filesystem::remove_all(params.cacheDir);
+  const ReferenceImage roomy = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  EXPECT_EQ(roomy.allocation.scale, 1.0);
+  EXPECT_EQ(HashImage(roomy.mean), HashImage(free.mean));
+  EXPECT_EQ(roomy.pixelSamples, free.pixelSamples);
+  params.targetRelativeError = 0.002;
+  params.maxMeanSamplesPerPixel = 64;
+  const ReferenceImage rendered = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  const ReferenceImage cached = RenderReference(r.seq, r.state, *r.scene, r.gbuffer, params);
+  ASSERT_TRUE(cached.fromCache);
+  EXPECT_EQ(cached.allocation.scale, rendered.allocation.scale);
+  EXPECT_EQ(cached.allocation.meanSamplesPerPixel, rendered.allocation.meanSamplesPerPixel);
+  auto key = [&](int spp, double error, int cap) {
+    ReferenceParams p;
+    p.samplesPerPixel = spp;
+    p.targetRelativeError = error;
+    p.maxMeanSamplesPerPixel = cap;
+    return ReferenceCacheKey(r.seq, r.state, p);
+  };
+  EXPECT_NE(key(16, 0.01, 64), key(16, 0.01, 65));
+  EXPECT_NE(key(16, 0.01, 64), key(16, 0.01, 0));
+  EXPECT_EQ(key(16, 0.0, 64), key(16, 0.0, 0));
+}
+
 }  // namespace
 }  // namespace restir

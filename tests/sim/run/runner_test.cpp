@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -193,6 +194,71 @@ TEST(Run, WritesFramesMetricsAndRunRecord) {
   // No temporaries left behind.
   for (const auto& e : std::filesystem::recursive_directory_iterator(out))
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// A sequence's render.referenceError is the default: its frames are sampled to the target, and a frame that hits
+// render.referenceSppCap says so in its rows (reference_capped, reference_spp within the cap) and in run.json
+// (referenceCapped lists it); --reference-spp replaces the target with a fixed budget, and --reference-cap the cap.
+TEST(Run, ASequencesErrorTargetIsTheDefaultAndItsCapIsReported) {
+  const std::string out = TempOut("restir-run-error-target");
+  std::filesystem::create_directories(out);
+  std::ifstream in("sequences/smoke.json");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string shipped = "\"referenceError\": 0.02, \"referenceSppCap\": 64}";
+  ASSERT_NE(text.find(shipped), std::string::npos);
+  text.replace(text.find(shipped), shipped.size(), "\"referenceError\": 0.001, \"referenceSppCap\": 48}");
+  const std::string seqPath = out + "/smoke_target.json";
+  std::ofstream(seqPath) << text;
+  auto column = [](const FrameMetricsRow& row, const std::string& name) {
+    for (const auto& [n, v] : row.values)
+      if (n == name) return v;
+    return -1.0;
+  };
+  auto runJson = [](const std::string& dir) {
+    std::ifstream rj(dir + "/run.json");
+    return nlohmann::json::parse(rj);
+  };
+  RunOptions o = SmokeOptions(out + "/target");
+  o.sequencePath = seqPath;
+  o.referenceSpp = 0;
+  o.frameEnd = 2;
+  o.writeImages = false;
+  const RunResult capped = restir::Run(o);
+  ASSERT_EQ(capped.rows.size(), 2u);
+  for (const FrameMetricsRow& row : capped.rows) {
+    EXPECT_EQ(column(row, "reference_capped"), 1.0);
+    EXPECT_GT(column(row, "reference_spp"), 32.0);  // the cap spent as a budget: about 48, in whole replicates
+    EXPECT_LE(column(row, "reference_spp"), 1.25 * 48.0);
+  }
+  nlohmann::json j = runJson(o.outDir);
+  EXPECT_EQ(j["reference"]["targetRelativeError"], 0.001);
+  EXPECT_EQ(j["reference"]["sppCap"], 48);
+  EXPECT_EQ(j["referenceCapped"]["count"], 2);
+  EXPECT_EQ(j["referenceCapped"]["frames"], nlohmann::json::array({0, 1}));
+
+  o.outDir = out + "/wider";
+  o.referenceSppCap = 1 << 20;
+  o.referenceError = 0.2;  // affordable: nothing capped
+  const RunResult free = restir::Run(o);
+  for (const FrameMetricsRow& row : free.rows) EXPECT_EQ(column(row, "reference_capped"), 0.0);
+  j = runJson(o.outDir);
+  EXPECT_EQ(j["reference"]["targetRelativeError"], 0.2);
+  EXPECT_EQ(j["referenceCapped"]["count"], 0);
+
+  o.outDir = out + "/budget";
+  o.referenceSppCap = 0;
+  o.referenceError = 0.0;
+  o.referenceSpp = 128;
+  const RunResult fixed = restir::Run(o);
+  for (const FrameMetricsRow& row : fixed.rows) {
+    EXPECT_EQ(column(row, "reference_capped"), 0.0);
+    // Whole replicates per pixel, and no pixel above 16 times the mean: the budget is an upper bound, roughly met.
+    EXPECT_GT(column(row, "reference_spp"), 64.0);
+    EXPECT_LE(column(row, "reference_spp"), 1.25 * 128.0);
+  }
+  j = runJson(o.outDir);
+  EXPECT_EQ(j["reference"]["targetRelativeError"], 0.0);
+  EXPECT_EQ(j["reference"]["sppCap"], 0);
 }
 
 // The frame files are written on a background thread (sim/output/background_writer.h): a file that cannot be written

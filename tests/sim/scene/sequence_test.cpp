@@ -497,7 +497,8 @@ TEST(SequenceFiles, ShippedSequencesHaveDocumentedShape) {
   EXPECT_EQ(smoke.height, 36);
   EXPECT_EQ(smoke.frameCount, 6);
   EXPECT_EQ(smoke.lights.size(), 2u);
-  EXPECT_EQ(smoke.defaults.referenceSpp, 64);
+  EXPECT_EQ(smoke.defaults.referenceError, 0.02);
+  EXPECT_EQ(smoke.defaults.referenceSppCap, 64);
   const Sequence occluder = LoadSequence(SourcePath("sequences/moving_occluder.json"));
   EXPECT_EQ(occluder.frameCount, 48);
   bool anyAnimated = false;
