@@ -131,6 +131,36 @@ std::string Fmt(double v, const char* f = "%.4g") {
 
 }  // namespace
 
+namespace {
+
+// The shared frames' values of `column` in one run (empty when it has no such column).
+std::vector<double> SharedValues(const MetricsTable& t, const PresetSeries& p, const std::vector<size_t>& rows,
+                                 const std::string& column) {
+  std::vector<double> v;
+  const int c = t.Column(column);
+  if (c < 0) return v;
+  for (size_t k : rows) v.push_back(p.values[c][k]);
+  return v;
+}
+
+void AddIntervals(const MetricsTable& a, const PresetSeries& pa, const std::vector<size_t>& ia, const MetricsTable& b,
+                  const PresetSeries& pb, const std::vector<size_t>& ib, ColumnComparison& col) {
+  if (std::find_if(std::begin(kIntervalMetrics), std::end(kIntervalMetrics),
+                   [&](const char* m) { return col.column == m; }) == std::end(kIntervalMetrics))
+    return;
+  const std::string sd = col.column + "_ref_sd";
+  if (a.Column(sd) < 0 || b.Column(sd) < 0 || a.Column("reference_luma_sum") < 0 || b.Column("reference_luma_sum") < 0)
+    return;
+  col.hasIntervals = true;
+  const std::string seed = col.column + "_seed_sd";
+  col.intervalA = ColumnInterval(SharedValues(a, pa, ia, col.column), SharedValues(a, pa, ia, sd),
+                                 SharedValues(a, pa, ia, "reference_luma_sum"), SharedValues(a, pa, ia, seed));
+  col.intervalB = ColumnInterval(SharedValues(b, pb, ib, col.column), SharedValues(b, pb, ib, sd),
+                                 SharedValues(b, pb, ib, "reference_luma_sum"), SharedValues(b, pb, ib, seed));
+}
+
+}  // namespace
+
 double StudentTTwoSidedP(double t, int dof) {
   if (dof < 1 || std::isnan(t)) return NAN;
   if (std::isinf(t)) return 0.0;
@@ -232,6 +262,7 @@ RunComparison CompareRuns(const std::string& runA, const std::string& runB) {
         vb.push_back(pb->values[cb][ib[k]]);
       }
       pc.columns.push_back(CompareSeries(a.columns[c], va, vb));
+      AddIntervals(a, pa, ia, b, *pb, ib, pc.columns.back());
     }
     r.presets.push_back(std::move(pc));
   }
@@ -282,6 +313,12 @@ std::string FormatComparison(const RunComparison& c) {
       std::snprintf(buf, sizeof(buf), "%-26s %12s %12s %9s %8s  %s\n", col.column.c_str(), Fmt(col.meanA).c_str(),
                     Fmt(col.meanB).c_str(), change.c_str(), pv.c_str(), VerdictText(col.verdict));
       o << buf;
+      if (col.hasIntervals) {
+        auto interval = [](const MetricInterval& in) {
+          return "± " + Fmt(in.halfWidth, "%.2g") + (in.referenceDominated ? " (mostly the reference's noise)" : "");
+        };
+        o << "  95% interval: A " << interval(col.intervalA) << ", B " << interval(col.intervalB) << "\n";
+      }
     }
     if (!identical.empty()) {
       o << "identical in both runs (" << identical.size() << "):";

@@ -12,10 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "sim/metrics/summary.h"
+
 namespace restir {
 
-constexpr int kCompareBatch = 8;        // frames per batch
-constexpr int kCompareMinBatches = 4;   // fewer batches: no test
+constexpr int kCompareBatch = kBatchFrames;       // frames per batch
+constexpr int kCompareMinBatches = kMinBatches;   // fewer batches: no test
 constexpr double kCompareAlpha = 0.05;  // two-sided significance level
 
 enum class CompareVerdict {
@@ -33,6 +35,10 @@ struct ColumnComparison {
   double t = 0.0;                   // the t statistic (0 when not tested)
   double p = 1.0;                   // two-sided p-value (1 when not tested)
   CompareVerdict verdict = CompareVerdict::kTooFewFrames;
+  // For the error metrics with a *_ref_sd column (kIntervalMetrics): each run's 95% interval of its mean over the
+  // shared frames (summary.h ColumnInterval), so a change can be read against what each run can resolve.
+  bool hasIntervals = false;
+  MetricInterval intervalA, intervalB;
 };
 
 struct PresetComparison {

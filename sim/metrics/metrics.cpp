@@ -5,17 +5,51 @@
 
 namespace restir {
 
+namespace {
+
+// A reference pixel's error covariance across its channels, for the delta method. The replicates give each
+// channel's standard error and the luminance's, not the three covariances: one light sample feeds all three
+// channels, so they are modelled with one correlation ρ, the one that makes Var(Y) = Σ w_c² se_c² +
+// 2 ρ Σ_{c<c'} w_c w_c' se_c se_c' hold, clamped to [−0.5, 1] (the range that keeps the matrix positive).
+struct PixelCovariance {
+  PixelCovariance(const Vec3& se, float seY) {
+    const double w[3] = {0.2126, 0.7152, 0.0722};
+    double own = 0.0, cross = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      s[c] = se[c];
+      own += w[c] * w[c] * s[c] * s[c];
+      for (int k = c + 1; k < 3; ++k) cross += 2.0 * w[c] * w[k] * s[c] * s[k];
+    }
+    rho = cross > 0.0 ? std::clamp((double(seY) * double(seY) - own) / cross, -0.5, 1.0) : 0.0;
+  }
+  // gᵀ C g.
+  double Quadratic(const double g[3]) const {
+    double q = 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) q += g[c] * g[k] * s[c] * s[k] * (c == k ? 1.0 : rho);
+    return q;
+  }
+  double s[3];
+  double rho;
+};
+
+}  // namespace
+
 AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& reference,
                                 const std::vector<uint8_t>* mask, const ReferenceNoise* noise) {
   AccuracyMetrics m;
   double se = 0.0, seLuma = 0.0, rel = 0.0, sumY = 0.0, sumYRef = 0.0, spe = 0.0;
   double noiseVar = 0.0, noiseVarLuma = 0.0, noiseRel = 0.0;  // Σ se², Σ se_Y², Σ se² / (R² + 0.01)
+  // The delta method's sums: Σ (∂S/∂R)² se² for each metric's sum S (squared error, luma squared error, relmse's
+  // terms, rmspe's squared relative errors).
+  double dSe = 0.0, dSeLuma = 0.0, dRel = 0.0, dSpe = 0.0;
   const bool corrected = noise && noise->standardError && noise->lumaStandardError;
   size_t count = 0, litCount = 0;
   for (size_t i = 0; i < estimate.Size(); ++i) {
     if (mask && !(*mask)[i]) continue;
     const Vec3& a = estimate.pixels[i];
     const Vec3& r = reference.pixels[i];
+    double gSe[3] = {0.0, 0.0, 0.0}, gRel[3] = {0.0, 0.0, 0.0};  // ∂/∂R_c of the pixel's squared and relmse terms
     for (int c = 0; c < 3; ++c) {
       const double d = double(a[c]) - double(r[c]);
       se += d * d;
@@ -26,13 +60,27 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
         // Only the numerator's share: the terms from the denominator's own noise (−2 d g' v + d² g'' v / 2 with
         // g = 1 / (R² + 0.01)) would need derivatives of 1/R̂², which explode where R̂ is noisy and near 0.
         noiseRel += v / RelmseDenominator(r[c]);
+        // ∂(d²)/∂r = −2d; ∂(d² / (r² + 0.01))/∂r = −2d / D − 2 r d² / D².
+        const double den = RelmseDenominator(r[c]);
+        gSe[c] = -2.0 * d;
+        gRel[c] = -2.0 * d / den - 2.0 * double(r[c]) * d * d / (den * den);
       }
+    }
+    if (corrected) {
+      const PixelCovariance cov(noise->standardError->pixels[i], (*noise->lumaStandardError)[i]);
+      dSe += cov.Quadratic(gSe);
+      dRel += cov.Quadratic(gRel);
     }
     const double ya = Luminance(a), yr = Luminance(r);
     seLuma += (ya - yr) * (ya - yr);
-    if (corrected) noiseVarLuma += double((*noise->lumaStandardError)[i]) * double((*noise->lumaStandardError)[i]);
+    const double vY = corrected ? double((*noise->lumaStandardError)[i]) * double((*noise->lumaStandardError)[i]) : 0.0;
+    noiseVarLuma += vY;
+    dSeLuma += 4.0 * (ya - yr) * (ya - yr) * vY;
     if (yr > 1e-4) {
       spe += ((ya - yr) / yr) * ((ya - yr) / yr);
+      // ∂((a / r − 1)²)/∂r = −2 (a / r − 1) a / r².
+      const double gSpe = -2.0 * (ya / yr - 1.0) * ya / (yr * yr);
+      dSpe += gSpe * gSpe * vY;
       ++litCount;
     }
     sumY += ya;
@@ -53,6 +101,12 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
   m.rmseCorrected = std::sqrt(std::max(0.0, m.mseCorrected));
   m.lumaRmseCorrected = std::sqrt(std::max(0.0, m.lumaMseCorrected));
   m.relmseCorrected = (rel - noiseRel) / (3.0 * count);
+  // sqrt(S / n) moves by dS / (2 n sqrt(S / n)); a metric at exactly 0 has no first-order term.
+  auto rootSd = [](double varSum, double n, double root) { return root > 0.0 ? std::sqrt(varSum) / (2.0 * n * root) : 0.0; };
+  m.rmseReferenceSd = rootSd(dSe, 3.0 * count, m.rmse);
+  m.lumaRmseReferenceSd = rootSd(dSeLuma, double(count), m.lumaRmse);
+  m.relmseReferenceSd = std::sqrt(dRel) / (3.0 * count);
+  m.rmspeReferenceSd = litCount ? rootSd(dSpe, double(litCount), m.rmspe) : 0.0;
   return m;
 }
 
@@ -139,6 +193,17 @@ EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRg
   } else {
     s.lumaRatio = meanLuma == 0.0 ? 1.0 : INFINITY;
   }
+  // Each member's error metrics against the reference, and their spread over the members.
+  std::vector<AccuracyMetrics> members;
+  for (const ImageRgb& image : images) members.push_back(MeasureAccuracy(image, reference));
+  double AccuracyMetrics::*const fields[4] = {&AccuracyMetrics::rmse, &AccuracyMetrics::lumaRmse,
+                                              &AccuracyMetrics::relmse, &AccuracyMetrics::rmspe};
+  for (int f = 0; f < 4; ++f) {
+    double mean = 0.0, var = 0.0;
+    for (const AccuracyMetrics& m : members) mean += m.*fields[f] / static_cast<double>(k);
+    for (const AccuracyMetrics& m : members) var += (m.*fields[f] - mean) * (m.*fields[f] - mean);
+    s.seedSd[f] = std::sqrt(var / static_cast<double>(k - 1));
+  }
   return s;
 }
 
@@ -196,6 +261,12 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
     v.emplace_back("reference_spp", m.referenceSpp);
     v.emplace_back("reference_capped", m.referenceCapped ? 1.0 : 0.0);
     corrected(a, "");
+    if (noise) {
+      v.emplace_back("rmse_ref_sd", a.rmseReferenceSd);
+      v.emplace_back("luma_rmse_ref_sd", a.lumaRmseReferenceSd);
+      v.emplace_back("relmse_ref_sd", a.relmseReferenceSd);
+      v.emplace_back("rmspe_ref_sd", a.rmspeReferenceSd);
+    }
     // The same errors over the recently revealed pixels and over the others.
     for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {
       const std::string sfx = suffix;
@@ -221,6 +292,10 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
       v.emplace_back("ensemble_bias2_noise", m.ensemble->bias2Noise);
       v.emplace_back("ensemble_luma_ratio", m.ensemble->lumaRatio);
       v.emplace_back("ensemble_luma_ratio_stderr", m.ensemble->lumaRatioStdError);
+      v.emplace_back("rmse_seed_sd", m.ensemble->seedSd[0]);
+      v.emplace_back("luma_rmse_seed_sd", m.ensemble->seedSd[1]);
+      v.emplace_back("relmse_seed_sd", m.ensemble->seedSd[2]);
+      v.emplace_back("rmspe_seed_sd", m.ensemble->seedSd[3]);
     }
     v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
   }

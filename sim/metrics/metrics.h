@@ -39,6 +39,14 @@ struct AccuracyMetrics {
   double rmseCorrected = 0.0;      // sqrt(max(0, mseCorrected))
   double lumaRmseCorrected = 0.0;  // sqrt(max(0, lumaMseCorrected))
   double relmseCorrected = 0.0;    // mean of ((I − R)² − se²) / (R² + 0.01): unbiased to first order in se²
+  // With a ReferenceNoise (else 0): the standard deviation each metric owes to the reference's own noise, to first
+  // order (the delta method: sqrt(Σ gᵀ C g) over pixels, g the metric's gradient in the pixel's reference
+  // channels, C their covariance, modelled from se and se_Y; pixels' reference errors independent). The luminance
+  // metrics use se_Y alone. A metric's interval: docs/metrics.md, "Intervals".
+  double rmseReferenceSd = 0.0;
+  double lumaRmseReferenceSd = 0.0;
+  double relmseReferenceSd = 0.0;
+  double rmspeReferenceSd = 0.0;
 };
 
 // relmse's denominator for a reference value r: the 0.01 keeps dark pixels from dominating (docs/metrics.md).
@@ -71,6 +79,9 @@ struct EnsembleStats {
   double bias2Noise = 0.0;         // what bias2 averages to for an unbiased estimator: mean of v/(K−1) + se_R²
   double lumaRatio = 0.0;          // Σ Y(Ī) / Σ Y(R)
   double lumaRatioStdError = 0.0;  // its standard error: the members' spread / sqrt(K) and the reference's own
+  // The standard deviation over the K members of rmse, luma_rmse, relmse and rmspe (kIntervalMetrics' order): how
+  // much one seed's frame error moves from seed to seed (an interval's estimator part, docs/metrics.md "Intervals").
+  double seedSd[4] = {0.0, 0.0, 0.0, 0.0};
 };
 
 // Needs K >= 2 images of the reference's size. Fills the per-pixel maps Ī − R (bias) and (1/K) Σ (I_k − Ī)²

@@ -1,6 +1,8 @@
 #include "sim/metrics/summary.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace restir {
 
@@ -34,6 +36,64 @@ double AccumulatedLumaRatio(const std::vector<double>& lumaSums, const std::vect
   for (double v : lumaSums) a += v;
   for (double v : referenceLumaSums) b += v;
   return b > 0.0 ? a / b : NAN;
+}
+
+double StudentTQuantile975(int dof) {
+  static const double table[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+                                 2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+                                 2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
+  if (dof < 1) return NAN;
+  return dof <= 30 ? table[dof - 1] : 1.96 + 2.37 / dof;
+}
+
+MetricInterval ColumnInterval(const std::vector<double>& values, const std::vector<double>& referenceSds,
+                              const std::vector<double>& referenceKeys, const std::vector<double>& seedSds) {
+  MetricInterval r;
+  const size_t n = values.size();
+  if (n == 0) return r;
+  r.mean = ColumnMean("", values);
+  const size_t batches = n / kBatchFrames;
+  const bool fromSeeds = seedSds.size() == n;
+  if (fromSeeds) {
+    r.estimatorSd = ColumnMean("", seedSds);
+  } else if (batches >= size_t(kMinBatches)) {
+    std::vector<double> means(batches, 0.0);
+    for (size_t k = 0; k < batches; ++k)
+      for (int i = 0; i < kBatchFrames; ++i) means[k] += values[k * kBatchFrames + i] / kBatchFrames;
+    double m = 0.0, ss = 0.0;
+    for (double x : means) m += x / double(batches);
+    for (double x : means) ss += (x - m) * (x - m);
+    r.estimatorSd = std::sqrt(ss / double(batches - 1) / double(batches));
+  }
+  if (referenceSds.size() == n && referenceKeys.size() == n) {
+    // Frames sharing a reference in one group; groups in first-appearance order, so the sum is the same bits
+    // whatever the input's grouping.
+    std::vector<std::pair<double, double>> groups;  // key, Σ sd
+    for (size_t i = 0; i < n; ++i) {
+      auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == referenceKeys[i]; });
+      if (it == groups.end()) groups.emplace_back(referenceKeys[i], referenceSds[i]);
+      else it->second += referenceSds[i];
+    }
+    double var = 0.0;
+    for (const auto& g : groups) var += g.second * g.second;
+    r.referenceSd = std::sqrt(var) / double(n);
+  }
+  const bool hasEstimator = !std::isnan(r.estimatorSd);
+  const double est = hasEstimator ? r.estimatorSd : 0.0;
+  // Welch–Satterthwaite: the estimator's part is read from batches − 1 degrees of freedom, the reference's is
+  // known (its replicates give it per pixel), so the sum's effective degrees of freedom lie between the two.
+  const double ref2 = std::isnan(r.referenceSd) ? 0.0 : r.referenceSd * r.referenceSd;
+  const double dof = est > 0.0 && !fromSeeds
+                         ? (est * est + ref2) * (est * est + ref2) / (est * est * est * est / double(batches - 1))
+                         : INFINITY;
+  const double q = dof < 1e6 ? StudentTQuantile975(static_cast<int>(std::floor(dof))) : 1.96;
+  if (!std::isnan(r.referenceSd)) {
+    r.halfWidth = q * std::sqrt(est * est + r.referenceSd * r.referenceSd);
+    r.referenceDominated = r.referenceSd > est;
+  } else if (hasEstimator) {
+    r.halfWidth = q * r.estimatorSd;
+  }
+  return r;
 }
 
 }  // namespace restir

@@ -123,6 +123,7 @@ struct PresetSummary {
   double secondsPerFrame = NAN;
   double efficiency = NAN;
   double lumaRatioAccumulated = NAN;
+  std::vector<std::pair<std::string, MetricInterval>> intervals;  // kIntervalMetrics present in metrics.csv
 };
 
 double SummaryMean(const MetricsTable& t, const PresetSummary& s, const std::string& name) {
@@ -155,6 +156,15 @@ PresetSummary Summarize(const MetricsTable& t, const PresetSeries& p) {
   s.efficiency = Efficiency(SummaryMean(t, s, "relmse"), SummaryMean(t, s, "ms_frame"));
   const int luma = t.Column("luma_sum"), refLuma = t.Column("reference_luma_sum");
   if (luma >= 0 && refLuma >= 0) s.lumaRatioAccumulated = AccumulatedLumaRatio(p.values[luma], p.values[refLuma]);
+  for (const char* metric : kIntervalMetrics) {
+    const int c = t.Column(metric), sd = t.Column(std::string(metric) + "_ref_sd");
+    const int seed = t.Column(std::string(metric) + "_seed_sd");
+    if (c < 0) continue;
+    const std::vector<double> none;
+    s.intervals.emplace_back(metric, ColumnInterval(p.values[c], sd >= 0 && refLuma >= 0 ? p.values[sd] : none,
+                                                    sd >= 0 && refLuma >= 0 ? p.values[refLuma] : none,
+                                                    seed >= 0 ? p.values[seed] : none));
+  }
   return s;
 }
 
@@ -188,7 +198,11 @@ Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
       {"recovery", kRecoveryDefinition},
       {"seconds_per_frame", "mean ms_frame / 1000"},
       {"efficiency", "1 / (mean relmse * seconds_per_frame)"},
-      {"luma_ratio_accumulated", "sum of luma_sum / sum of reference_luma_sum over the frames"}};
+      {"luma_ratio_accumulated", "sum of luma_sum / sum of reference_luma_sum over the frames"},
+      {"interval", "per error metric, the 95% interval of its mean: mean ± half_width, half_width = 1.96 sqrt("
+                   "estimator_sd² + reference_sd²); estimator_sd from the means of batches of 8 frames (null below 4 "
+                   "batches), reference_sd from the *_ref_sd columns (frames sharing a reference add linearly); "
+                   "reference_dominated: the reference's part is the larger (docs/metrics.md, Intervals)"}};
   Json presets = Json::object();
   for (const PresetSummary& s : sums) {
     Json p;
@@ -228,6 +242,14 @@ Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
     p["seconds_per_frame"] = Num(s.secondsPerFrame);
     p["efficiency"] = Num(s.efficiency);
     p["luma_ratio_accumulated"] = Num(s.lumaRatioAccumulated);
+    Json intervals = Json::object();
+    for (const auto& [metric, in] : s.intervals)
+      intervals[metric] = {{"mean", Num(in.mean)},
+                           {"half_width", Num(in.halfWidth)},
+                           {"estimator_sd", Num(in.estimatorSd)},
+                           {"reference_sd", Num(in.referenceSd)},
+                           {"reference_dominated", in.referenceDominated}};
+    p["interval"] = intervals;
     presets[s.name] = p;
   }
   j["presets"] = presets;
@@ -611,9 +633,21 @@ void HtmlSummaryRow(std::ostream& o, const MetricsTable& t, const PresetSummary&
   auto cell = [&](double v) { o << "<td class=\"num\">" << Fmt(v) << "</td>"; };
   o << "<tr class=\"summary-row\" data-preset=\"" << XmlEscape(s.name) << "\"><td>" << XmlEscape(s.name) << "</td>";
   o << "<td class=\"num\">" << s.rows << "</td>";
-  cell(SummaryMean(t, s, "relmse"));
-  cell(SummaryMean(t, s, "luma_rmse"));
-  cell(SummaryMean(t, s, "rmspe"));
+  // An error metric with its interval, marked † where the reference's noise is the larger part of it.
+  auto errorCell = [&](const char* metric) {
+    for (const auto& [name, in] : s.intervals)
+      if (name == metric) {
+        o << "<td class=\"num\">" << Fmt(in.mean);
+        if (!std::isnan(in.halfWidth)) o << " ± " << Fmt(in.halfWidth, "%.2g");
+        if (in.referenceDominated) o << " †";
+        o << "</td>";
+        return;
+      }
+    cell(SummaryMean(t, s, metric));
+  };
+  errorCell("relmse");
+  errorCell("luma_rmse");
+  errorCell("rmspe");
   if (hasFlip) cell(SummaryMean(t, s, "flip"));
   cell(s.lumaRatioAccumulated);
   cell(SummaryMean(t, s, "flicker"));
@@ -661,6 +695,9 @@ void HtmlSummaryNote(std::ostream& o, const MetricsTable& t, const std::vector<P
           << " frames</strong> (mean " << Fmt(SummaryMean(t, first, "reference_spp"))
           << " samples per pixel): there it did not reach its error target, and its noise is larger than asked.";
     }
+    o << " ± is the 95% interval of each mean over frames, from the frames' own spread (batches of 8 frames) and "
+         "the reference's noise (docs/metrics.md, Intervals); † marks a metric whose interval is mostly the "
+         "reference's noise: a better reference, not more frames, would narrow it.";
     if (hasCorrected)
       o << " The noise share is how much of each mean (over frames) the reference's own variance explains: "
            "1 − <code>*_corrected</code> / raw, with the rmse forms squared.";
