@@ -7,7 +7,7 @@ BIN=$(realpath "$1"); OUT=$(realpath -m "$2")
 cd "$(dirname "$0")/.."
 rm -rf "$OUT"; mkdir -p "$OUT"
 cfg() { # name seq res frame spp-or-error
-  local extra="--reference-spp $5"; [[ $5 == e* ]] && extra="--reference-error ${5#e}"
+  local extra="--reference-spp $5"; [[ $5 == e* ]] && extra="--reference-error ${5#e} --reference-cap 1048576"
   "$BIN" run "$2" --preset ris --resolution "$3" --frames "$4:$(($4+1))" $extra --no-images \
      --cache-dir "$OUT/$1/cache" --out "$OUT/$1/run" >/dev/null 2>&1 || echo "FAILED $1"
 }

@@ -43,7 +43,7 @@ namespace {
 // Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
-// error target's floor at a quarter of the mean variance and its sample cap).
+// error target's floor at a quarter of the mean variance and its sample cap, five tile anchors).
 constexpr uint32_t kReferenceVersion = 11;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
@@ -556,26 +556,37 @@ std::array<float, 3> PilotEstimates(const ReferenceFrame& frame, const ShadingPo
   return {localEstimate, sunEstimate, environmentEstimate};
 }
 
-// The tile's anchor: its active pixel nearest the tile's centre (the first in row order among equals), or none.
-std::optional<size_t> TileAnchor(const ReferenceFrame& frame, size_t tile) {
+// The tile's anchors: for its centre and each quadrant's centre, the active pixel nearest it (the first in row order
+// among equals); none when the tile has no active pixel. One anchor was not enough: a tile whose centre pixel lay
+// just above a room's ceiling panels gave them no weight, and the wall below them, lit by them, drew them only
+// through the defensive share (many_rooms at 96×54: a wall pixel at 0.0221 ± 0.0007 whose light is 0.0406,
+// tests/sim/reference/brute_force_reference_test.cpp).
+std::vector<size_t> TileAnchors(const ReferenceFrame& frame, size_t tile) {
   const int tx = static_cast<int>(tile % static_cast<size_t>(frame.tilesX)) * kLearningTile;
   const int ty = static_cast<int>(tile / static_cast<size_t>(frame.tilesX)) * kLearningTile;
-  std::optional<size_t> best;
-  int bestDistance = 0;
-  for (int y = ty; y < std::min(frame.h, ty + kLearningTile); ++y)
-    for (int x = tx; x < std::min(frame.w, tx + kLearningTile); ++x) {
-      const size_t i = static_cast<size_t>(y) * frame.w + x;
-      const int dx = 2 * (x - tx) - (kLearningTile - 1), dy = 2 * (y - ty) - (kLearningTile - 1);
-      if (frame.active[i] && (!best || dx * dx + dy * dy < bestDistance)) {
-        best = i;
-        bestDistance = dx * dx + dy * dy;
+  // Centres in units of half a pixel from the tile's corner: the tile's, then its four quadrants'.
+  const int q = kLearningTile / 2;
+  const int centres[5][2] = {{kLearningTile, kLearningTile}, {q, q}, {3 * q, q}, {q, 3 * q}, {3 * q, 3 * q}};
+  std::vector<size_t> anchors;
+  for (const auto& c : centres) {
+    std::optional<size_t> best;
+    int bestDistance = 0;
+    for (int y = ty; y < std::min(frame.h, ty + kLearningTile); ++y)
+      for (int x = tx; x < std::min(frame.w, tx + kLearningTile); ++x) {
+        const size_t i = static_cast<size_t>(y) * frame.w + x;
+        const int dx = 2 * (x - tx) + 1 - c[0], dy = 2 * (y - ty) + 1 - c[1];
+        if (frame.active[i] && (!best || dx * dx + dy * dy < bestDistance)) {
+          best = i;
+          bestDistance = dx * dx + dy * dy;
+        }
       }
-    }
-  return best;
+    if (best) anchors.push_back(*best);
+  }
+  return anchors;
 }
 
 // Above kMaxPerPixelLights, pixel i's light distribution: one per tile, P(l) = (1 − δ) w_l / Σ w + δ Φ_l with w_l
-// the light's TileLightWeight at the tile's anchor (per-pixel distributions over so many lights would cost more
+// the largest of the light's TileLightWeight at the tile's anchors (per-pixel distributions over so many lights would cost more
 // than the rays they save; one per tile costs a 64th), then, in the main pass, reshaped by what the tile's pilot
 // learned. Made once per tile row and column by each worker.
 const float* TileCdf(const ReferenceFrame& frame, const BlockPlan& plan, bool pilot, size_t i, BlockWorker& worker) {
@@ -585,9 +596,14 @@ const float* TileCdf(const ReferenceFrame& frame, const BlockPlan& plan, bool pi
   float* const cdf = worker.tileCdfs.data() + column * plan.nGroups;
   if (worker.tileCdfOf[column] == tileRow) return cdf;
   worker.tileCdfOf[column] = tileRow;
-  const Vec3 x = frame.g.Position(*TileAnchor(frame, tile));  // i is active: the tile has an anchor
+  std::vector<Vec3> anchors;  // i is active: the tile has anchors
+  for (size_t a : TileAnchors(frame, tile)) anchors.push_back(frame.g.Position(a));
   double total = 0.0;
-  for (size_t l = 0; l < plan.nGroups; ++l) total += cdf[l] = TileLightWeight(x, plan.selectionLights[l]);
+  for (size_t l = 0; l < plan.nGroups; ++l) {
+    float w = 0.0f;
+    for (const Vec3& x : anchors) w = std::max(w, TileLightWeight(x, plan.selectionLights[l]));
+    total += cdf[l] = w;
+  }
   const bool weighted = total > 0.0 && std::isfinite(total);
   const double share = weighted ? (1.0 - kDefensivePowerShare) / total : 0.0;
   const double power = weighted ? kDefensivePowerShare : 1.0;
