@@ -14,9 +14,9 @@ namespace {
 struct PixelCovariance {
   PixelCovariance(const Vec3& se, float seY) {
     const double w[3] = {0.2126, 0.7152, 0.0722};
+    for (int c = 0; c < 3; ++c) s[c] = se[c];  // all three first: the cross terms read the later channels
     double own = 0.0, cross = 0.0;
     for (int c = 0; c < 3; ++c) {
-      s[c] = se[c];
       own += w[c] * w[c] * s[c] * s[c];
       for (int k = c + 1; k < 3; ++k) cross += 2.0 * w[c] * w[k] * s[c] * s[k];
     }
@@ -102,7 +102,9 @@ AccuracyMetrics MeasureAccuracy(const ImageRgb& estimate, const ImageRgb& refere
   m.lumaRmseCorrected = std::sqrt(std::max(0.0, m.lumaMseCorrected));
   m.relmseCorrected = (rel - noiseRel) / (3.0 * count);
   // sqrt(S / n) moves by dS / (2 n sqrt(S / n)); a metric at exactly 0 has no first-order term.
-  auto rootSd = [](double varSum, double n, double root) { return root > 0.0 ? std::sqrt(varSum) / (2.0 * n * root) : 0.0; };
+  auto rootSd = [](double varSum, double n, double root) {
+    return root > 0.0 ? std::sqrt(varSum) / (2.0 * n * root) : 0.0;
+  };
   m.rmseReferenceSd = rootSd(dSe, 3.0 * count, m.rmse);
   m.lumaRmseReferenceSd = rootSd(dSeLuma, double(count), m.lumaRmse);
   m.relmseReferenceSd = std::sqrt(dRel) / (3.0 * count);
@@ -207,25 +209,26 @@ EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRg
   return s;
 }
 
-FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
-  FrameMetricsRow row;
-  row.frame = m.frame;
-  row.preset = m.preset;
-  auto& v = row.values;
+namespace {
+
+using Columns = std::vector<std::pair<std::string, double>>;
+
+const PassStats* FindPass(const FrameMeasurement& m, const char* name) {
+  for (const PassStats& ps : *m.passes)
+    if (ps.name == name) return &ps;
+  return nullptr;
+}
+
+// The frame's and its passes' times and rays. Fixed columns for every preset: a pass it does not run reports 0.
+void AppendCostColumns(const FrameMeasurement& m, Columns& v) {
   const size_t pixels = m.image->Size();
-  auto findPass = [&](const char* name) -> const PassStats* {
-    for (const PassStats& ps : *m.passes)
-      if (ps.name == name) return &ps;
-    return nullptr;
-  };
   double msPasses = 0.0;
   uint64_t rays = static_cast<uint64_t>(pixels);  // primary rays
   v.emplace_back("ms_scene_update", m.msSceneUpdate);
   v.emplace_back("ms_primary", m.msPrimary);
   v.emplace_back("ms_reproject", m.msReproject);
-  // Fixed columns for every preset: a pass the preset does not run reports 0.
   for (const char* name : kPassNames) {
-    const PassStats* ps = findPass(name);
+    const PassStats* ps = FindPass(m, name);
     v.emplace_back(std::string("ms_") + name, ps ? ps->ms : 0.0);
     msPasses += ps ? ps->ms : 0.0;
     rays += ps ? ps->rays : 0;
@@ -235,74 +238,79 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
   v.emplace_back("reference_cached", m.referenceCached ? 1.0 : 0.0);
   v.emplace_back("rays", static_cast<double>(rays));
   for (const char* name : kPassNames) {
-    const PassStats* ps = findPass(name);
+    const PassStats* ps = FindPass(m, name);
     v.emplace_back(std::string("rays_per_pixel_") + name, ps ? double(ps->rays) / double(pixels) : 0.0);
   }
-  if (m.reference) {
-    const ImageRgb& ref = *m.reference;
-    const ReferenceNoise* noise = m.referenceNoise.standardError ? &m.referenceNoise : nullptr;
-    // The corrected forms sit after the raw group so the raw columns keep their places.
-    auto corrected = [&](const AccuracyMetrics& x, const std::string& suffix) {
-      if (!noise) return;
-      v.emplace_back("rmse_corrected" + suffix, x.rmseCorrected);
-      v.emplace_back("luma_rmse_corrected" + suffix, x.lumaRmseCorrected);
-      v.emplace_back("relmse_corrected" + suffix, x.relmseCorrected);
-    };
-    const AccuracyMetrics a = MeasureAccuracy(*m.image, ref, nullptr, noise);
-    v.emplace_back("rmse", a.rmse);
-    v.emplace_back("luma_rmse", a.lumaRmse);
-    v.emplace_back("relmse", a.relmse);
-    v.emplace_back("luma_ratio", a.lumaRatio);
-    v.emplace_back("rmspe", a.rmspe);
-    v.emplace_back("flip", MeanFlip(*m.flip));
-    v.emplace_back("luma_sum", a.lumaSum);
-    v.emplace_back("reference_luma_sum", a.referenceLumaSum);
-    v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
-    v.emplace_back("reference_spp", m.referenceSpp);
-    v.emplace_back("reference_capped", m.referenceCapped ? 1.0 : 0.0);
-    corrected(a, "");
-    if (noise) {
-      v.emplace_back("rmse_ref_sd", a.rmseReferenceSd);
-      v.emplace_back("luma_rmse_ref_sd", a.lumaRmseReferenceSd);
-      v.emplace_back("relmse_ref_sd", a.relmseReferenceSd);
-      v.emplace_back("rmspe_ref_sd", a.rmspeReferenceSd);
-    }
-    // The same errors over the recently revealed pixels and over the others.
-    for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {
-      const std::string sfx = suffix;
-      const AccuracyMetrics x = MeasureAccuracy(*m.image, ref, mask, noise);
-      v.emplace_back("rmse" + sfx, x.rmse);
-      v.emplace_back("luma_rmse" + sfx, x.lumaRmse);
-      v.emplace_back("relmse" + sfx, x.relmse);
-      v.emplace_back("rmspe" + sfx, x.rmspe);
-      v.emplace_back("luma_ratio" + sfx, x.pixels ? x.lumaRatio : 1.0);
-      v.emplace_back("flip" + sfx, MeanFlip(*m.flip, mask));
-      corrected(x, sfx);
-    }
-    const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref, nullptr, noise);
-    v.emplace_back("accum_frames", m.accumFrames);
-    v.emplace_back("accum_rmse", acc.rmse);
-    v.emplace_back("accum_luma_ratio", acc.lumaRatio);
-    v.emplace_back("accum_rmspe", acc.rmspe);
-    if (noise) v.emplace_back("accum_rmse_corrected", acc.rmseCorrected);
-    if (m.ensemble) {
-      v.emplace_back("ensemble_mse", m.ensemble->mse);
-      v.emplace_back("ensemble_bias2", m.ensemble->bias2);
-      v.emplace_back("ensemble_variance", m.ensemble->variance);
-      v.emplace_back("ensemble_bias2_noise", m.ensemble->bias2Noise);
-      v.emplace_back("ensemble_luma_ratio", m.ensemble->lumaRatio);
-      v.emplace_back("ensemble_luma_ratio_stderr", m.ensemble->lumaRatioStdError);
-      v.emplace_back("rmse_seed_sd", m.ensemble->seedSd[0]);
-      v.emplace_back("luma_rmse_seed_sd", m.ensemble->seedSd[1]);
-      v.emplace_back("relmse_seed_sd", m.ensemble->seedSd[2]);
-      v.emplace_back("rmspe_seed_sd", m.ensemble->seedSd[3]);
-    }
-    v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
+}
+
+// The errors against the reference: whole image, its intervals, the revealed and other pixels, the running mean,
+// the ensemble's split and flicker.
+void AppendErrorColumns(const FrameMeasurement& m, Columns& v) {
+  const ImageRgb& ref = *m.reference;
+  const ReferenceNoise* noise = m.referenceNoise.standardError ? &m.referenceNoise : nullptr;
+  // The corrected forms sit after the raw group so the raw columns keep their places.
+  auto corrected = [&](const AccuracyMetrics& x, const std::string& suffix) {
+    if (!noise) return;
+    v.emplace_back("rmse_corrected" + suffix, x.rmseCorrected);
+    v.emplace_back("luma_rmse_corrected" + suffix, x.lumaRmseCorrected);
+    v.emplace_back("relmse_corrected" + suffix, x.relmseCorrected);
+  };
+  const AccuracyMetrics a = MeasureAccuracy(*m.image, ref, nullptr, noise);
+  v.emplace_back("rmse", a.rmse);
+  v.emplace_back("luma_rmse", a.lumaRmse);
+  v.emplace_back("relmse", a.relmse);
+  v.emplace_back("luma_ratio", a.lumaRatio);
+  v.emplace_back("rmspe", a.rmspe);
+  v.emplace_back("flip", MeanFlip(*m.flip));
+  v.emplace_back("luma_sum", a.lumaSum);
+  v.emplace_back("reference_luma_sum", a.referenceLumaSum);
+  v.emplace_back("reference_rel_stderr", m.referenceRelStdError);
+  v.emplace_back("reference_spp", m.referenceSpp);
+  v.emplace_back("reference_capped", m.referenceCapped ? 1.0 : 0.0);
+  corrected(a, "");
+  if (noise) {
+    v.emplace_back("rmse_ref_sd", a.rmseReferenceSd);
+    v.emplace_back("luma_rmse_ref_sd", a.lumaRmseReferenceSd);
+    v.emplace_back("relmse_ref_sd", a.relmseReferenceSd);
+    v.emplace_back("rmspe_ref_sd", a.rmspeReferenceSd);
   }
-  v.emplace_back("stability_luma_rmse", m.previousImage ? StabilityLumaRmse(*m.image, *m.previousImage) : 0.0);
-  v.emplace_back("disocc_fraction", m.disoccFraction);
-  v.emplace_back("disocc_recent_fraction", m.recentFraction);
-  v.emplace_back("temporal_acceptance", m.temporalAcceptance);
+  // The same errors over the recently revealed pixels and over the others.
+  for (const auto& [mask, suffix] : {std::pair{m.recentMask, "_disocc"}, std::pair{m.restMask, "_rest"}}) {
+    const std::string sfx = suffix;
+    const AccuracyMetrics x = MeasureAccuracy(*m.image, ref, mask, noise);
+    v.emplace_back("rmse" + sfx, x.rmse);
+    v.emplace_back("luma_rmse" + sfx, x.lumaRmse);
+    v.emplace_back("relmse" + sfx, x.relmse);
+    v.emplace_back("rmspe" + sfx, x.rmspe);
+    v.emplace_back("luma_ratio" + sfx, x.pixels ? x.lumaRatio : 1.0);
+    v.emplace_back("flip" + sfx, MeanFlip(*m.flip, mask));
+    corrected(x, sfx);
+  }
+  const AccuracyMetrics acc = MeasureAccuracy(*m.accumulatedMean, ref, nullptr, noise);
+  v.emplace_back("accum_frames", m.accumFrames);
+  v.emplace_back("accum_rmse", acc.rmse);
+  v.emplace_back("accum_luma_ratio", acc.lumaRatio);
+  v.emplace_back("accum_rmspe", acc.rmspe);
+  if (noise) v.emplace_back("accum_rmse_corrected", acc.rmseCorrected);
+  if (m.ensemble) {
+    v.emplace_back("ensemble_mse", m.ensemble->mse);
+    v.emplace_back("ensemble_bias2", m.ensemble->bias2);
+    v.emplace_back("ensemble_variance", m.ensemble->variance);
+    v.emplace_back("ensemble_bias2_noise", m.ensemble->bias2Noise);
+    v.emplace_back("ensemble_luma_ratio", m.ensemble->lumaRatio);
+    v.emplace_back("ensemble_luma_ratio_stderr", m.ensemble->lumaRatioStdError);
+    v.emplace_back("rmse_seed_sd", m.ensemble->seedSd[0]);
+    v.emplace_back("luma_rmse_seed_sd", m.ensemble->seedSd[1]);
+    v.emplace_back("relmse_seed_sd", m.ensemble->seedSd[2]);
+    v.emplace_back("rmspe_seed_sd", m.ensemble->seedSd[3]);
+  }
+  v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
+}
+
+// What the reservoirs held (issue 20) and the spatial pass's work per pixel, so a reader can price a method for
+// other hardware (issue 39), with the share of its surface pixels that found nothing to reuse.
+void AppendReservoirColumns(const FrameMeasurement& m, Columns& v) {
+  const size_t pixels = m.image->Size();
   const ReservoirDiagnostics& d = m.diagnostics;
   v.emplace_back("mean_confidence", d.confidenceMean);
   v.emplace_back("confidence_sd", d.confidenceSd);
@@ -317,16 +325,30 @@ FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
   v.emplace_back("duplicate_fraction", d.duplicateFraction);
   v.emplace_back("cross_object_reuse", static_cast<double>(m.crossObjectReuse));
   v.emplace_back("guarded", static_cast<double>(m.guarded));
-  // The spatial pass's work per pixel, so a reader can price a method for other hardware (issue 39), and the
-  // share of its surface pixels that found nothing to reuse.
   for (const char* name : kPassNames) {
-    const PassStats* ps = findPass(name);
+    const PassStats* ps = FindPass(m, name);
     v.emplace_back(std::string("targets_per_pixel_") + name, ps ? double(ps->targets) / double(pixels) : 0.0);
   }
-  const PassStats* spatial = findPass("spatial");
+  const PassStats* spatial = FindPass(m, "spatial");
   v.emplace_back("reservoir_reads_per_pixel_spatial", spatial ? double(spatial->reservoirReads) / double(pixels) : 0.0);
   v.emplace_back("spatial_failed_fraction",
                  spatial && spatial->visited ? double(spatial->failed) / double(spatial->visited) : 0.0);
+}
+
+}  // namespace
+
+FrameMetricsRow MeasureFrame(const FrameMeasurement& m) {
+  FrameMetricsRow row;
+  row.frame = m.frame;
+  row.preset = m.preset;
+  AppendCostColumns(m, row.values);
+  if (m.reference) AppendErrorColumns(m, row.values);
+  Columns& v = row.values;
+  v.emplace_back("stability_luma_rmse", m.previousImage ? StabilityLumaRmse(*m.image, *m.previousImage) : 0.0);
+  v.emplace_back("disocc_fraction", m.disoccFraction);
+  v.emplace_back("disocc_recent_fraction", m.recentFraction);
+  v.emplace_back("temporal_acceptance", m.temporalAcceptance);
+  AppendReservoirColumns(m, v);
   row.imageHash = HexHash(HashImage(*m.image));
   return row;
 }

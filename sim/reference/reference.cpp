@@ -145,8 +145,8 @@ constexpr int kMaxAllocationScale = 16;
 constexpr int kMaxSamplesPerPixel = 1 << 16;
 
 // Budget mode's mean per-replicate count of the main pass: the budget after the pilot's samples, in replicates.
-double MeanPerReplicate(const ReferenceParams& params) {
-  return std::max(1.0, std::ceil(double(std::max(1, params.samplesPerPixel) - kPilotSamples) / kReplicates));
+double MeanPerReplicate(int samplesPerPixel) {
+  return std::max(1.0, std::ceil(double(std::max(1, samplesPerPixel) - kPilotSamples) / kReplicates));
 }
 
 // The mean of the pilot's relative variances over every active pixel, those where it saw no light counted as 0 (so
@@ -173,9 +173,7 @@ uint32_t TargetPerReplicate(float relVar, double e2) {
 std::vector<uint32_t> BudgetPerReplicate(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
                                          int samplesPerPixel) {
   std::vector<uint32_t> m(relVar.size(), 0);
-  ReferenceParams budget;
-  budget.samplesPerPixel = samplesPerPixel;
-  const double meanPerReplicate = MeanPerReplicate(budget);
+  const double meanPerReplicate = MeanPerReplicate(samplesPerPixel);
   const double meanV = MeanRelativeVariance(relVar, active);
   for (size_t i = 0; i < relVar.size(); ++i) {
     if (!active[i]) continue;
@@ -586,9 +584,9 @@ std::vector<size_t> TileAnchors(const ReferenceFrame& frame, size_t tile) {
 }
 
 // Above kMaxPerPixelLights, pixel i's light distribution: one per tile, P(l) = (1 − δ) w_l / Σ w + δ Φ_l with w_l
-// the largest of the light's TileLightWeight at the tile's anchors (per-pixel distributions over so many lights would cost more
-// than the rays they save; one per tile costs a 64th), then, in the main pass, reshaped by what the tile's pilot
-// learned. Made once per tile row and column by each worker.
+// the largest of the light's TileLightWeight at the tile's anchors (per-pixel distributions over so many lights
+// would cost more than the rays they save; one per tile costs a 64th), then, in the main pass, reshaped by what the
+// tile's pilot learned. Made once per tile row and column by each worker.
 const float* TileCdf(const ReferenceFrame& frame, const BlockPlan& plan, bool pilot, size_t i, BlockWorker& worker) {
   const size_t tile = frame.TileOf(i);
   const int tileRow = static_cast<int>(tile / static_cast<size_t>(frame.tilesX));
@@ -939,7 +937,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
 
 double ReferenceMaxSamplesPerPixel(const ReferenceParams& params) {
   if (params.targetRelativeError > 0.0) return double(kMaxSamplesPerPixel);
-  return std::max(double(kPilotSamples), MeanPerReplicate(params) * kMaxAllocationScale * kReplicates);
+  return std::max(double(kPilotSamples), MeanPerReplicate(params.samplesPerPixel) * kMaxAllocationScale * kReplicates);
 }
 
 double ReferenceScratchBytes(double pixels, double lights, double groups, double maxSamplesPerPixel, bool sky,

@@ -673,7 +673,8 @@ std::string SummarizeSequence(const Sequence& seq) {
                 seq.cameraKeys.size(), pathLength, fovMin, fovMax);
   out << buf;
   if (seq.defaults.referenceError > 0.0) {
-    out << "render      reference to " << sequence_internal::FormatNumber(seq.defaults.referenceError) << " relative standard error";
+    out << "render      reference to " << sequence_internal::FormatNumber(seq.defaults.referenceError)
+        << " relative standard error";
     if (seq.defaults.referenceSppCap > 0) out << ", at most " << seq.defaults.referenceSppCap << " spp";
     out << "; presets:";
   } else {

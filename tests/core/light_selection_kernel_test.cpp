@@ -354,9 +354,9 @@ TEST(TileLightWeight, IsTheRadianceTimesTheSolidAngleInFrontAndZeroBehind) {
       continue;
     }
     const double l[3] = {glm::length(v[0]), glm::length(v[1]), glm::length(v[2])};
-    const double solidAngle = 2.0 * std::fabs(std::atan2(glm::dot(v[0], glm::cross(v[1], v[2])),
-                                                         l[0] * l[1] * l[2] + glm::dot(v[0], v[1]) * l[2] +
-                                                             glm::dot(v[0], v[2]) * l[1] + glm::dot(v[1], v[2]) * l[0]));
+    const double denominator = l[0] * l[1] * l[2] + glm::dot(v[0], v[1]) * l[2] + glm::dot(v[0], v[2]) * l[1] +
+                               glm::dot(v[1], v[2]) * l[0];
+    const double solidAngle = 2.0 * std::fabs(std::atan2(glm::dot(v[0], glm::cross(v[1], v[2])), denominator));
     if (solidAngle < 1e-9) continue;  // seen edge-on: nothing to compare
     EXPECT_NEAR(got / (light.lumRadiance * solidAngle), 1.0, 0.03) << i;
     ++front;

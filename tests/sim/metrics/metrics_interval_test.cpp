@@ -37,19 +37,17 @@ TEST(ReferenceSd, IsTheSpreadOfEachMetricOverReferencesDrawnAroundTheTruth) {
         ImageRgb truth(kW, kH), estimate(kW, kH), se(kW, kH);
         std::vector<float> seY(truth.Size());
         for (size_t i = 0; i < truth.Size(); ++i) {
-          double y = 0.0, yCommon = 0.0, yOwn = 0.0;
+          double yCommon = 0.0, yOwn = 0.0;
           const double w[3] = {0.2126, 0.7152, 0.0722};
           for (int c = 0; c < 3; ++c) {
             const double t = scale * uniform(rng);
             truth.pixels[i][c] = static_cast<float>(t);
             estimate.pixels[i][c] = static_cast<float>(t * (1.05 + estimateError * normal(rng)));
             se.pixels[i][c] = static_cast<float>(refError * t);
-            y += w[c] * t;
             yCommon += 0.8 * w[c] * refError * t;
             yOwn += 0.36 * w[c] * w[c] * refError * refError * t * t;
           }
           seY[i] = static_cast<float>(std::sqrt(yCommon * yCommon + yOwn));
-          (void)y;
         }
         const ReferenceNoise noise{&se, &seY};
         const AccuracyMetrics delta = MeasureAccuracy(estimate, truth, nullptr, &noise);
