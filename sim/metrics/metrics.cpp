@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/metrics/seed_ensemble.h"
+
 namespace restir {
 
 namespace {
@@ -209,6 +211,60 @@ EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRg
   return s;
 }
 
+ConvergedRmspe MeasureConvergedRmspe(const std::vector<const ImageRgb*>& memberSums, int frames,
+                                     const ImageRgb& reference, const std::vector<float>& referenceLumaStdError) {
+  ConvergedRmspe out;
+  const size_t k = memberSums.size(), n = reference.Size();
+  if (k < 3 || frames < 1 || n == 0) return out;
+  const double kd = static_cast<double>(k), invFrames = 1.0 / static_cast<double>(frames);
+  // One pixel's b², from its members' mean and sample variance.
+  auto term = [](double mean, double var, double members, double r, double seY2) {
+    return ((mean - r) * (mean - r) - var / members - seY2) / (r * r);
+  };
+  double spe = 0.0, bias2 = 0.0, referenceVar = 0.0;
+  std::vector<double> bias2Without(k, 0.0);  // Σ b² with member j left out (the jackknife)
+  std::vector<double> y(k);
+  size_t lit = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double r = Luminance(reference.pixels[i]);
+    if (!(r > 1e-4)) continue;
+    ++lit;
+    double s1 = 0.0, s2 = 0.0;
+    for (size_t m = 0; m < k; ++m) {
+      y[m] = Luminance(memberSums[m]->pixels[i]) * invFrames;
+      s1 += y[m];
+      s2 += y[m] * y[m];
+    }
+    const double seY2 = double(referenceLumaStdError[i]) * double(referenceLumaStdError[i]);
+    const double mean = s1 / kd;
+    const double var = std::max(0.0, (s2 - kd * mean * mean) / (kd - 1.0));
+    const double b2 = term(mean, var, kd, r, seY2);
+    spe += (mean - r) * (mean - r) / (r * r);
+    bias2 += b2;
+    // ∂b²/∂r = −2 (Ī − r) / r² − 2 b² / r.
+    const double g = -2.0 * (mean - r) / (r * r) - 2.0 * b2 / r;
+    referenceVar += g * g * seY2;
+    for (size_t j = 0; j < k; ++j) {
+      const double meanJ = (s1 - y[j]) / (kd - 1.0);
+      const double varJ = std::max(0.0, ((s2 - y[j] * y[j]) - (kd - 1.0) * meanJ * meanJ) / (kd - 2.0));
+      bias2Without[j] += term(meanJ, varJ, kd - 1.0, r, seY2);
+    }
+  }
+  if (lit == 0) return out;
+  const double litD = static_cast<double>(lit);
+  out.rmspe = std::sqrt(spe / litD);
+  out.bias2 = bias2 / litD;
+  out.bias = std::sqrt(std::max(0.0, out.bias2));
+  double meanWithout = 0.0, spread = 0.0;
+  for (double& b : bias2Without) meanWithout += (b /= litD) / kd;
+  for (double b : bias2Without) spread += (b - meanWithout) * (b - meanWithout);
+  const double jackknifeVar = (kd - 1.0) / kd * spread;
+  const double h = StudentT975(static_cast<int>(k) - 1) * std::sqrt(jackknifeVar + referenceVar / (litD * litD));
+  out.biasLow = std::sqrt(std::max(0.0, out.bias2 - h));
+  out.biasHigh = std::sqrt(std::max(0.0, out.bias2 + h));
+  return out;
+}
+
 namespace {
 
 using Columns = std::vector<std::pair<std::string, double>>;
@@ -303,6 +359,12 @@ void AppendErrorColumns(const FrameMeasurement& m, Columns& v) {
     v.emplace_back("luma_rmse_seed_sd", m.ensemble->seedSd[1]);
     v.emplace_back("relmse_seed_sd", m.ensemble->seedSd[2]);
     v.emplace_back("rmspe_seed_sd", m.ensemble->seedSd[3]);
+  }
+  if (m.converged) {
+    v.emplace_back("ensemble_accum_rmspe", m.converged->rmspe);
+    v.emplace_back("ensemble_accum_rmspe_bias", m.converged->bias);
+    v.emplace_back("ensemble_accum_rmspe_bias_low", m.converged->biasLow);
+    v.emplace_back("ensemble_accum_rmspe_bias_high", m.converged->biasHigh);
   }
   v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
 }

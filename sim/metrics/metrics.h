@@ -89,6 +89,25 @@ struct EnsembleStats {
 EnsembleStats MeasureEnsemble(const std::vector<ImageRgb>& images, const ImageRgb& reference,
                               const ImageRgb& referenceStdError, ImageRgb& bias, ImageRgb& variance);
 
+// Seed 000 Fig. 2 compares *converged* images by RMSPE, where it measures bias alone. With K >= 3 members' running
+// means X_k of one unchanged scene state (each a mean over frames of one seed: correlated frames, independent
+// members), the ensemble's converged image is Ī = mean_k X_k, and per lit pixel (Y(R) > 1e-4, as rmspe)
+//   b²_p = [(Y(Ī) − Y(R))² − s²/K − se_Y²] / Y(R)²,   s² the members' sample variance of Y(X_k),
+// is unbiased (to first order in the reference's relative error) for the squared relative bias of the estimator's
+// converged luminance: the noise of Ī and of R is taken out. B² = mean over lit pixels of b²_p.
+struct ConvergedRmspe {
+  double rmspe = 0.0;   // rmspe of Ī against R, both noises included
+  double bias2 = 0.0;   // B², signed (an unbiased estimator's averages to 0)
+  double bias = 0.0;    // sqrt(max(0, B²)): the converged image's RMSPE owed to bias
+  // A 95% interval of the bias, sqrt(max(0, B² ∓ h)): h = t(0.975, K − 1) · sd(B²), its variance the jackknife's
+  // over members (delete one) plus the reference's share by the delta method (Σ (∂b²_p/∂R)² se_Y² / n²).
+  double biasLow = 0.0, biasHigh = 0.0;
+};
+
+// memberSums[k]: Σ over the `frames` frames of member k's estimates. Needs K >= 3 (else all zero).
+ConvergedRmspe MeasureConvergedRmspe(const std::vector<const ImageRgb*>& memberSums, int frames,
+                                     const ImageRgb& reference, const std::vector<float>& referenceLumaStdError);
+
 }  // namespace restir
 
 namespace restir {
@@ -130,6 +149,7 @@ struct FrameMeasurement {
   const ImageRgb* accumulatedMean = nullptr;       // running mean since the scene state last changed
   int accumFrames = 0;                             // frames in it
   const EnsembleStats* ensemble = nullptr;         // --ensemble K > 1
+  const ConvergedRmspe* converged = nullptr;       // --ensemble K >= 3: the members' running means
 };
 
 // The frame's row: every column of metrics.csv in its fixed order.

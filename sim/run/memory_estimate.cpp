@@ -93,8 +93,10 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   if (s.sharedInitialPasses > 0)
     add("shared initial passes", px * double(s.sharedInitialPasses) * members * kReservoir);
   // Per preset: the estimate, the previous estimate, the accumulation sum and mean, FLIP's map, the temporal mask;
-  // with an ensemble, the other members' images and the bias and variance images.
-  add("images", px * presets * (4.0 * kRgb + sizeof(float) + 1.0 + (members > 1 ? (members - 1.0 + 2.0) * kRgb : 0.0)));
+  // with an ensemble, the other members' images and the bias and variance images, and from three members on their
+  // running sums.
+  const double memberImages = members > 1 ? (members - 1.0) * (members >= 3 ? 2.0 : 1.0) + 2.0 : 0.0;
+  add("images", px * presets * (4.0 * kRgb + sizeof(float) + 1.0 + memberImages * kRgb));
   if (s.reference) add("references (mean, standard error, previous)", px * 3.0 * kRgb);
   // The reference's kept light distributions stay with the process from the first frame on (sim/reference/reference.h).
   if (s.reference) add("reference light distributions", ReferenceKeptBytes(double(s.width), double(s.height),
@@ -102,7 +104,8 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
 
   // Transient: the largest of what a frame allocates and frees again.
   const double checkpoint =
-      px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) + presets * (2.0 * kRgb + members * kReservoir));
+      px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) +
+            presets * ((members >= 3 ? members + 1.0 : 2.0) * kRgb + members * kReservoir));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =

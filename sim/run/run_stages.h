@@ -76,6 +76,7 @@ struct PresetFrame {
   FrameResult fr;                           // member 0's frame
   ImageRgb ensembleBias, ensembleVariance;  // --ensemble K > 1: the members' split, and its statistics
   EnsembleStats ensemble;
+  ConvergedRmspe converged;                 // --ensemble K >= 3: the members' running means against the reference
   FlipMap flipMap;                          // against the reference (empty without one)
   FrameMetricsRow row;                      // its metrics.csv row
 };
@@ -87,6 +88,7 @@ struct PresetState {
   std::vector<std::unique_ptr<Pipeline>> members;  // --ensemble K: member k runs with seed + k
   ImageRgb previousImage;                          // member 0's estimate of the previous frame
   ImageRgb accumSum;                               // Σ of member 0's estimates since the scene state changed
+  std::vector<ImageRgb> memberAccumSums;           // the same for members 1..K−1 (--ensemble K >= 3 only)
 };
 
 // Everything the next frame reads, in one list for writing and reading a checkpoint.

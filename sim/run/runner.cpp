@@ -139,7 +139,7 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x37544B43'52545352ull;  // "RSTRCKT7" (7: presets by name)
+constexpr uint64_t kCheckpointMagic = 0x38544B43'52545352ull;  // "RSTRCKT8" (8: members' running sums)
 
 // Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
 // write them; false (saying nothing) when every one is as written.
@@ -302,6 +302,17 @@ void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetF
     memberInputs.initialShare = share;
     images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
   }
+  // The members' running means, for the converged image's RMSPE (seed 000 Fig. 2); member 0's is accumSum.
+  if (run.plan.members >= 3) {
+    for (size_t k = 1; k < images.size(); ++k) {
+      ImageRgb& sum = ps.memberAccumSums[k - 1];
+      if (f.stateChanged) {
+        sum = images[k];
+      } else {
+        for (size_t i = 0; i < sum.Size(); ++i) sum.pixels[i] += images[k].pixels[i];
+      }
+    }
+  }
   pf.ensemble =
       MeasureEnsemble(images, f.ref.mean, f.ref.standardError, pf.ensembleBias, pf.ensembleVariance);
 }
@@ -357,6 +368,7 @@ void RunState::Transfer(Io& io, int& nextFrame) {
     if (name != p->preset.name) throw std::runtime_error("its presets are not this run's");
     TransferImage(io, p->previousImage);
     TransferImage(io, p->accumSum);
+    for (ImageRgb& sum : p->memberAccumSums) TransferImage(io, sum);
     for (auto& member : p->members) io.Vector(member->History());
   }
   io.Pod(accumFrames);
@@ -483,6 +495,7 @@ std::vector<PresetState> MakePresetStates(const RunPlan& plan) {
     ps.preset = p;
     ps.sharesInitialPass = SharesInitialPass(plan.presets, presets.size() - 1);
     for (int k = 0; k < plan.members; ++k) ps.members.push_back(std::make_unique<Pipeline>(p.settings));
+    if (plan.members >= 3) ps.memberAccumSums.resize(plan.members - 1);
   }
   return presets;
 }
@@ -593,6 +606,12 @@ void MeasurePresets(RunContext& run, RunFrame& f) {
       m.accumulatedMean = &accumMean;
       m.accumFrames = accumFrames;
       if (run.plan.members > 1) m.ensemble = &pf.ensemble;
+      if (run.plan.members >= 3) {
+        std::vector<const ImageRgb*> sums{&ps.accumSum};
+        for (const ImageRgb& sum : ps.memberAccumSums) sums.push_back(&sum);
+        pf.converged = MeasureConvergedRmspe(sums, accumFrames, ref.mean, ref.lumaStandardError);
+        m.converged = &pf.converged;
+      }
     }
     pf.row = MeasureFrame(m);
   });

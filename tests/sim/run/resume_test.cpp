@@ -252,6 +252,32 @@ TEST(ResumeOutputs, MissingOrDamagedFrameFilesAreWrittenAgain) {
   EXPECT_EQ(CsvWithoutTimings(full / "metrics.csv"), CsvWithoutTimings(killed / "metrics.csv"));
 }
 
+// An ensemble's converged-image columns (ensemble_accum_rmspe*) read every member's running mean since the scene
+// state last changed: on a static sequence, killed after two frames and resumed, they come back only if the
+// checkpoint carried the other members' running sums, not just member 0's.
+TEST(ResumeEnsemble, MembersRunningMeansSurviveTheCheckpoint) {
+  const fs::path base = fs::path(::testing::TempDir()) / "restir-resume-ensemble-test";
+  fs::remove_all(base);
+  const fs::path full = base / "full", killed = base / "killed";
+  auto args = [&](const fs::path& out, bool resume) {
+    std::vector<std::string> a = {SimBinary(), "run", "sequences/static_room.json", "--preset", "restir-vis",
+                                  "--resolution", "96x54", "--frames", "0:5", "--ensemble", "3",
+                                  "--reference-spp", "32", "--out", out.string(), "--cache-dir",
+                                  (base / "cache").string(), "--no-progress", "--no-images"};
+    if (resume) a.push_back("--resume");
+    return EveryFrame(a);
+  };
+  ASSERT_EQ(WEXITSTATUS(Wait(Spawn(args(full, false)))), 0);
+  ASSERT_EQ(CsvRows(full / "metrics.csv"), 5);
+  ASSERT_NE(ReadAll(full / "metrics.csv").find("ensemble_accum_rmspe_bias_high"), std::string::npos);
+  ASSERT_TRUE(RunAndKill(args(killed, false), killed, 2)) << "the run finished before it was killed";
+  ASSERT_TRUE(fs::exists(killed / "checkpoint.bin"));
+  const std::string log = (base / "resumed.log").string();
+  ASSERT_EQ(WEXITSTATUS(Wait(Spawn(args(killed, true), log))), 0);
+  EXPECT_NE(ReadAll(log).find("resumed at frame"), std::string::npos) << ReadAll(log);
+  EXPECT_EQ(CsvWithoutTimings(full / "metrics.csv"), CsvWithoutTimings(killed / "metrics.csv"));
+}
+
 INSTANTIATE_TEST_SUITE_P(Sequences, Resume, ::testing::Values("sequences/smoke.json", "tests/data/sky_smoke.json"),
                          [](const ::testing::TestParamInfo<std::string>& info) {
                            return fs::path(info.param).stem().string();
