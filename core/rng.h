@@ -16,6 +16,8 @@ enum class RngPass : uint32_t {
   kReferencePilot = 6,
   // initial sampling's sun, environment and BSDF candidates (sim/estimator/passes/candidate_sources.h)
   kInitialSources = 7,
+  // the reference pilot's per-pixel light probes (sim/reference/reference_learning.h PixelProbes)
+  kReferenceProbe = 8,
   kTest = 100,
 };
 

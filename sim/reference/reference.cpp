@@ -25,6 +25,7 @@
 #include "core/qmc_kernel.h"
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "core/shadow_ray.h"
 #include "sim/util/atomic_file.h"
 #include "sim/util/clock.h"
 #include "sim/util/hash.h"
@@ -43,8 +44,8 @@ namespace {
 // Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
-// error target's floor at a quarter of the mean variance and its sample cap, five tile anchors).
-constexpr uint32_t kReferenceVersion = 11;
+// error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes).
+constexpr uint32_t kReferenceVersion = 12;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -358,6 +359,8 @@ struct ReferenceFrame {
   // visibility, which reshapes the main pass's light distributions there.
   const int tilesX, tilesY;
   std::vector<TileLightLearning> learning;
+  // Each pixel's probes of the light groups (PixelProbes), where the frame has few enough groups; else empty.
+  std::vector<PixelProbes> probes;
   size_t TileOf(size_t pixel) const {
     const size_t x = pixel % static_cast<size_t>(w), y = pixel / static_cast<size_t>(w);
     return (y / kLearningTile) * static_cast<size_t>(tilesX) + x / kLearningTile;
@@ -635,7 +638,9 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
     if (plan.perPixelLights) {
       float* const row = blockCdfs + r * nGroups;
       // The main pass draws from the distribution reshaped by what the pixel's tile learned.
-      if (!pilot) ReshapeLightRow(frame.learning[frame.TileOf(i)], plan.groupPowerPmf.data(), nGroups, row);
+      if (!pilot)
+        ReshapeLightRow(frame.learning[frame.TileOf(i)], plan.groupPowerPmf.data(), nGroups, row,
+                        frame.probes.empty() ? nullptr : &frame.probes[i]);
       dist = PixelLightDistribution(row, &plan.groups, worker.estimates[r]);
     } else if (frame.hasLocal) {
       dist = PixelLightDistribution(TileCdf(frame, plan, pilot, i, worker), &plan.groups, -1.0f);
@@ -748,6 +753,44 @@ void FinishBand(ReferenceFrame& frame, const BandLearning& band) {
     }
 }
 
+// The block's probes (PixelProbes): one shadow ray from each receiver to a point drawn uniformly on each group its
+// distribution weighs (the point from the pixel's own probe stream, independent of the main pass's), traced as one
+// batch in the pilot's SampleBatch. A point its receiver or its emitter faces away from is no probe.
+void ProbeBlock(ReferenceFrame& frame, const BlockPlan& plan, const ReceiverBlock& block, SampleBatch& batch,
+                uint64_t& rayCount) {
+  batch.rays.clear();
+  batch.rayOf.clear();
+  for (size_t p = 0; p < block.count; ++p) {
+    const size_t i = block.index[p];
+    PixelProbes& probe = frame.probes[i] = PixelProbes{};
+    const ShadingPoint& sp = block.points[p];
+    const uint32_t weighed = WeighedGroups(block.dists[p].Cdf(), plan.groupPowerPmf.data(), plan.nGroups);
+    const RngKey key{kReferenceSeed, frame.stateKey, static_cast<uint32_t>(i),
+                     static_cast<uint32_t>(RngPass::kReferenceProbe)};
+    for (uint32_t l = 0; l < plan.nGroups; ++l) {
+      if (!(weighed >> l & 1u)) continue;
+      uint32_t u[4];
+      RandomWords4(key, l, u);
+      const uint32_t first = plan.groups.first[l];
+      const LightTriangle& t = frame.lightList[BitsToUnitFloat(u[0]) < plan.groups.split[l] ? first : first + 1];
+      const Vec3 y = SampleTrianglePoint(t, BitsToUnitFloat(u[1]), BitsToUnitFloat(u[2]));
+      const Vec3 d = y - sp.position;
+      if (!(glm::dot(d, sp.geometricNormal) > 0.0f) || !(glm::dot(d, t.normal) < 0.0f)) continue;
+      const ShadowRaySegment s =
+          ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y, t.normal, t.errorScale);
+      batch.rays.push_back(ShadowRay{s.org, s.dir, s.tmax});
+      batch.rayOf.push_back(static_cast<uint32_t>(p * kMaxProbedGroups + l));
+      probe.probed |= 1u << l;
+    }
+  }
+  batch.occluded.resize(batch.rays.size());
+  frame.scene.OccludedBatch(batch.rays.data(), batch.occluded.data(), batch.rays.size());
+  rayCount += batch.rays.size();
+  for (size_t r = 0; r < batch.rays.size(); ++r)
+    if (!batch.occluded[r])
+      frame.probes[block.index[batch.rayOf[r] / kMaxProbedGroups]].visible |= 1u << (batch.rayOf[r] % kMaxProbedGroups);
+}
+
 // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass). Kept: their
 // relative variance (negative where the pilot saw no light), and what their light draws delivered, learned per tile
 // (sim/reference/reference_learning.h). Bands of kLearningTile rows run in parallel, each band's rows in order by
@@ -755,6 +798,8 @@ void FinishBand(ReferenceFrame& frame, const BandLearning& band) {
 std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool learn) {
   const int dims = frame.dims;
   std::vector<float> relVar(frame.pixels, -1.0f);
+  const bool probe = learn && frame.hasLocal && plan.perPixelLights && plan.nGroups <= kMaxProbedGroups;
+  if (probe) frame.probes.assign(frame.pixels, PixelProbes{});
   const auto bandOf = [&](const ReceiverBlock& block) {
     return static_cast<int>(block.index[0] / static_cast<size_t>(frame.w)) / kLearningTile;
   };
@@ -786,6 +831,7 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
     scratch.recordStrategy.resize(block.count * kPilotSamples);
     BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
     scratch.record = false;
+    if (probe) ProbeBlock(frame, plan, block, scratch.batch, rayCount);
     if (band.band != bandOf(block)) band.Start(frame, bandOf(block));
     LearnFromBlock(frame, plan, block, scratch, first, band);
     sampleCount += block.count * kPilotSamples;
@@ -965,9 +1011,10 @@ double ReferenceScratchBytes(double pixels, double lights, double groups, double
       3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample + bandBytes;
   const double learned = tiles * (sizeof(TileLightLearning) + tileGroups * 8.0);
   // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture and the
-  // pilot's three estimates
-  const double perPixel =
-      1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? sizeof(LightMixture) + 3.0 * sizeof(float) : 0.0);
+  // pilot's three estimates; with few enough groups, the probes
+  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) +
+                          (sky ? sizeof(LightMixture) + 3.0 * sizeof(float) : 0.0) +
+                          (groups <= double(kMaxProbedGroups) ? sizeof(PixelProbes) : 0.0);
   return perFrame + threads * perThread + pixels * perPixel + learned;
 }
 

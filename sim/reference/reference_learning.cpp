@@ -37,8 +37,21 @@ TileLightLearning TileLightSums::Learn() const {
   return t;
 }
 
-bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf) {
-  if (!tile.reshape || groups == 0) return false;
+uint32_t WeighedGroups(const float* cdf, const float* powerPmf, size_t groups) {
+  if (groups == 0 || !(cdf[groups - 1] > 0.0f)) return 0;
+  const float scale = 1.0f / cdf[groups - 1];
+  uint32_t weighed = 0;
+  for (size_t l = 0; l < std::min(groups, kMaxProbedGroups); ++l) {
+    const float base = (cdf[l] - (l ? cdf[l - 1] : 0.0f)) * scale - kDefensivePowerShare * powerPmf[l];
+    if (base > kNoWeight) weighed |= 1u << l;
+  }
+  return weighed;
+}
+
+bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf,
+                     const PixelProbes* probes) {
+  const bool probedVisible = probes && probes->visible != 0;
+  if (!(tile.reshape || probedVisible) || groups == 0) return false;
   // q_l into cdf[] (one pass from the back keeps the cdf's earlier entries for the differences), then Σ q.
   const float scale = 1.0f / cdf[groups - 1];
   size_t next = tile.groups.size();  // the learned entries, walked from the back
@@ -47,6 +60,10 @@ bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_
     float v = tile.unsampled;
     while (next > 0 && tile.groups[next - 1] > l) --next;
     if (next > 0 && tile.groups[next - 1] == l) v = tile.factor[next - 1];
+    if (probes && l < kMaxProbedGroups && (probes->probed >> l & 1u)) {
+      const float seen = (probes->visible >> l & 1u) ? 1.0f : 0.0f;
+      v = (seen + kLearningPseudoSamples * v) / (1.0f + kLearningPseudoSamples);
+    }
     // What is left of P(l) after the power share; below kNoWeight it is the rounding of a light the row gave none.
     float base = (cdf[l] - (l ? cdf[l - 1] : 0.0f)) * scale - kDefensivePowerShare * powerPmf[l];
     if (!(base > kNoWeight)) base = 0.0f;

@@ -90,12 +90,30 @@ class TileLightSums {
   std::unordered_map<uint32_t, uint32_t> index_;  // group → its entry (lookup only: nothing iterates it)
 };
 
+// Per-pixel probes, where the frame has at most kMaxProbedGroups light groups (per-pixel distributions): the pilot
+// traces one shadow ray from the pixel to a point drawn uniformly on each group its distribution weighs. A tile's
+// factor is the tile's average; a light that one pixel of the tile sees and the others do not (door_ajar's panel
+// seen through the door from one wall pixel) gets a small factor from the tile and then almost no samples at the
+// one pixel it lights, which its replicates cannot see (tests/sim/reference/brute_force_reference_test.cpp). A probe
+// per group costs at most twice the pilot's 16 rays a pixel.
+inline constexpr size_t kMaxProbedGroups = 32;
+struct PixelProbes {
+  uint32_t probed = 0;   // bit l: group l was probed (its distribution weighed it, its point faced the receiver)
+  uint32_t visible = 0;  // bit l: that probe's shadow ray was unoccluded
+};
+
+// The groups a receiver's distribution weighs beyond their power share (bit l for group l < kMaxProbedGroups): those
+// its unshadowed estimate gave weight, the ones worth a probe.
+uint32_t WeighedGroups(const float* cdf, const float* powerPmf, size_t groups);
+
 // Reshapes one receiver's light distribution (a cdf over the groups, as core/light_selection_kernel.h writes a row;
 // any positive scale) in place: P'(l) = (1 − δ) q_l / Σ q + δ Φ_l, q_l = max(0, P(l) − δ Φ_l) × V_l, i.e. the
 // unshadowed weight the row was built from, times the group's learned factor. powerPmf[l] is group l's Φ / Σ Φ.
+// With probes, a probed group's factor is its probe shrunk towards the tile's: (v + κ V_l) / (1 + κ), v ∈ {0, 1}.
 // Where Σ q is 0 or not finite, the row becomes the power distribution. Returns false, leaving the row alone,
-// where the tile does not reshape.
-bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf);
+// where neither the tile nor a probe has anything to reshape it by.
+bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf,
+                     const PixelProbes* probes = nullptr);
 
 // The sky strategies' sums at one pixel or tile: local lights, sun, environment.
 struct StrategySums {

@@ -376,14 +376,13 @@ TEST(BruteForceReference, ManyRooms) {
   ExpectAgreement(o, 100, 100);
 }
 
-// Known to fail the band (issue 40, open): mean z² 5.46 against [0.55, 1.67]. At pixel (94, 6) (wall_south, two
-// ceiling panels in full view, the floor lamp that dominates its unshadowed light blocked) the reference gives
-// 7.20e-4 ± 2.3e-5 where the brute force and the project's VisibilityQuadrature give 1.2835e-3: its 8 × 8 tile's
-// pilot learned that one of the panels is hidden from the tile's other pixels, so this pixel draws it almost
-// only through the defensive power share, too rarely for its replicates to see (80 samples). Unbiased in
-// expectation, but its standard error does not show the missing light. Per-pixel visibility cannot come from 16
-// pilot samples that rarely draw the panel either; sampling each light the pixel sees in turn (stratifying over
-// lights) is the candidate fix. Until then the dark-lit check holds and the band is reported, not asserted.
+// Known to fail the band (issue 40, open): mean z² 1.80 against [0.55, 1.67] (5.46 before the per-pixel probes,
+// sim/reference/reference_learning.h PixelProbes, which fixed pixel (94, 6): a ceiling panel its 8 × 8 tile's other
+// pixels cannot see, drawn almost only through the defensive power share, 7.20e-4 ± 2.3e-5 against the brute
+// force's 1.2835e-3). What remains is mostly pixel (50, 50) on the floor, about 2% of whose unshadowed light arrives
+// through a gap: its pilot and its probes miss the sliver, it gets the allocation's uniform share (80 samples) and
+// its replicates see the gap too rarely (z −8.2). Until that is fixed the dark-lit check holds and the band is
+// reported, not asserted.
 TEST(BruteForceReference, DoorAjar) {
   const Outcome o = Compare("door_ajar", RESTIR_SOURCE_DIR "/sequences/regimes/door_ajar.json", 4, 100, 8);
   EXPECT_GE(o.withZ, 140);

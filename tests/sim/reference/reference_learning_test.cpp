@@ -116,6 +116,53 @@ TEST(ReshapeLightRow, FallsBackToPowerWhereNoWeightIsLeft) {
   for (size_t l = 0; l < power.size(); ++l) EXPECT_NEAR(got[l], power[l], 1e-6);
 }
 
+// A pixel's probes (PixelProbes) override its tile's factor for the groups they probed: (v + κ V_l) / (1 + κ), v = 1
+// where the probe arrived and 0 where it was blocked; unprobed groups keep the tile's factor and every group keeps
+// its defensive power share. A tile that learned nothing (reshape false) is still reshaped where a probe arrived,
+// and WeighedGroups names exactly the groups with unshadowed weight beyond their power share.
+TEST(ReshapeLightRow, ProbesOverrideTheTilesFactorAtTheirPixel) {
+  const std::vector<double> power = {0.1, 0.2, 0.3, 0.15, 0.25};
+  const std::vector<double> unshadowed = {0.5, 0.0, 0.2, 0.3, 0.0};
+  const std::vector<double> p = SelectionPmf(power, unshadowed);
+  std::vector<float> powerPmf(power.begin(), power.end());
+  {
+    const std::vector<float> cdf = Cdf(p, 7.0);
+    EXPECT_EQ(WeighedGroups(cdf.data(), powerPmf.data(), cdf.size()), 0b01101u);
+  }
+  TileLightLearning tile;
+  tile.reshape = true;
+  tile.groups = {0, 3};
+  tile.factor = {0.02f, 0.9f};
+  tile.unsampled = 0.25f;
+  PixelProbes probes;
+  probes.probed = 0b01101u;  // groups 0, 2, 3
+  probes.visible = 0b00001u;  // only group 0's probe arrived
+  const float k = kLearningPseudoSamples;
+  for (const bool learned : {true, false}) {
+    TileLightLearning t = learned ? tile : TileLightLearning{};
+    std::vector<float> cdf = Cdf(p, 1.0);
+    ASSERT_TRUE(ReshapeLightRow(t, powerPmf.data(), cdf.size(), cdf.data(), &probes));
+    const double v0 = learned ? 0.02 : 1.0, v2 = learned ? 0.25 : 1.0, v3 = learned ? 0.9 : 1.0;
+    const std::vector<double> v = {(1.0 + k * v0) / (1.0 + k), learned ? 0.25 : 1.0, k * v2 / (1.0 + k),
+                                   k * v3 / (1.0 + k), learned ? 0.25 : 1.0};
+    double sumQ = 0.0;
+    for (size_t l = 0; l < p.size(); ++l) sumQ += unshadowed[l] * v[l];
+    const std::vector<double> got = Pmf(cdf);
+    for (size_t l = 0; l < p.size(); ++l) {
+      const double want =
+          (1.0 - kDefensivePowerShare) * unshadowed[l] * v[l] / sumQ + kDefensivePowerShare * power[l];
+      EXPECT_NEAR(got[l], want, 2e-6) << "light " << l << (learned ? " (tile learned)" : " (tile learned nothing)");
+    }
+  }
+  // Probes that all came back blocked over a tile that learned nothing: nothing to reshape by.
+  PixelProbes blocked;
+  blocked.probed = 0b01101u;
+  std::vector<float> cdf = Cdf(p, 1.0);
+  const std::vector<float> before = cdf;
+  EXPECT_FALSE(ReshapeLightRow(TileLightLearning{}, powerPmf.data(), cdf.size(), cdf.data(), &blocked));
+  EXPECT_EQ(cdf, before);
+}
+
 // Sky strategies: a pixel whose sun draws were all occluded moves its draws to what arrives, yet every strategy
 // that can contribute keeps its defensive share, and one that cannot stays at 0.
 TEST(ReshapeMixture, MovesDrawsFromAnOccludedSunAndKeepsEveryDefensiveShare) {
