@@ -12,7 +12,8 @@
 // (kReferenceVersion 9: the recorded hashes, made on an Intel Xeon, failed on an AMD EPYC for the five cases with
 // local lights; the probe test ReferenceVendor proves the cause is gone), and when issue 40's visibility learning
 // reshaped the main pass's distributions and gave frames above 4096 light triangles per-tile distributions
-// (kReferenceVersion 10: every case but glossy_floor, whose one light leaves nothing to reshape, and sky_smoke);
+// (kReferenceVersion 10: every case but glossy_floor, whose one light leaves nothing to reshape, and sky_smoke), and
+// when the pilot's per-pixel probes came (kReferenceVersion 12: door_ajar added, the one case with 2 to 32 groups);
 // scripts/reference_bits_hashes.sh renders the same configurations with a restir-sim binary and prints the same hashes from its cache entries. The hashes come
 // from this code, so this is a determinism and regression check, not a proof of correctness: the answers the project
 // did not compute are in reference_test (Lambert's formula), reference_glossy_test (quadrature),
@@ -51,6 +52,7 @@ const Case kCases[] = {
     {"asset_table", "sequences/asset_table.json", 64, 36, 0, 32, 0.0, 0xa52c72f96fdd9db3ull},
     {"many_rooms", "sequences/regimes/many_rooms.json", 48, 27, 0, 16, 0.0, 0x26760969c8b2ea4full},
     {"static_room", "sequences/static_room.json", 64, 36, 0, 64, 0.0, 0x9018ddcdc74d4d10ull},
+    {"door_ajar", "sequences/regimes/door_ajar.json", 48, 27, 0, 32, 0.0, 0x2b1e1e161b1c777dull},
 };
 
 uint64_t PayloadHash(const ReferenceImage& r) {
