@@ -10,6 +10,7 @@
 #include <thread>
 #include <string_view>
 #include <iostream>
+#include <vector>
 
 #include "core/simd.h"
 #include "sim/util/atomic_file.h"
@@ -274,17 +275,30 @@ int ExecuteRun(RunArgs& a, int argc, char** argv) {
 
 // ---- validate, presets, report, compare ----
 
-CLI::App* AddValidateCommand(CLI::App& app, std::string& path) {
-  CLI::App* validate = app.add_subcommand("validate", "Check a sequence file and print a one-screen summary");
-  validate->add_option("sequence", path, "Sequence file (JSON)")->required();
+CLI::App* AddValidateCommand(CLI::App& app, std::vector<std::string>& paths) {
+  CLI::App* validate = app.add_subcommand(
+      "validate", "Check sequence files and print a one-screen summary of each (a refused file: its one-line "
+                  "message, the others still checked; exit status 2 if any was refused)");
+  validate->add_option("sequence", paths, "Sequence files (JSON)")->required();
   return validate;
 }
 
-int ExecuteValidate(const std::string& path) {
-  const Sequence seq = LoadSequence(path);
-  CheckSequencePresets(seq);
-  std::cout << SummarizeSequence(seq);
-  return 0;
+// Each file in turn, so that a directory of sequences is checked in one process: a refused one prints its one-line
+// message (as a lone `validate FILE` does) and the rest are still checked.
+int ExecuteValidate(const std::vector<std::string>& paths) {
+  int status = 0;
+  for (const std::string& path : paths) {
+    try {
+      const Sequence seq = LoadSequence(path);
+      CheckSequencePresets(seq);
+      std::cout << SummarizeSequence(seq);
+    } catch (const InputError& e) {
+      std::cout.flush();
+      std::cerr << e.what() << "\n";
+      status = 2;
+    }
+  }
+  return status;
 }
 
 CLI::App* AddPresetsCommand(CLI::App& app) {
@@ -443,11 +457,12 @@ int RunCommandLine(int argc, char** argv) {
 
   // The options' values live here, for CLI11 to fill in during parse.
   RunArgs runArgs;
-  std::string validatePath, reportDir;
+  std::vector<std::string> validatePaths;
+  std::string reportDir;
   CompareArgs compareArgs;
   SweepArgs sweepArgs;
   CLI::App* run = AddRunCommand(app, runArgs);
-  CLI::App* validate = AddValidateCommand(app, validatePath);
+  CLI::App* validate = AddValidateCommand(app, validatePaths);
   CLI::App* presets = AddPresetsCommand(app);
   CLI::App* report = AddReportCommand(app, reportDir);
   CLI::App* compare = AddCompareCommand(app, compareArgs);
@@ -465,7 +480,7 @@ int RunCommandLine(int argc, char** argv) {
     if (report->parsed()) return ExecuteReport(reportDir);
     if (compare->parsed()) return ExecuteCompare(compareArgs);
     if (presets->parsed()) return ExecutePresets();
-    if (validate->parsed()) return ExecuteValidate(validatePath);
+    if (validate->parsed()) return ExecuteValidate(validatePaths);
     if (run->parsed()) return ExecuteRun(runArgs, argc, argv);
   } catch (const InputError& e) {
     std::cerr << e.what() << "\n";

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "sim/metrics/seed_ensemble.h"
+#include "sim/metrics/summary.h"  // StudentTQuantile975
 
 namespace restir {
 
@@ -259,7 +259,8 @@ ConvergedRmspe MeasureConvergedRmspe(const std::vector<const ImageRgb*>& memberS
   for (double& b : bias2Without) meanWithout += (b /= litD) / kd;
   for (double b : bias2Without) spread += (b - meanWithout) * (b - meanWithout);
   const double jackknifeVar = (kd - 1.0) / kd * spread;
-  const double h = StudentT975(static_cast<int>(k) - 1) * std::sqrt(jackknifeVar + referenceVar / (litD * litD));
+  const double h =
+      StudentTQuantile975(static_cast<int>(k) - 1) * std::sqrt(jackknifeVar + referenceVar / (litD * litD));
   out.biasLow = std::sqrt(std::max(0.0, out.bias2 - h));
   out.biasHigh = std::sqrt(std::max(0.0, out.bias2 + h));
   return out;

@@ -40,6 +40,25 @@ TEST_F(Cli, ValidatePrintsSummary) {
   EXPECT_NE(r.output.find("window_bars_pan"), std::string::npos);
 }
 
+// Several files: each is checked; a refused one gets its one line on stderr and the files after it are still
+// summarised; the exit status is 2 if any was refused, 0 if none.
+TEST_F(Cli, ValidateChecksEveryFileAndExitsTwoIfAnyWasRefused) {
+  const std::string bad = ::testing::TempDir() + "/restir-cli-bad-among-good.json";
+  FILE* f = fopen(bad.c_str(), "w");
+  fputs("{\n  \"name\": \"x\",\n  \"frames\": ,\n}\n", f);
+  fclose(f);
+  Result r = RunCli("validate sequences/smoke.json sequences/static_room.json");
+  EXPECT_EQ(r.status, 0) << r.output;
+  r = RunCli("validate sequences/smoke.json " + bad + " sequences/static_room.json");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("smoke"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("static_room"), std::string::npos) << r.output;
+  const Result err = restir::test::Shell(restir::test::SimBinary() + " validate sequences/smoke.json " + bad +
+                                         " sequences/static_room.json 2>&1 >/dev/null");
+  EXPECT_EQ(err.output.rfind(bad + ":3:", 0), 0u) << err.output;
+  EXPECT_EQ(std::count(err.output.begin(), err.output.end(), '\n'), 1) << err.output;
+}
+
 TEST_F(Cli, BadInputExitsTwoWithOneMessage) {
   const std::string tmp = ::testing::TempDir() + "/restir-cli-bad.json";
   FILE* f = fopen(tmp.c_str(), "w");
