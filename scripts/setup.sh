@@ -19,6 +19,7 @@ packages=(
   libembree-dev          # Embree 3: rays
   libopenexr-dev         # OpenEXR 3: frames
   libopenimageio-dev     # OpenImageIO: previews, reading images
+  libpng-dev             # libpng: the scrubber's palette and grey PNGs (OpenImageIO's writer makes RGB only)
   libglm-dev             # GLM: math
   libhwy-dev             # Highway: SIMD with dynamic dispatch
   libtbb-dev             # oneTBB: parallel loops
@@ -29,6 +30,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
   chromium               # headless browser: a test renders report.html and checks its plots and images
+  ffmpeg                 # the run's videos (sim/output/video.h); its ffprobe checks them in the tests
   time                   # GNU time: the hostile-input cases measure each run's peak memory with it
 )
 

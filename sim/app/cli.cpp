@@ -137,8 +137,8 @@ std::string CommandLine(int argc, char** argv) {
 // `run`'s options: RunOptions' own fields, and the text and flags that become RunOptions once parsed.
 struct RunArgs {
   RunOptions opt;
-  std::string presetList, frames, resolution, maxMemory;
-  std::string exrCompression = ExrCompressionName(ExrCompression::kNone);
+  std::string presetList, frames, resolution, maxMemory, images = "report";
+  std::string exrCompression = ExrCompressionName(ExrCompression::kZip);
   std::string simdName = "auto", embreeIsaName = "sse4.2";
   int64_t seed = -1;
   bool noReference = false, noImages = false, noProgress = false, noReport = false;
@@ -190,13 +190,24 @@ void AddRunOutputOptions(CLI::App* run, RunArgs& a) {
   run->add_option("--out,-o", opt.outDir, "Output directory")->capture_default_str();
   run->add_option("--cache-dir", opt.cacheDir, "Reference cache directory ('' disables the cache)")
       ->capture_default_str();
-  run->add_flag("--no-images", a.noImages, "Do not write EXR/PNG frames (metrics only)");
-  run->add_option("--exr-compression", a.exrCompression,
-                  "How the frames' EXRs store their channels: none (the fastest; README command 1 writes about "
-                  "10 GB), rle (run-length: about two thirds of the bytes for about 5% more CPU) or zip (a little "
-                  "smaller, slower still); the pixels are the same")
+  run->add_option("--images", a.images,
+                  "Which frames get an EXR (every layer) and a PNG preview under frames/: report (the first, middle "
+                  "and last, which the report's strips show), all, or A:B (A to B-1; either side may be empty). "
+                  "Every frame's small PNGs for the report's scrubber and videos go to scrub/ whichever is chosen")
       ->capture_default_str();
-  run->add_flag("--no-progress", a.noProgress, "No progress line on stderr");
+  run->add_flag("--no-images", a.noImages,
+                "Write no images at all (no frames/, no scrub/, no videos; metrics, plots and the report's tables "
+                "only)");
+  run->add_option("--exr-compression", a.exrCompression,
+                  "How the frames' EXRs store their channels: zip (deflate: about 55% of the bytes; the default, as "
+                  "by default a run writes three frames' EXRs), rle (run-length: about two thirds, cheaper to write) "
+                  "or none (the fastest to write, for --images all on a fast disk); the pixels are the same")
+      ->capture_default_str();
+  run->add_flag("--no-progress", a.noProgress, "No progress on stderr");
+  run->add_option("--progress-seconds", a.opt.progressSeconds,
+                  "When stderr is not a terminal (a batch job's log), one progress line every this many seconds")
+      ->check(Finite() & CLI::Range(0.0, 1e9))
+      ->capture_default_str();
   run->add_flag("--no-report", a.noReport, "Do not write summary.json and report.html at the end");
   run->add_option("--ensemble", opt.ensemble,
                   "Run each preset K times with seeds S..S+K-1 and split the error into bias² and variance "
@@ -245,6 +256,10 @@ void FinishRunOptions(RunArgs& a, int argc, char** argv) {
   if (a.seed >= 0) opt.seed = static_cast<uint32_t>(a.seed);
   opt.reference = !a.noReference;
   opt.writeImages = !a.noImages;
+  const std::optional<ImageFrames> images = ParseImageFrames(a.images);
+  if (!images)
+    throw InputError("--images: error: '" + a.images + "' is not report, all or A:B (frames A to B-1, B > A)");
+  opt.imageFrames = *images;
   const std::optional<ExrCompression> compression = ParseExrCompression(a.exrCompression);
   if (!compression)
     throw InputError("--exr-compression: error: '" + a.exrCompression + "' is not one of none, rle, zip");

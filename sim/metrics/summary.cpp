@@ -96,4 +96,20 @@ MetricInterval ColumnInterval(const std::vector<double>& values, const std::vect
   return r;
 }
 
+std::vector<uint8_t> ParetoFront(const std::vector<double>& cost, const std::vector<double>& error) {
+  const size_t n = std::min(cost.size(), error.size());
+  std::vector<uint8_t> front(n, 0);
+  for (size_t a = 0; a < n; ++a) {
+    if (!std::isfinite(cost[a]) || !std::isfinite(error[a])) continue;
+    front[a] = 1;
+    for (size_t b = 0; b < n && front[a]; ++b) {
+      if (b == a || !std::isfinite(cost[b]) || !std::isfinite(error[b])) continue;
+      const bool noWorse = cost[b] <= cost[a] && error[b] <= error[a];
+      const bool better = cost[b] < cost[a] || error[b] < error[a];
+      if (noWorse && better) front[a] = 0;
+    }
+  }
+  return front;
+}
+
 }  // namespace restir

@@ -11,6 +11,9 @@
 
 #include "sim/util/atomic_file.h"
 #include "sim/output/frame_writer.h"
+#include "sim/output/heat_map.h"
+#include "sim/output/png_encode.h"
+#include "sim/output/report_motion.h"
 #include "sim/util/input_file.h"
 #include "sim/metrics/summary.h"
 #include "sim/output/svg_plot.h"
@@ -63,6 +66,14 @@ Recovery ComputeRecovery(const std::vector<int>& frames, const std::vector<doubl
     i = j;
   }
   return r;
+}
+
+std::vector<int> ReportStripFrames(const std::vector<int>& frames) {
+  std::vector<int> chosen;
+  if (frames.empty()) return chosen;
+  for (int f : {frames.front(), frames[frames.size() / 2], frames.back()})
+    if (std::find(chosen.begin(), chosen.end(), f) == chosen.end()) chosen.push_back(f);
+  return chosen;
 }
 
 const std::vector<std::string>& ReportPlotMetrics() {
@@ -256,6 +267,106 @@ Json SummaryJson(const MetricsTable& t, const std::vector<PresetSummary>& sums, 
   return j;
 }
 
+// ---- speed against error ----
+
+// One preset's mean error against its mean ms per frame, for the speed-against-error plot and summary.json.
+struct SpeedPoint {
+  std::string preset;
+  double msFrame = NAN, error = NAN;
+  double referenceHalfWidth = NAN;  // 1.96 x the reference's sd of the mean error (kIntervalMetrics only)
+  bool pareto = false;
+};
+
+std::vector<SpeedPoint> SpeedVsError(const MetricsTable& t, const std::vector<PresetSummary>& sums,
+                                     const std::string& metric) {
+  std::vector<SpeedPoint> points;
+  std::vector<double> cost, error;
+  for (const PresetSummary& s : sums) {
+    SpeedPoint p;
+    p.preset = s.name;
+    p.msFrame = SummaryMean(t, s, "ms_frame");
+    p.error = SummaryMean(t, s, metric);
+    for (const auto& [name, in] : s.intervals)
+      if (name == metric && std::isfinite(in.referenceSd)) p.referenceHalfWidth = 1.96 * in.referenceSd;
+    cost.push_back(p.msFrame);
+    error.push_back(p.error);
+    points.push_back(p);
+  }
+  const std::vector<uint8_t> front = ParetoFront(cost, error);
+  for (size_t i = 0; i < points.size(); ++i) points[i].pareto = front[i] != 0;
+  return points;
+}
+
+const char* const kSpeedMetrics[] = {"relmse", "flip"};
+
+std::string SpeedPlot(const std::vector<SpeedPoint>& points, const std::string& metric) {
+  Plot plot;
+  plot.title = metric + " against ms/frame; ringed and joined: the Pareto front";
+  plot.xLabel = "ms per frame (estimator passes, reference excluded)";
+  plot.yLabel = metric;
+  plot.cssClass = "speed";
+  plot.dataMetric = metric;
+  plot.width = 640;
+  plot.height = 300;
+  std::vector<std::pair<double, double>> front;
+  for (const SpeedPoint& p : points) {
+    PlotSeries s;
+    s.name = p.preset;
+    s.line = false;
+    s.x = {p.msFrame};
+    s.y = {p.error};
+    s.emphasised = {static_cast<uint8_t>(p.pareto)};
+    s.titles = {p.preset + ": " + Fmt(p.error) + " at " + Fmt(p.msFrame) + " ms/frame" +
+                (std::isfinite(p.referenceHalfWidth) ? " (reference noise ±" + Fmt(p.referenceHalfWidth) + ")" : "")};
+    if (std::isfinite(p.referenceHalfWidth)) {
+      s.yLow = {p.error - p.referenceHalfWidth};
+      s.yHigh = {p.error + p.referenceHalfWidth};
+    }
+    plot.series.push_back(std::move(s));
+    if (p.pareto) front.emplace_back(p.msFrame, p.error);
+  }
+  std::sort(front.begin(), front.end());
+  plot.guide = front;
+  return restir::SvgPlot(plot);
+}
+
+void HtmlSpeedVsError(std::ostream& o, const MetricsTable& t, const std::vector<PresetSummary>& sums) {
+  if (t.Column("ms_frame") < 0) return;
+  o << "<h2 id=\"speed\">Speed against error</h2>\n<div class=\"plots\">\n";
+  bool any = false;
+  for (const char* metric : kSpeedMetrics)
+    if (t.Column(metric) >= 0) {
+      o << SpeedPlot(SpeedVsError(t, sums, metric), metric);
+      any = true;
+    }
+  o << "</div>\n";
+  if (any)
+    o << "<p class=\"note\">Lower left is better. A preset is on the Pareto front when no other is at most as slow "
+         "and at most as wrong, and better in one. Bars: the 95% interval of the mean error owed to the reference's "
+         "own noise (another reference would move every preset's error this much; docs/metrics.md, Intervals); "
+         "FLIP has none.</p>\n";
+}
+
+Json SpeedVsErrorJson(const MetricsTable& t, const std::vector<PresetSummary>& sums) {
+  Json metrics = Json::object();
+  for (const char* metric : kSpeedMetrics) {
+    if (t.Column(metric) < 0 || t.Column("ms_frame") < 0) continue;
+    Json points = Json::array();
+    for (const SpeedPoint& p : SpeedVsError(t, sums, metric))
+      points.push_back({{"preset", p.preset},
+                        {"ms_frame", Num(p.msFrame)},
+                        {"mean", Num(p.error)},
+                        {"reference_half_width", Num(p.referenceHalfWidth)},
+                        {"pareto", p.pareto}});
+    metrics[metric] = points;
+  }
+  return {{"x", "ms_frame"},
+          {"definition", "per preset, the mean over frames of the metric against the mean ms_frame; pareto: no "
+                         "other preset is at most as slow and as wrong and better in one; reference_half_width: "
+                         "1.96 x the reference's sd of the mean (relmse only; null for flip)"},
+          {"metrics", metrics}};
+}
+
 // ---- plots ----
 
 std::string SvgPlot(const MetricsTable& t, const std::string& metric) {
@@ -277,50 +388,9 @@ std::string SvgPlot(const MetricsTable& t, const std::string& metric) {
 
 // ---- images ----
 
-// Polynomial fits of matplotlib's colour maps (Matt Zucker, CC0): t in [0, 1] -> linear 0..1 sRGB-encoded RGB.
-struct Rgb {
-  double r, g, b;
-};
-Rgb Poly(const double c[7][3], double t) {
-  t = std::clamp(t, 0.0, 1.0);
-  Rgb o{0, 0, 0};
-  double* out[3] = {&o.r, &o.g, &o.b};
-  for (int ch = 0; ch < 3; ++ch) {
-    double v = c[6][ch];
-    for (int k = 5; k >= 0; --k) v = c[k][ch] + t * v;
-    *out[ch] = std::clamp(v, 0.0, 1.0);
-  }
-  return o;
-}
-const double kMagma[7][3] = {{-0.002136485053939582, -0.000749655052795221, -0.005386127855323933},
-                             {0.2516605407371642, 0.6775232436837668, 2.494026599312351},
-                             {8.353717279216625, -3.577719514958484, 0.3144679030132573},
-                             {-27.66873308576866, 14.26473078096533, -13.64921318813922},
-                             {52.17613981234068, -27.94360607168351, 12.94416944238394},
-                             {-50.76852536473588, 29.04658282127291, 4.23415299384598},
-                             {18.65570506591883, -11.48977351997711, -5.601961508734096}};
-const double kInferno[7][3] = {{0.0002189403691192265, 0.001651004631001012, -0.01948089843709184},
-                               {0.1065134194856116, 0.5639564367884091, 3.932712388889277},
-                               {11.60249308247187, -3.972853965665698, -15.9423941062914},
-                               {-41.70399613139459, 17.43639888205313, 44.35414519872813},
-                               {77.162935699427, -33.40235894210092, -81.80730925738993},
-                               {-71.31942824499214, 32.62606426397723, 73.20951985803202},
-                               {25.13112622477341, -12.24266895238567, -23.07032500287172}};
-
-std::string CssGradient(const double c[7][3]) {
-  std::string s = "linear-gradient(to right";
-  for (int i = 0; i <= 8; ++i) {
-    const Rgb v = Poly(c, i / 8.0);
-    char buf[48];
-    std::snprintf(buf, sizeof(buf), ", rgb(%d,%d,%d)", int(std::lround(v.r * 255)), int(std::lround(v.g * 255)),
-                  int(std::lround(v.b * 255)));
-    s += buf;
-  }
-  return s + ")";
-}
-
-void WritePng(const std::string& path, int w, int h, const std::vector<unsigned char>& rgb) {
-  WriteFileAtomic(path, EncodePng(rgb, w, h, false));
+// A heat map as a palette PNG: the pixels of HeatMapRgb in a third of the bytes.
+void WriteMapPng(const std::string& path, int w, int h, const std::vector<double>& values, ColourMap map) {
+  WriteFileAtomic(path, EncodeIndexedPng(HeatMapLevels(values), w, h, HeatMapPalette(map)));
 }
 
 // The heat maps generated from one frame's EXR (empty paths when the EXR lacks the layers).
@@ -447,32 +517,20 @@ FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, i
   const int rr[3] = {channel("reference.R"), channel("reference.G"), channel("reference.B")};
   const int fl = channel("flip.Y");
   const std::string rel = "report_images/" + preset + "/" + FrameName(frame);
-  std::vector<unsigned char> rgb(static_cast<size_t>(w) * h * 3);
-  auto put = [&](size_t i, const Rgb& c) {
-    rgb[3 * i + 0] = static_cast<unsigned char>(std::lround(c.r * 255.0));
-    rgb[3 * i + 1] = static_cast<unsigned char>(std::lround(c.g * 255.0));
-    rgb[3 * i + 2] = static_cast<unsigned char>(std::lround(c.b * 255.0));
-  };
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<double> v(n);
   if (er[0] >= 0 && er[1] >= 0 && er[2] >= 0 && rr[0] >= 0 && rr[1] >= 0 && rr[2] >= 0) {
-    // Per pixel, the square root of the pixel's relmse term, sqrt(mean_c e_c^2 / (R_c^2 + 0.01)), 0..1.
-    for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
-      double s = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const double e = px[i * nc + er[k]], r = px[i * nc + rr[k]];
-        s += e * e / (r * r + 0.01);
-      }
-      const double v = std::sqrt(s / 3.0);
-      put(i, Poly(kInferno, std::isfinite(v) ? v : 1.0));
+    for (size_t i = 0; i < n; ++i) {
+      const float e[3] = {px[i * nc + er[0]], px[i * nc + er[1]], px[i * nc + er[2]]};
+      const float r[3] = {px[i * nc + rr[0]], px[i * nc + rr[1]], px[i * nc + rr[2]]};
+      v[i] = PixelRelativeError(e, r);
     }
-    WritePng((fs::path(outDir) / (rel + "_error.png")).string(), w, h, rgb);
+    WriteMapPng((fs::path(outDir) / (rel + "_error.png")).string(), w, h, v, ColourMap::kInferno);
     maps.error = rel + "_error.png";
   }
   if (fl >= 0) {
-    for (size_t i = 0; i < static_cast<size_t>(w) * h; ++i) {
-      const double v = px[i * nc + fl];
-      put(i, Poly(kMagma, std::isfinite(v) ? v : 1.0));
-    }
-    WritePng((fs::path(outDir) / (rel + "_flip.png")).string(), w, h, rgb);
+    for (size_t i = 0; i < n; ++i) v[i] = px[i * nc + fl];
+    WriteMapPng((fs::path(outDir) / (rel + "_flip.png")).string(), w, h, v, ColourMap::kMagma);
     maps.flip = rel + "_flip.png";
   }
   return maps;
@@ -483,11 +541,7 @@ std::vector<int> ChosenFrames(const MetricsTable& t) {
   for (const PresetSeries& p : t.presets) all.insert(all.end(), p.frames.begin(), p.frames.end());
   std::sort(all.begin(), all.end());
   all.erase(std::unique(all.begin(), all.end()), all.end());
-  std::vector<int> chosen;
-  if (all.empty()) return chosen;
-  for (int f : {all.front(), all[all.size() / 2], all.back()})
-    if (std::find(chosen.begin(), chosen.end(), f) == chosen.end()) chosen.push_back(f);
-  return chosen;
+  return ReportStripFrames(all);
 }
 
 // ---- run.json ----
@@ -545,7 +599,7 @@ std::string JsonText(const Json& j) {
 
 // ---- HTML ----
 
-const char* kCss = R"(body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1300px}
+const char* kCss = R"(body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1340px}
 h1{font-size:1.5em;margin-bottom:4px}h2{font-size:1.2em;margin-top:28px;border-bottom:1px solid #ccc}
 table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #ccc;padding:3px 7px}th{background:#f2f2f2}
 td.num{text-align:right;font-variant-numeric:tabular-nums}pre{background:#f7f7f7;padding:8px;font-size:11px;max-height:320px;overflow:auto}
@@ -554,7 +608,11 @@ svg .title{font-size:13px;font-weight:600}svg .tick,svg .legend{font-size:10px;f
 svg .grid{stroke:#e6e6e6}svg .axis{stroke:#555}
 .strip td{vertical-align:top}.strip img{image-rendering:pixelated;display:block;max-width:360px;height:auto}
 .bar{display:inline-block;width:160px;height:10px;vertical-align:middle;border:1px solid #999}
-.note{font-size:13px;color:#444})";
+.note{font-size:13px;color:#444}svg.speed{background:#fff;border:1px solid #ddd}
+.crops img{max-width:none}.scrub-controls{font-size:13px;margin:6px 0;line-height:1.9}#scrub-frame{width:420px;vertical-align:middle}
+.scrub-panel{display:inline-block;margin:0 8px 8px 0;font-size:12px}.scrub-view{position:relative;overflow:hidden;background:#000;cursor:grab}
+.scrub-image{position:absolute;left:0;top:0;transform-origin:0 0;image-rendering:pixelated;max-width:none}
+video.video{max-width:100%;display:block})";
 
 // The page's head, title and first line.
 void HtmlHead(std::ostream& o, const MetricsTable& t, const RunInfo& run) {
@@ -794,18 +852,78 @@ void HtmlImages(std::ostream& o, const MetricsTable& t, const RunInfo& run, cons
   }
   o << "<p class=\"note\">Preview: estimate (left) beside reference (right), one exposure. Error: per pixel "
        "sqrt(mean over RGB of (I − R)² / (R² + 0.01)), 0 <span class=\"bar\" style=\"background:"
-    << CssGradient(kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
-    << CssGradient(kMagma) << "\"></span> 1.</p>\n";
+    << CssGradient(ColourMap::kInferno) << "\"></span> ≥ 1. FLIP: per-pixel HDR-FLIP, 0 <span class=\"bar\" style=\"background:"
+    << CssGradient(ColourMap::kMagma) << "\"></span> 1.</p>\n";
   const FrameExpectation expect = ExpectedFrames(run);
   for (int frame : ChosenFrames(t)) HtmlImageStrip(o, t, frame, outDir, expect);
 }
 
+// What the motion sections read, from run.json and metrics.csv; no frames when run.json does not say the run's
+// size (the scrub PNGs cannot be checked against it then).
+MotionInputs MotionOf(const MetricsTable& t, const RunInfo& run, const std::string& outDir) {
+  MotionInputs in;
+  in.outDir = outDir;
+  const FrameExpectation expect = ExpectedFrames(run);
+  if (!expect.known) return in;
+  in.width = expect.width;
+  in.height = expect.height;
+  in.hasReference = expect.hasReference;
+  const Json* rate = nullptr;
+  if (run.json.contains("sequence") && run.json["sequence"].is_object() && run.json["sequence"].contains("frameRate"))
+    rate = &run.json["sequence"]["frameRate"];
+  if (rate && rate->is_number() && rate->get<double>() > 0.0 && rate->get<double>() <= 1000.0)
+    in.fps = rate->get<double>();
+  for (const PresetSeries& p : t.presets) {
+    in.presets.push_back(p.name);
+    in.frames.insert(in.frames.end(), p.frames.begin(), p.frames.end());
+  }
+  std::sort(in.frames.begin(), in.frames.end());
+  in.frames.erase(std::unique(in.frames.begin(), in.frames.end()), in.frames.end());
+  const int recent = t.Column("disocc_recent_fraction");
+  if (recent >= 0 && !t.presets.empty())
+    for (size_t i = 0; i < t.presets[0].frames.size(); ++i)
+      if (t.presets[0].values[recent][i] > 0.0) in.postRevealFrames.push_back(t.presets[0].frames[i]);
+  std::sort(in.postRevealFrames.begin(), in.postRevealFrames.end());
+  return in;
+}
+
+// The motion sections' files and where they stand.
+struct Motion {
+  bool present = false;  // the scrub PNGs of every frame are there
+  MotionInputs in;
+  Videos videos;
+  Crops crops;
+};
+
+Motion WriteMotion(const MetricsTable& t, const RunInfo& run, const std::string& outDir) {
+  Motion m;
+  m.in = MotionOf(t, run, outDir);
+  m.present = ScrubFramesPresent(m.in);
+  if (!m.present) return m;
+  m.videos = WriteVideos(m.in);
+  m.crops = WriteCrops(m.in);
+  return m;
+}
+
+void HtmlMotion(std::ostream& o, const Motion& m) {
+  if (!m.present) {
+    o << "<h2 id=\"scrubber\">Frames</h2>\n<p class=\"note\">The run wrote no scrub frames (<code>--no-images</code>, "
+         "or a run from before them): no frame scrubber, videos or crops.</p>\n";
+    return;
+  }
+  HtmlScrubber(o, m.in);
+  HtmlVideos(o, m.videos);
+  HtmlCrops(o, m.crops);
+}
+
 std::string Html(const MetricsTable& t, const std::vector<PresetSummary>& sums, const RunInfo& run,
-                 const std::string& outDir, bool writeImages) {
+                 const std::string& outDir, bool writeImages, const Motion& motion) {
   std::ostringstream o;
   HtmlHead(o, t, run);
   HtmlConfiguration(o, run);
   HtmlSummary(o, t, sums);
+  HtmlSpeedVsError(o, t, sums);
+  HtmlMotion(o, motion);
   HtmlReservoirs(o, t, sums);
   HtmlPlots(o, t);
   HtmlImages(o, t, run, outDir, writeImages);
@@ -822,8 +940,13 @@ void WriteReport(const std::string& outDir) {
   std::vector<PresetSummary> sums;
   for (const PresetSeries& p : t.presets) sums.push_back(Summarize(t, p));
   const bool writeImages = fs::is_directory(fs::path(outDir) / "frames", ec);
-  const std::string html = Html(t, sums, run, outDir, writeImages);
-  WriteFileAtomic((fs::path(outDir) / "summary.json").string(), SummaryJson(t, sums, run.json).dump(2) + "\n");
+  const Motion motion = WriteMotion(t, run, outDir);
+  const std::string html = Html(t, sums, run, outDir, writeImages, motion);
+  Json summary = SummaryJson(t, sums, run.json);
+  summary["speed_vs_error"] = SpeedVsErrorJson(t, sums);
+  summary["videos"] = motion.present ? VideosJson(motion.videos) : Json(nullptr);
+  summary["crop"] = motion.present ? CropsJson(motion.crops) : Json(nullptr);
+  WriteFileAtomic((fs::path(outDir) / "summary.json").string(), summary.dump(2) + "\n");
   WriteFileAtomic((fs::path(outDir) / "report.html").string(), html);
 }
 

@@ -29,6 +29,10 @@ struct Recovery {
 Recovery ComputeRecovery(const std::vector<int>& frames, const std::vector<double>& disoccRecent,
                          const std::vector<double>& relmse, const std::vector<double>& relmseDisocc);
 
+// The frames whose images report.html's strips show: the first, middle (index size / 2) and last of `frames`
+// (sorted, distinct). A run writes these frames' EXRs by default (--images report, sim/run/runner.h).
+std::vector<int> ReportStripFrames(const std::vector<int>& frames);
+
 // Metrics that report.html plots, one inline SVG each, in this order, when metrics.csv has the column.
 const std::vector<std::string>& ReportPlotMetrics();
 

@@ -108,7 +108,20 @@ std::string SvgPlot(const Plot& plot) {
       if (!probeX.Usable(s.x[i]) || !probeY.Usable(s.y[i])) continue;
       xlo = std::min(xlo, s.x[i]), xhi = std::max(xhi, s.x[i]);
       ylo = std::min(ylo, s.y[i]), yhi = std::max(yhi, s.y[i]);
+      if (i < s.yLow.size() && probeY.Usable(s.yLow[i])) ylo = std::min(ylo, s.yLow[i]);
+      if (i < s.yHigh.size() && probeY.Usable(s.yHigh[i])) yhi = std::max(yhi, s.yHigh[i]);
     }
+  // Markers alone sit inside the frame: a point at the range's end would be drawn half outside it.
+  bool markersOnly = !plot.series.empty();
+  for (const PlotSeries& s : plot.series) markersOnly = markersOnly && !s.line;
+  if (markersOnly && std::isfinite(xlo) && xhi >= xlo) {
+    if (plot.logX && xlo > 0.0) {
+      xlo /= 1.1, xhi *= 1.1;
+    } else if (!plot.logX) {
+      const double pad = 0.06 * std::max(xhi - xlo, std::fabs(xhi) * 0.1);
+      xlo -= pad, xhi += pad;
+    }
+  }
   const Axis ax = MakeAxis(plot.logX, xlo, xhi, false, 8, plot.logX ? 0.0 : 1.0);
   const Axis ay = MakeAxis(plot.logY, ylo, yhi, plot.yFromZero, 5, 0.0);
   auto X = [&](double x) { return left + ax.Fraction(x) * pw; };
@@ -167,6 +180,15 @@ std::string SvgPlot(const Plot& plot) {
     if (!s.line || points.size() == 1) {  // a single point draws no line: mark it
       for (size_t i : points) {
         const bool big = i < s.emphasised.size() && s.emphasised[i];
+        if (i < s.yLow.size() && i < s.yHigh.size() && ay.Usable(s.yLow[i]) && ay.Usable(s.yHigh[i])) {
+          const std::string cx = Coord(X(s.x[i])), l = Coord(X(s.x[i]) - 4), r = Coord(X(s.x[i]) + 4);
+          const std::string y0 = Coord(Y(s.yLow[i])), y1 = Coord(Y(s.yHigh[i]));
+          o << "<path class=\"interval\" fill=\"none\" stroke=\"" << colour << "\" d=\"M" << cx << "," << y0 << "V" << y1
+            << "M" << l << "," << y0 << "H" << r << "M" << l << "," << y1 << "H" << r << "\"/>\n";
+        }
+        if (big)
+          o << "<circle class=\"front\" cx=\"" << Coord(X(s.x[i])) << "\" cy=\"" << Coord(Y(s.y[i]))
+            << "\" r=\"8\" fill=\"none\" stroke=\"#333\" stroke-width=\"1.2\"/>\n";
         o << "<circle cx=\"" << Coord(X(s.x[i])) << "\" cy=\"" << Coord(Y(s.y[i])) << "\" r=\""
           << (s.line ? 2.5 : big ? 5.0 : 3.5) << "\" fill=\"" << colour << "\">";
         if (i < s.titles.size()) o << "<title>" << XmlEscape(s.titles[i]) << "</title>";

@@ -48,6 +48,7 @@ struct RunPlan {
   nlohmann::json runJson;  // as the run starts ("status": "running"); FinishRun completes it
   std::string runJsonPath, csvPath, checkpointPath;
   std::string configKey;  // what a checkpoint or a completed run must match (ConfigurationKey)
+  std::vector<int> frameFileFrames;  // the frames whose EXR and preview are written (RunOptions::imageFrames), sorted
 };
 
 // The references a run rendered (not read from the cache), for run.json.
@@ -61,6 +62,7 @@ struct ReferenceTally {
 // arrays the EXR shows (disocclusion, depth, shading normal; the snapshot's other arrays stay empty).
 struct FrameImageInputs {
   bool hasReference = false;
+  bool frameFiles = false;   // this frame's EXR and preview are written (RunPlan::frameFileFrames); scrub PNGs always
   std::string sequenceHash;  // the sequence's content hash, stamped on every EXR
   ImageRgb reference, referenceStdError;
   GBuffer gbuffer;
@@ -98,6 +100,9 @@ struct RunState {
   ImageRgb& previousReference;
   int& accumFrames;
   std::vector<FrameMetricsRow>& rows;
+  // The scrub PNGs' exposure, chosen from the run's first frame (its reference, else its first estimate) and kept,
+  // so that a resumed run's frames match an uninterrupted one's; 0 until chosen.
+  float& scrubExposure;
   // Io: ByteCounter, BinaryWriter or BinaryReader (sim/util/binary_io.h); defined in sim/run/runner.cpp.
   template <typename Io>
   void Transfer(Io& io, int& nextFrame);

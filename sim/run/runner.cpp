@@ -31,6 +31,8 @@
 #include "sim/estimator/pipeline.h"
 #include "sim/estimator/presets.h"
 #include "sim/run/progress.h"
+#include "sim/output/report.h"
+#include "sim/output/scrub_frames.h"
 #include "sim/run/run_stages.h"
 #include "sim/reference/reference.h"
 #include "sim/output/report.h"
@@ -44,7 +46,7 @@ namespace run_stages {
 
 namespace {
 
-std::shared_ptr<const FrameImageInputs> SnapshotImageInputs(const ReferenceImage& ref, bool hasReference,
+std::shared_ptr<FrameImageInputs> SnapshotImageInputs(const ReferenceImage& ref, bool hasReference,
                                                             const GBuffer& g, const std::string& sequenceHash) {
   auto in = std::make_shared<FrameImageInputs>();
   in->hasReference = hasReference;
@@ -139,7 +141,7 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x38544B43'52545352ull;  // "RSTRCKT8" (8: members' running sums)
+constexpr uint64_t kCheckpointMagic = 0x39544B43'52545352ull;  // "RSTRCKT9" (9: the scrub PNGs' exposure)
 
 // Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
 // write them; false (saying nothing) when every one is as written.
@@ -235,6 +237,21 @@ ReferenceParams ReferenceParamsFor(const RunOptions& opt, const RenderDefaults& 
   return params;
 }
 
+// The frames of begin..end-1 that `images` selects for an EXR and a preview.
+std::vector<int> FrameFileFrames(const ImageFrames& images, int begin, int end) {
+  std::vector<int> all;
+  for (int f = begin; f < end; ++f) all.push_back(f);
+  switch (images.kind) {
+    case ImageFrames::Kind::kReport: return ReportStripFrames(all);
+    case ImageFrames::Kind::kAll: return all;
+    case ImageFrames::Kind::kRange: break;
+  }
+  std::vector<int> chosen;
+  for (int f : all)
+    if (f >= images.begin && (images.end < 0 || f < images.end)) chosen.push_back(f);
+  return chosen;
+}
+
 // run.json as the run starts, so an interrupted run still says what it was.
 nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan& plan) {
   const ReferenceParams& refParams = plan.refParams;
@@ -242,7 +259,8 @@ nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan
       {"program", "restir-sim"},
       {"version", RESTIR_VERSION},
       {"commandLine", opt.commandLine},
-      {"sequence", {{"path", opt.sequencePath}, {"name", seq.name}, {"contentHash", seq.contentHash}}},
+      {"sequence",
+       {{"path", opt.sequencePath}, {"name", seq.name}, {"contentHash", seq.contentHash}, {"frameRate", seq.frameRate}}},
       {"resolution", {plan.width, plan.height}},
       {"frames", {opt.frameBegin, plan.frameEnd}},
       {"seed", plan.seed},
@@ -257,6 +275,11 @@ nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
+  // Which frames have files: part of the configuration, so a resume with another --images starts again.
+  runJson["images"] = opt.writeImages ? nlohmann::json{{"selection", ImageFramesName(opt.imageFrames)},
+                                                       {"frameFiles", plan.frameFileFrames},
+                                                       {"scrub", "every frame (scrub/)"}}
+                                      : nlohmann::json(nullptr);
   for (const Preset& p : plan.presets)
     runJson["presets"][p.name] = {{"source", p.source}, {"settings", SettingsJson(p.settings)}};
   runJson["overrides"] = opt.settings;
@@ -317,21 +340,45 @@ void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetF
       MeasureEnsemble(images, f.ref.mean, f.ref.standardError, pf.ensembleBias, pf.ensembleVariance);
 }
 
-// One preset's frame files, handed to the background writer.
+// One preset's frame files (its EXR and preview when the frame has them) and its scrub PNGs, handed to the
+// background writer.
 void SubmitPresetFiles(RunContext& run, const RunFrame& f, const std::string& preset, PresetFrame& pf) {
   char name[32];
   std::snprintf(name, sizeof(name), "%04d", f.frame);
   const auto stem = std::filesystem::path(run.opt.outDir) / "frames" / preset / name;
+  if (run.state.scrubExposure <= 0.0f) run.state.scrubExposure = PreviewExposure(pf.fr.image);  // no reference
   // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as MeasurePresets
   // reads them; the ensemble images moved) and the frame's shared inputs. Submitted now, so the writer
   // works while the next preset renders.
   auto images = std::make_shared<const PresetImages>(PresetImages{
       pf.fr.image, pf.flipMap.values, std::move(pf.ensembleBias), std::move(pf.ensembleVariance)});
   const std::string relative = "frames/" + preset + "/" + name;
-  run.imageWriter->Submit([stem, relative, images, frameInputs = f.imageInputs,
+  run.imageWriter->Submit([stem, relative, images, preset, frame = f.frame, frameInputs = f.imageInputs,
+                           exposure = run.state.scrubExposure, outDir = run.opt.outDir,
                            compression = run.opt.exrCompression, written = &run.written] {
-    WritePresetFiles(stem.string(), *images, *frameInputs, compression);
-    for (const char* extension : {".exr", ".png"}) written->Record(relative + extension);
+    if (frameInputs->frameFiles) {
+      WritePresetFiles(stem.string(), *images, *frameInputs, compression);
+      for (const char* extension : {".exr", ".png"}) written->Record(relative + extension);
+    }
+    const ImageRgb* reference = frameInputs->hasReference ? &frameInputs->reference : nullptr;
+    const std::vector<float>* flip = frameInputs->hasReference ? &images->flip : nullptr;
+    for (const std::string& path :
+         WriteScrubPreset(outDir, preset, frame, images->estimate, reference, flip, exposure))
+      written->Record(path);
+  });
+}
+
+// The frame's shared scrub PNGs (the reference and the disocclusion mask), handed to the background writer.
+void SubmitFrameScrub(RunContext& run, const RunFrame& f) {
+  if (f.imageInputs->hasReference && run.state.scrubExposure <= 0.0f)
+    run.state.scrubExposure = PreviewExposure(f.imageInputs->reference);
+  run.imageWriter->Submit([frame = f.frame, frameInputs = f.imageInputs, recent = f.recentMask,
+                           exposure = run.state.scrubExposure, outDir = run.opt.outDir, written = &run.written] {
+    const GBuffer& g = frameInputs->gbuffer;
+    const ImageRgb* reference = frameInputs->hasReference ? &frameInputs->reference : nullptr;
+    for (const std::string& path :
+         WriteScrubFrame(outDir, frame, g.width, g.height, reference, exposure, g.disoccluded, recent))
+      written->Record(path);
   });
 }
 
@@ -372,6 +419,7 @@ void RunState::Transfer(Io& io, int& nextFrame) {
     for (auto& member : p->members) io.Vector(member->History());
   }
   io.Pod(accumFrames);
+  io.Pod(scrubExposure);
   TransferRows(io, rows);
   InPresetOrder(rows);
 }
@@ -474,6 +522,7 @@ RunPlan PlanRun(const RunOptions& opt, const Sequence& seq) {
   CheckRunMemory(opt, seq, plan.refParams, plan.width, plan.height, plan.frameEnd - opt.frameBegin,
                  plan.presets, plan.members);
   plan.threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
+  if (opt.writeImages) plan.frameFileFrames = FrameFileFrames(opt.imageFrames, opt.frameBegin, plan.frameEnd);
   plan.runJson = RunJson(opt, seq, plan);
   plan.runJsonPath = (std::filesystem::path(opt.outDir) / "run.json").string();
   plan.csvPath = (std::filesystem::path(opt.outDir) / "metrics.csv").string();
@@ -527,9 +576,13 @@ void RenderFrameReference(RunContext& run, RunFrame& f) {
 void PrepareSharedInputs(RunContext& run, RunFrame& f) {
   // What this frame's image files read after the loop has moved on: the reference (moved into
   // previousReference at the frame's end) and the G-buffer layers the EXR shows (the loop reuses its buffers).
-  if (run.opt.writeImages)
-    f.imageInputs =
+  if (run.opt.writeImages) {
+    auto inputs =
         SnapshotImageInputs(f.ref, run.opt.reference, run.loop.Gbuffer(), run.loop.GetSequence().contentHash);
+    inputs->frameFiles = std::binary_search(run.plan.frameFileFrames.begin(), run.plan.frameFileFrames.end(), f.frame);
+    f.imageInputs = std::move(inputs);
+    SubmitFrameScrub(run, f);
+  }
   // FLIP's work on the reference (its exposures, filtered planes, colours and features) once per frame, not
   // once per preset.
   if (run.opt.reference) f.flipReference.emplace(f.ref.mean);
@@ -671,6 +724,37 @@ void FinishRun(RunContext& run, Clock::time_point start, RunResult& result) {
 
 }  // namespace run_stages
 
+std::optional<ImageFrames> ParseImageFrames(const std::string& text) {
+  ImageFrames f;
+  if (text == "report") return f;
+  if (text == "all") {
+    f.kind = ImageFrames::Kind::kAll;
+    return f;
+  }
+  const size_t colon = text.find(':');
+  if (colon == std::string::npos || text.find(':', colon + 1) != std::string::npos) return std::nullopt;
+  auto side = [](const std::string& s, int empty) -> std::optional<int> {
+    if (s.empty()) return empty;
+    if (s.size() > 9 || s.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+    return std::stoi(s);
+  };
+  const std::optional<int> a = side(text.substr(0, colon), 0), b = side(text.substr(colon + 1), -1);
+  if (!a || !b || (*b >= 0 && *b <= *a)) return std::nullopt;
+  f.kind = ImageFrames::Kind::kRange;
+  f.begin = *a;
+  f.end = *b;
+  return f;
+}
+
+std::string ImageFramesName(const ImageFrames& f) {
+  switch (f.kind) {
+    case ImageFrames::Kind::kReport: return "report";
+    case ImageFrames::Kind::kAll: return "all";
+    case ImageFrames::Kind::kRange: break;
+  }
+  return std::to_string(f.begin) + ":" + (f.end < 0 ? std::string() : std::to_string(f.end));
+}
+
 RunResult Run(const RunOptions& opt) {
   using namespace run_stages;
   const auto tRun = Clock::now();
@@ -706,14 +790,15 @@ RunResult Run(const RunOptions& opt) {
   FrameLoop loop(seq, plan.width, plan.height);
   ImageRgb previousReference;
   int accumFrames = 0;
-  RunState state{loop, presets, previousReference, accumFrames, result.rows};
+  float scrubExposure = 0.0f;
+  RunState state{loop, presets, previousReference, accumFrames, result.rows, scrubExposure};
   // Declared before the image writer, whose jobs record into it.
   OutputManifest written(opt.outDir);
   const int firstFrame =
       opt.resume ? LoadCheckpoint(plan.checkpointPath, plan.configKey, opt.outDir, written, state, opt.frameBegin)
                  : opt.frameBegin;
   if (firstFrame > opt.frameBegin) result.resumedAtFrame = firstFrame;
-  ProgressBar progress(opt.progress, seq.name, plan.frameEnd - opt.frameBegin);
+  ProgressBar progress(opt.progress, seq.name, plan.frameEnd - opt.frameBegin, opt.progressSeconds);
   ReferenceTally refRendered;  // the references this run rendered (not read from the cache), for run.json
   CheckpointClock checkpoints;
   // Frame images are encoded and written on a thread of their own while the next preset renders. Declared after

@@ -12,6 +12,23 @@
 
 namespace restir {
 
+// Which frames get their EXR and PNG preview under frames/ (--images). Every frame's scrubber PNGs (scrub/,
+// sim/output/scrub_frames.h) are written whenever images are, whichever this selects.
+struct ImageFrames {
+  enum class Kind : uint8_t {
+    kReport,  // the frames the report's strips show: first, middle and last (ReportStripFrames, sim/output/report.h)
+    kAll,     // every frame
+    kRange,   // frames begin..end-1 of the run
+  };
+  Kind kind = Kind::kReport;
+  int begin = 0, end = 0;  // kRange only
+};
+// "report", "all" or "A:B" (A to B-1, as --frames; either side may be empty: the run's first, its end); nullopt
+// for anything else.
+std::optional<ImageFrames> ParseImageFrames(const std::string& text);
+// The selection as run.json records it: "report", "all" or "A:B".
+std::string ImageFramesName(const ImageFrames& f);
+
 struct RunOptions {
   std::string sequencePath;              // the sequence file
   std::vector<std::string> presets;      // empty: the sequence's render.presets
@@ -27,9 +44,11 @@ struct RunOptions {
   bool reference = true;                 // false: no reference, no error metrics
   std::string outDir = "out";            // where frames, metrics.csv and run.json go
   std::string cacheDir = ".cache/restir-sim";  // reference cache; empty disables it
-  bool writeImages = true;               // EXR and PNG per frame (off for tests and benchmarks)
-  ExrCompression exrCompression = ExrCompression::kNone;  // how the EXRs store their channels (same pixels)
-  bool progress = true;                  // progress line on stderr when stderr is a terminal
+  bool writeImages = true;               // frame files and scrubber PNGs (off for tests and benchmarks)
+  ImageFrames imageFrames;               // which frames get an EXR and a preview (with writeImages)
+  ExrCompression exrCompression = ExrCompression::kZip;  // how the EXRs store their channels (same pixels)
+  bool progress = true;                  // progress on stderr (a line in place on a terminal, else one a while)
+  double progressSeconds = 30.0;         // seconds between progress lines when stderr is not a terminal
   bool resume = false;                   // continue from OUT/checkpoint.bin when it matches this configuration
   // Seconds of work between checkpoints (after the first frame's, which is always written); 0: every frame. A
   // checkpoint of the flagship at 640x360 with every preset is ~140 MB, so writing it every frame cost ~10% of

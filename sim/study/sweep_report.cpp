@@ -61,12 +61,15 @@ SweepPoint Summarize(const SweepConfig& config, const std::vector<FrameMetricsRo
 
 void MarkPareto(std::vector<SweepPoint>& points) {
   for (SweepPoint& a : points) {
-    a.pareto = true;
+    std::vector<double> cost, error;
+    size_t self = 0;
     for (const SweepPoint& b : points) {
-      const bool noWorse = b.msPerFrame <= a.msPerFrame && b.relmse <= a.relmse;
-      const bool better = b.msPerFrame < a.msPerFrame || b.relmse < a.relmse;
-      if (&a != &b && a.sequence == b.sequence && noWorse && better) a.pareto = false;
+      if (b.sequence != a.sequence) continue;
+      if (&b == &a) self = cost.size();
+      cost.push_back(b.msPerFrame);
+      error.push_back(b.relmse);
     }
+    a.pareto = ParetoFront(cost, error)[self] != 0;
   }
 }
 

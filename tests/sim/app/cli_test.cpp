@@ -78,7 +78,8 @@ TEST_F(Cli, BadInputExitsTwoWithOneMessage) {
   for (const char* bad : {"--reference-error 0", "--reference-error -0.01", "--reference-error 2",
                           "--reference-error nan", "--reference-error 0.01 --reference-spp 64",
                           "--reference-cap 31", "--reference-cap 64 --reference-spp 64",
-                          "--checkpoint-seconds -1"}) {
+                          "--checkpoint-seconds -1", "--images some", "--images 3:1", "--images 2:2",
+                          "--images 1:2:3", "--images -1:", "--images a:b", "--progress-seconds -1"}) {
     r = RunCli(std::string("run sequences/smoke.json --frames 0:1 ") + bad + " --out " + ::testing::TempDir() +
                "/restir-cli-out");
     EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
@@ -87,6 +88,27 @@ TEST_F(Cli, BadInputExitsTwoWithOneMessage) {
   EXPECT_EQ(r.status, 2);
   r = RunCli("run");  // missing argument
   EXPECT_EQ(r.status, 2);
+}
+
+// Where stderr is not a terminal (a batch job's log; here a pipe), progress comes as whole lines, one every
+// --progress-seconds, and a last one when the run finishes; a run shorter than the interval prints none.
+TEST_F(Cli, ProgressIsOneLineAWhileWhenStderrIsNotATerminal) {
+  const std::string out = ::testing::TempDir() + "/restir-cli-progress";
+  const std::string run = "run sequences/smoke.json --frames 0:3 --resolution 32x18 --reference-spp 16 --no-images "
+                          "--no-report --cache-dir '' --out " + out;
+  Result r = RunCli(run + " --progress-seconds 0");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find('\r'), std::string::npos) << r.output;
+  size_t lines = 0;
+  for (size_t at = r.output.find(" frames "); at != std::string::npos; at = r.output.find(" frames ", at + 1)) ++lines;
+  EXPECT_GE(lines, 4u) << r.output;  // each frame's stages, and the last line
+  EXPECT_NE(r.output.find("3/3 frames  finished"), std::string::npos) << r.output;
+  r = RunCli(run);  // the default interval, 30 s, is longer than this run
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find(" frames "), std::string::npos) << r.output;
+  r = RunCli(run + " --progress-seconds 0 --no-progress");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find(" frames "), std::string::npos) << r.output;
 }
 
 }  // namespace

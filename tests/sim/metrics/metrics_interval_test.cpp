@@ -3,6 +3,7 @@
 // interval (summary.h ColumnInterval) against hand-computed cases and its coverage on frames whose mean is known.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -174,6 +175,47 @@ TEST(ColumnInterval, CoversTheTrueMeanNinetyFivePercentOfTheTime) {
     EXPECT_GT(rate, 0.936) << referenceSd;
     EXPECT_LT(rate, 0.964) << referenceSd;
   }
+}
+
+}  // namespace
+}  // namespace restir
+
+namespace restir {
+namespace {
+
+// The Pareto front of (cost, error), on a grid of point sets with ties and non-finite values: a point is on it
+// exactly when a sweep in cost order finds its error below every error of a cheaper point and the least of its own
+// cost (a definition by sorting, independent of the pairwise one the implementation uses).
+TEST(ParetoFront, IsThePointsNoOtherDominates) {
+  const std::vector<double> values = {1.0, 2.0, 2.0, 3.0, NAN, INFINITY};
+  for (int set = 0; set < 400; ++set) {
+    std::vector<double> cost, error;
+    const int n = 1 + set % 7;
+    for (int i = 0; i < n; ++i) {
+      cost.push_back(values[(set * 7 + i * 3) % values.size()]);
+      error.push_back(values[(set * 5 + i * 11 + set / 7) % values.size()]);
+    }
+    const std::vector<uint8_t> front = ParetoFront(cost, error);
+    ASSERT_EQ(front.size(), cost.size());
+    std::vector<int> order;
+    for (int i = 0; i < n; ++i)
+      if (std::isfinite(cost[i]) && std::isfinite(error[i])) order.push_back(i);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return cost[a] < cost[b]; });
+    std::vector<uint8_t> want(n, 0);
+    double cheaperBest = INFINITY;
+    for (size_t g = 0; g < order.size();) {
+      size_t e = g;
+      double groupBest = INFINITY;
+      while (e < order.size() && cost[order[e]] == cost[order[g]]) groupBest = std::min(groupBest, error[order[e++]]);
+      for (size_t k = g; k < e; ++k) want[order[k]] = error[order[k]] < cheaperBest && error[order[k]] == groupBest;
+      cheaperBest = std::min(cheaperBest, groupBest);
+      g = e;
+    }
+    EXPECT_EQ(front, want) << "set " << set;
+  }
+  EXPECT_EQ(ParetoFront({1, 2, 3}, {3, 2, 1}), (std::vector<uint8_t>{1, 1, 1}));
+  EXPECT_EQ(ParetoFront({1, 2, 3}, {1, 2, 3}), (std::vector<uint8_t>{1, 0, 0}));
+  EXPECT_EQ(ParetoFront({1, 1}, {2, 2}), (std::vector<uint8_t>{1, 1}));  // duplicates dominate neither
 }
 
 }  // namespace

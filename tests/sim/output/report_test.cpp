@@ -21,6 +21,7 @@
 #include <sstream>
 #include <string>
 
+#include "sim/output/scrub_frames.h"
 #include "sim/scene/sequence.h"
 #include "tests/sim/sim_binary.h"
 
@@ -163,8 +164,11 @@ TEST(Report, HtmlHasOneSvgPerPlottedMetricAndOneSummaryRowPerPreset) {
       EXPECT_EQ(Count(html, "<svg class=\"plot\" data-metric=\"" + m + "\""), 1u) << m;
     }
   EXPECT_EQ(plotted, 5u);
-  EXPECT_EQ(Count(html, "<svg"), plotted);
-  EXPECT_EQ(Count(html, "<polyline"), plotted * 2);  // one per preset
+  // Besides the per-frame plots, speed against error: relmse and flip against ms/frame, a marker per preset.
+  EXPECT_EQ(Count(html, "<svg"), plotted + 2);
+  EXPECT_EQ(Count(html, "<svg class=\"speed\" data-metric=\"relmse\""), 1u);
+  EXPECT_EQ(Count(html, "<svg class=\"speed\" data-metric=\"flip\""), 1u);
+  EXPECT_EQ(Count(html, "stroke-width=\"1.5\" data-preset="), plotted * 2);  // a polyline per preset per plot
   EXPECT_EQ(Count(html, "<tr class=\"summary-row\""), 2u);
   EXPECT_NE(html.find("<tr class=\"summary-row\" data-preset=\"a\"><td>a</td>"), std::string::npos);
   EXPECT_NE(html.find("<tr class=\"summary-row\" data-preset=\"b\"><td>b</td>"), std::string::npos);
@@ -353,6 +357,139 @@ TEST(ReportBrowser, RealRunRendersInHeadlessChromiumWithPlotsAndImages) {
   EXPECT_EQ(previews, 6u);
   const size_t maps = t.Column("flip") >= 0 ? 2 : 1;  // error heat map, and the FLIP map when flip is computed
   EXPECT_EQ(imgs, 6u * (1 + maps));
+}
+
+
+// An image found in a screenshot: the top-left corner where every pixel of `want` (w x h RGB) equals the
+// screenshot's, or (-1, -1).
+std::pair<int, int> Find(const std::vector<unsigned char>& shot, int sw, int sh, int sc,
+                         const std::vector<unsigned char>& want, int w, int h) {
+  auto same = [&](int ox, int oy, int x, int y) {
+    for (int c = 0; c < 3; ++c)
+      if (shot[(static_cast<size_t>(oy + y) * sw + ox + x) * sc + c] != want[(static_cast<size_t>(y) * w + x) * 3 + c])
+        return false;
+    return true;
+  };
+  for (int oy = 0; oy + h <= sh; ++oy)
+    for (int ox = 0; ox + w <= sw; ++ox) {
+      if (!same(ox, oy, 0, 0) || !same(ox, oy, w - 1, 0)) continue;
+      bool all = true;
+      for (int y = 0; y < h && all; ++y)
+        for (int x = 0; x < w && all; ++x) all = same(ox, oy, x, y);
+      if (all) return {ox, oy};
+    }
+  return {-1, -1};
+}
+
+// The frame scrubber in Debian's headless Chromium, from disk: a link to a frame, layer and preset shows that
+// frame's PNG with its exact pixels (found in the screenshot); another frame's is not what is shown. Without
+// JavaScript the scrubber stays hidden and the rest of the page (strips, videos) is there. The videos have the
+// run's frame count and size (ffprobe).
+TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEveryFrame) {
+  const std::string chromium = "/usr/bin/chromium";
+  ASSERT_EQ(::access(chromium.c_str(), X_OK), 0) << chromium << " is missing: scripts/setup.sh installs it";
+  const fs::path dir = FreshDir("restir-report-scrubber");
+  const fs::path out = dir / "run";
+  Result r = Shell(SimBinary() + " run sequences/smoke.json --preset ris,temporal --resolution 64x36 "
+                                 "--reference-spp 32 --no-progress --cache-dir " +
+                   (dir / "cache").string() + " --out " + out.string() + " 2>&1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string flags =
+      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
+      "--disable-component-update --disable-sync --force-color-profile=srgb --force-device-scale-factor=1 "
+      "--hide-scrollbars --virtual-time-budget=4000 --window-size=1280,4000";
+  const std::string url = "file://" + fs::absolute(out / "report.html").string();
+  struct View {
+    int frame;
+    std::string layer, preset, png;  // png: what the panel must show
+    int other;                       // a frame whose PNG must not be what is shown
+  };
+  const View views[] = {{3, "estimate", "ris", "scrub/presets/ris/0003_estimate.png", 0},
+                        {5, "error", "temporal", "scrub/presets/temporal/0005_error.png", 2},
+                        {1, "reference", "ris", "scrub/reference/0001.png", 4}};
+  int shots = 0;
+  for (const View& v : views) {
+    SCOPED_TRACE(v.png);
+    const fs::path shot = dir / ("scrub" + std::to_string(shots++) + ".png");
+    const std::string link = url + "#frame=" + std::to_string(v.frame) + "&layer=" + v.layer + "&presets=" + v.preset;
+    r = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile").string() +
+              " --screenshot=" + shot.string() + " '" + link + "' 2>&1");
+    ASSERT_EQ(r.status, 0) << r.output;
+    auto in = OIIO::ImageInput::open(shot.string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    const int sw = in->spec().width, sh = in->spec().height, sc = in->spec().nchannels;
+    std::vector<unsigned char> px(static_cast<size_t>(sw) * sh * sc);
+    ASSERT_TRUE(in->read_image(0, 0, 0, sc, OIIO::TypeDesc::UINT8, px.data()));
+    const std::vector<unsigned char> want = ReadScrubPng((out / v.png).string(), 64, 36);
+    const auto [x, y] = Find(px, sw, sh, sc, want, 64, 36);
+    ASSERT_GE(x, 0) << "the linked frame's PNG is not in the screenshot " << shot;
+    std::string otherPng = v.png;
+    const std::string from = "000" + std::to_string(v.frame), to = "000" + std::to_string(v.other);
+    otherPng.replace(otherPng.find(from), from.size(), to);
+    const std::vector<unsigned char> other = ReadScrubPng((out / otherPng).string(), 64, 36);
+    ASSERT_NE(other, want) << "the test needs frames that differ";
+    EXPECT_EQ(Find(px, sw, sh, sc, other, 64, 36).first, -1) << otherPng << " is shown too";
+  }
+
+  // Without JavaScript: the page a browser shows that runs no script (here: the report with its scripts taken out,
+  // beside the original so its links resolve; Chromium's own switch for it also stops --dump-dom and --screenshot).
+  // The scrubber stays hidden and the rest is there: the strips' previews, the videos, and the crops, found with
+  // their own pixels in a screenshot.
+  std::string page = ReadText(out / "report.html");
+  for (size_t at = page.find("<script"); at != std::string::npos; at = page.find("<script", at)) {
+    const size_t end = page.find("</script>", at);
+    ASSERT_NE(end, std::string::npos);
+    page.erase(at, end + 9 - at);
+  }
+  WriteText(out / "report_nojs.html", page);
+  const std::string nojs = "file://" + fs::absolute(out / "report_nojs.html").string();
+  const Result dom = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile-nojs").string() +
+                           " --dump-dom " + nojs + " 2>/dev/null");
+  ASSERT_EQ(dom.status, 0);
+  EXPECT_NE(dom.output.find("<section id=\"scrubber\" hidden=\"\">"), std::string::npos) << dom.output.substr(0, 3000);
+  EXPECT_EQ(dom.output.find("class=\"scrub-image\""), std::string::npos);
+  EXPECT_EQ(Count(dom.output, "<img src=\"frames/"), 6u);  // the strips' previews
+  EXPECT_NE(dom.output.find("videos/all_presets.mp4"), std::string::npos);
+  const nlohmann::json crop = nlohmann::json::parse(ReadText(out / "summary.json"))["crop"];
+  ASSERT_TRUE(crop.is_object()) << "smoke reveals pixels: the report has a crop";
+  {
+    const fs::path shot = dir / "nojs.png";
+    r = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile-nojs-shot").string() +
+              " --screenshot=" + shot.string() + " " + nojs + " 2>&1");
+    ASSERT_EQ(r.status, 0) << r.output;
+    auto in = OIIO::ImageInput::open(shot.string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    const int sw = in->spec().width, sh = in->spec().height, sc = in->spec().nchannels;
+    std::vector<unsigned char> px(static_cast<size_t>(sw) * sh * sc);
+    ASSERT_TRUE(in->read_image(0, 0, 0, sc, OIIO::TypeDesc::UINT8, px.data()));
+    const int cw = crop["width"].get<int>() * crop["scale"].get<int>(), ch = crop["height"].get<int>() * crop["scale"].get<int>();
+    char name[64];
+    std::snprintf(name, sizeof(name), "report_images/crops/ris_%04d_estimate.png", crop["frames"][0].get<int>());
+    const std::vector<unsigned char> want = ReadScrubPng((out / name).string(), cw, ch);
+    EXPECT_GE(Find(px, sw, sh, sc, want, cw, ch).first, 0) << name << " is not in the screenshot without scripts";
+  }
+  // With it, the scrubber is shown with a panel per preset.
+  const Result live = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile-js").string() +
+                            " --dump-dom " + url + " 2>/dev/null");
+  ASSERT_EQ(live.status, 0);
+  EXPECT_NE(live.output.find("<section id=\"scrubber\">"), std::string::npos);
+  EXPECT_EQ(Count(live.output, "class=\"scrub-image\""), 2u);
+
+  // Each video: 6 frames of estimate | reference | error map (3 x 64 wide) under a caption band (36 + 13, even).
+  for (const char* video : {"videos/ris.mp4", "videos/temporal.mp4", "videos/all_presets.mp4"}) {
+    const Result probe = Shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                               "stream=codec_name,width,height,pix_fmt,nb_read_frames -of csv=p=0 " +
+                               (out / video).string() + " 2>&1");
+    ASSERT_EQ(probe.status, 0) << video << ": " << probe.output;
+    if (std::string(video) == "videos/all_presets.mp4")
+      EXPECT_EQ(probe.output, "h264,128,112,yuv420p,6\n") << video;  // 2 x 2 tiles of 64 x (36 + 13) under a 13-row band
+    else
+      EXPECT_EQ(probe.output, "h264,192,50,yuv420p,6\n") << video;
+  }
+  const nlohmann::json summary = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(summary["videos"]["per_preset"]["ris"], "videos/ris.mp4");
+  EXPECT_TRUE(summary["speed_vs_error"]["metrics"]["relmse"].is_array());
+  EXPECT_EQ(summary["speed_vs_error"]["metrics"]["relmse"].size(), 2u);
 }
 
 }  // namespace

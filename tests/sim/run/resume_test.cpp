@@ -80,12 +80,14 @@ std::string CsvWithoutTimings(const fs::path& p) {
 }
 
 // The reference cache is in the run's key (run.json names it): runs copied to resume share one outside them.
+// `images` is --images: which frames get their EXR and preview (every frame's scrub PNGs are written either way).
 std::vector<std::string> RunArgs(const std::string& sequence, const fs::path& out, bool resume,
-                                 const std::string& presets = "ris,restir-unbiased", fs::path cache = {}) {
+                                 const std::string& presets = "ris,restir-unbiased", fs::path cache = {},
+                                 const std::string& images = "report") {
   if (cache.empty()) cache = out / "cache";
   std::vector<std::string> a = {SimBinary(), "run", sequence, "--preset", presets,
                                 "--resolution", "192x108", "--reference-spp", "32", "--out", out.string(),
-                                "--cache-dir", cache.string(), "--no-progress"};
+                                "--cache-dir", cache.string(), "--no-progress", "--images", images};
   if (resume) a.push_back("--resume");
   return a;
 }
@@ -106,10 +108,11 @@ bool RunAndKill(const std::vector<std::string>& args, const fs::path& out, int r
   return WIFSIGNALED(Wait(pid));
 }
 
-// Every frame file of `expected` has the same bytes in `actual`; returns how many were compared.
-int ExpectSameFrames(const fs::path& expected, const fs::path& actual) {
+// Every file under `dir` of `expected` has the same bytes in `actual`; returns how many were compared.
+int ExpectSameFiles(const fs::path& expected, const fs::path& actual, const std::string& dir) {
   int compared = 0;
-  for (const auto& e : fs::recursive_directory_iterator(expected / "frames")) {
+  if (!fs::exists(expected / dir)) return 0;
+  for (const auto& e : fs::recursive_directory_iterator(expected / dir)) {
     if (!e.is_regular_file()) continue;
     const fs::path other = actual / fs::relative(e.path(), expected);
     EXPECT_TRUE(fs::exists(other)) << other;
@@ -117,6 +120,21 @@ int ExpectSameFrames(const fs::path& expected, const fs::path& actual) {
     ++compared;
   }
   return compared;
+}
+
+// The frame files (frames/), whose count is returned; and every frame's scrub PNGs (scrub/), the videos made from
+// them and the report's images, which must match too (the scrub exposure comes from the first frame, so a resumed
+// run gets it only from its checkpoint). `samePresetOrder` false: the videos and report images, laid out in the
+// presets' order, are not compared.
+int ExpectSameFrames(const fs::path& expected, const fs::path& actual, int frames = 6, int presets = 2,
+                     bool samePresetOrder = true) {
+  // Per frame the reference and the disocclusion mask; per preset the estimate, error and FLIP maps.
+  EXPECT_EQ(ExpectSameFiles(expected, actual, "scrub"), frames * (2 + 3 * presets));
+  if (samePresetOrder) {
+    EXPECT_EQ(ExpectSameFiles(expected, actual, "videos"), presets + 1);  // one per preset, one of them all
+    EXPECT_GT(ExpectSameFiles(expected, actual, "report_images"), 0);
+  }
+  return ExpectSameFiles(expected, actual, "frames");
 }
 
 // The presets column of metrics.csv, row by row.
@@ -155,22 +173,28 @@ TEST_P(Resume, KilledAndResumedRunIsBitIdenticalToUninterrupted) {
   fs::remove_all(base);
   const fs::path full = base / "full", killed = base / "killed";
 
-  const int status = Wait(Spawn(RunArgs(sequence, full, false)));
+  // Every frame's EXR for one sequence, the default (the report's three) for the other.
+  const std::string images = sequence == "sequences/smoke.json" ? "all" : "report";
+  const int frameFiles = images == "all" ? 6 : 3;
+  auto args = [&](const fs::path& out, bool resume) {
+    return RunArgs(sequence, out, resume, "ris,restir-unbiased", {}, images);
+  };
+  const int status = Wait(Spawn(args(full, false)));
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
   const int totalRows = CsvRows(full / "metrics.csv");
   ASSERT_EQ(totalRows, 2 * 6);
   EXPECT_FALSE(fs::exists(full / "checkpoint.bin"));  // removed when the run completes
 
   // Kill once two frames are done (4 rows), wherever the third frame's work stands.
-  ASSERT_TRUE(RunAndKill(RunArgs(sequence, killed, false), killed, 4)) << "the run finished before it was killed";
+  ASSERT_TRUE(RunAndKill(args(killed, false), killed, 4)) << "the run finished before it was killed";
   const int rowsAtKill = CsvRows(killed / "metrics.csv");
   ASSERT_LT(rowsAtKill, totalRows);
   ASSERT_TRUE(fs::exists(killed / "checkpoint.bin"));
 
-  const int resumed = Wait(Spawn(RunArgs(sequence, killed, true)));
+  const int resumed = Wait(Spawn(args(killed, true)));
   ASSERT_TRUE(WIFEXITED(resumed) && WEXITSTATUS(resumed) == 0);
   EXPECT_EQ(CsvWithoutTimings(full / "metrics.csv"), CsvWithoutTimings(killed / "metrics.csv"));
-  EXPECT_EQ(ExpectSameFrames(full, killed), 2 * 6 * 2);  // EXR and PNG per frame and preset
+  EXPECT_EQ(ExpectSameFrames(full, killed), 2 * frameFiles * 2);  // EXR and PNG per frame file and preset
   // No temporary survived: the resumed run removed whatever the kill interrupted.
   for (const auto& e : fs::recursive_directory_iterator(killed))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
@@ -205,7 +229,7 @@ TEST(ResumeOrder, AnyOrderOfThePresetsResumesEachPresetsOwnState) {
     // It resumed: a checkpoint it refused would start from frame 0 and prove nothing.
     EXPECT_NE(ReadAll(log).find("resumed at frame"), std::string::npos) << ReadAll(log);
     SCOPED_TRACE(joined(permutation));
-    EXPECT_EQ(ExpectSameFrames(full, resumed), 3 * 6 * 2);
+    EXPECT_EQ(ExpectSameFrames(full, resumed, 6, 3, false), 3 * 3 * 2);
     EXPECT_EQ(SortedLines(CsvWithoutTimings(full / "metrics.csv")),
               SortedLines(CsvWithoutTimings(resumed / "metrics.csv")));
     const std::vector<std::string> presets = CsvPresets(resumed / "metrics.csv");
@@ -226,18 +250,21 @@ TEST(ResumeOutputs, MissingOrDamagedFrameFilesAreWrittenAgain) {
   const fs::path full = base / "full", damaged = base / "damaged", killed = base / "killed";
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, full, false, "ris,restir-unbiased", base / "cache")))), 0);
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, damaged, false, "ris,restir-unbiased", base / "cache")))), 0);
-  fs::remove(damaged / "frames/ris/0002.exr");
+  // The default --images writes frames 0, 3 and 5's EXR and preview; every frame's scrub PNGs.
+  fs::remove(damaged / "frames/ris/0003.exr");
+  fs::remove(damaged / "scrub/presets/ris/0001_error.png");
   {
-    std::string png = ReadAll(damaged / "frames/restir-unbiased/0004.png");
+    std::string png = ReadAll(damaged / "frames/restir-unbiased/0005.png");
     png[png.size() / 2] ^= 0x40;  // same size, other bytes
-    std::ofstream(damaged / "frames/restir-unbiased/0004.png", std::ios::binary | std::ios::trunc) << png;
+    std::ofstream(damaged / "frames/restir-unbiased/0005.png", std::ios::binary | std::ios::trunc) << png;
   }
   const std::string log = (base / "damaged.log").string();
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, damaged, true, "ris,restir-unbiased", base / "cache"), log))), 0);
   const std::string said = ReadAll(log);
-  EXPECT_NE(said.find("frames/ris/0002.exr is missing"), std::string::npos) << said;
-  EXPECT_NE(said.find("frames/restir-unbiased/0004.png has other bytes"), std::string::npos) << said;
-  EXPECT_EQ(ExpectSameFrames(full, damaged), 2 * 6 * 2);
+  EXPECT_NE(said.find("frames/ris/0003.exr is missing"), std::string::npos) << said;
+  EXPECT_NE(said.find("scrub/presets/ris/0001_error.png is missing"), std::string::npos) << said;
+  EXPECT_NE(said.find("frames/restir-unbiased/0005.png has other bytes"), std::string::npos) << said;
+  EXPECT_EQ(ExpectSameFrames(full, damaged), 2 * 3 * 2);
   // A second resume finds every file as written: nothing to say, nothing to do.
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, damaged, true, "ris,restir-unbiased", base / "cache"), log))), 0);
   EXPECT_EQ(ReadAll(log).find("restir-sim: "), std::string::npos) << ReadAll(log);
@@ -248,7 +275,7 @@ TEST(ResumeOutputs, MissingOrDamagedFrameFilesAreWrittenAgain) {
   fs::remove(killed / "frames/ris/0000.exr");
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(EveryFrame(RunArgs(sequence, killed, true, "ris,restir-unbiased", base / "cache")), log))), 0);
   EXPECT_NE(ReadAll(log).find("frames/ris/0000.exr is missing"), std::string::npos) << ReadAll(log);
-  EXPECT_EQ(ExpectSameFrames(full, killed), 2 * 6 * 2);
+  EXPECT_EQ(ExpectSameFrames(full, killed), 2 * 3 * 2);
   EXPECT_EQ(CsvWithoutTimings(full / "metrics.csv"), CsvWithoutTimings(killed / "metrics.csv"));
 }
 

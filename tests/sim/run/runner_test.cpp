@@ -1,4 +1,6 @@
 #include "sim/run/runner.h"
+#include "sim/output/heat_map.h"
+#include "sim/output/scrub_frames.h"
 
 #include <gtest/gtest.h>
 
@@ -270,6 +272,7 @@ TEST(Run, AFrameFileThatCannotBeWrittenInALaterFrameEndsTheRun) {
   o.frameBegin = 0;
   o.frameEnd = 6;
   o.presets = {"ris", "restir-unbiased"};
+  o.imageFrames.kind = ImageFrames::Kind::kAll;
   std::filesystem::create_directories(out + "/frames/ris/0003.exr/occupied");
   try {
     restir::Run(o);
@@ -291,6 +294,110 @@ TEST(Run, AFrameFileThatCannotBeWrittenInALaterFrameEndsTheRun) {
     }
   for (const auto& e : std::filesystem::recursive_directory_iterator(out))
     EXPECT_EQ(e.path().string().find("restir-sim-tmp"), std::string::npos) << e.path();
+}
+
+// --images: "report", "all" or a range chooses which frames get an EXR and a preview (run.json lists them);
+// every frame gets its scrub PNGs whichever is chosen.
+TEST(Run, ImagesChooseWhichFramesGetAnExrAndEveryFrameGetsItsScrubPngs) {
+  struct Case {
+    std::string images;
+    int begin, end;  // the run's frames
+    std::vector<int> want;
+  };
+  const Case cases[] = {{"report", 0, 6, {0, 3, 5}}, {"report", 1, 3, {1, 2}}, {"report", 2, 3, {2}},
+                        {"all", 1, 5, {1, 2, 3, 4}}, {"2:4", 0, 6, {2, 3}},      {":2", 1, 6, {1}},
+                        {"4:", 0, 6, {4, 5}},        {"7:9", 0, 6, {}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.images + " over " + std::to_string(c.begin) + ":" + std::to_string(c.end));
+    const std::string out = TempOut("restir-run-images");
+    RunOptions o = SmokeOptions(out);
+    o.frameBegin = c.begin;
+    o.frameEnd = c.end;
+    o.width = 32;
+    o.height = 18;
+    o.report = false;
+    const std::optional<ImageFrames> images = ParseImageFrames(c.images);
+    ASSERT_TRUE(images);
+    o.imageFrames = *images;
+    restir::Run(o);
+    std::vector<int> have;
+    for (int f = 0; f < 8; ++f) {
+      char name[16];
+      std::snprintf(name, sizeof(name), "%04d", f);
+      const bool exr = std::filesystem::exists(out + "/frames/ris/" + name + ".exr");
+      EXPECT_EQ(exr, std::filesystem::exists(out + "/frames/ris/" + name + ".png")) << f;
+      if (exr) have.push_back(f);
+      const bool rendered = f >= c.begin && f < c.end;
+      for (const std::string& scrub : {ScrubReferencePath(f), ScrubDisocclusionPath(f),
+                                       ScrubPresetPath("ris", f, ScrubLayer::kEstimate),
+                                       ScrubPresetPath("ris", f, ScrubLayer::kError),
+                                       ScrubPresetPath("ris", f, ScrubLayer::kFlip)})
+        EXPECT_EQ(std::filesystem::exists(out + "/" + scrub), rendered) << scrub;
+    }
+    EXPECT_EQ(have, c.want);
+    std::ifstream rj(out + "/run.json");
+    const auto j = nlohmann::json::parse(rj);
+    EXPECT_EQ(j["images"]["selection"], c.images == ":2" ? "0:2" : c.images == "4:" ? "4:" : c.images);
+    EXPECT_EQ(j["images"]["frameFiles"].get<std::vector<int>>(), c.want);
+  }
+}
+
+// The scrub PNGs are the frame's own pixels: the first frame's estimate and reference are its preview's panels (one
+// exposure, chosen from that frame's reference), and every frame's error map, FLIP map and mask are the EXR's
+// error, flip and disocclusion layers through the report's colour maps.
+TEST(Run, ScrubPngsShowTheFramesOwnPixels) {
+  const std::string out = TempOut("restir-run-scrub");
+  RunOptions o = SmokeOptions(out);
+  o.frameEnd = 4;
+  o.width = 48;
+  o.height = 27;
+  o.report = false;
+  o.imageFrames.kind = ImageFrames::Kind::kAll;
+  restir::Run(o);
+  const int w = o.width, h = o.height;
+  auto bytes = [&](const std::string& relative) { return ReadScrubPng(out + "/" + relative, w, h); };
+  {
+    OIIO::ImageInput::unique_ptr in = OIIO::ImageInput::open(out + "/frames/ris/0000.png");
+    ASSERT_TRUE(in);
+    std::vector<unsigned char> preview(static_cast<size_t>(2 * w) * h * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, preview.data()));
+    const std::vector<unsigned char> est = bytes(ScrubPresetPath("ris", 0, ScrubLayer::kEstimate));
+    const std::vector<unsigned char> ref = bytes(ScrubReferencePath(0));
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(est[(y * w + x) * 3 + c], preview[(y * 2 * w + x) * 3 + c]) << x << "," << y;
+          ASSERT_EQ(ref[(y * w + x) * 3 + c], preview[(y * 2 * w + w + x) * 3 + c]) << x << "," << y;
+        }
+  }
+  for (int f = 0; f < 4; ++f) {
+    char name[16];
+    std::snprintf(name, sizeof(name), "%04d", f);
+    OIIO::ImageInput::unique_ptr in = OIIO::ImageInput::open(out + "/frames/ris/" + name + ".exr");
+    ASSERT_TRUE(in);
+    const int nc = in->spec().nchannels;
+    std::vector<float> all(static_cast<size_t>(w) * h * nc);
+    ASSERT_TRUE(in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, all.data()));
+    auto channel = [&](const char* n) { return in->spec().channelindex(n); };
+    std::vector<double> error(static_cast<size_t>(w) * h), flip(error.size());
+    std::vector<unsigned char> mask(error.size());
+    for (size_t i = 0; i < error.size(); ++i) {
+      const float e[3] = {all[i * nc + channel("error.R")], all[i * nc + channel("error.G")],
+                          all[i * nc + channel("error.B")]};
+      const float r[3] = {all[i * nc + channel("reference.R")], all[i * nc + channel("reference.G")],
+                          all[i * nc + channel("reference.B")]};
+      error[i] = PixelRelativeError(e, r);
+      flip[i] = all[i * nc + channel("flip.Y")];
+      mask[i] = all[i * nc + channel("disocclusion.Y")] > 0.5f;
+    }
+    EXPECT_EQ(bytes(ScrubPresetPath("ris", f, ScrubLayer::kError)), HeatMapRgb(error, ColourMap::kInferno)) << f;
+    EXPECT_EQ(bytes(ScrubPresetPath("ris", f, ScrubLayer::kFlip)), HeatMapRgb(flip, ColourMap::kMagma)) << f;
+    const std::vector<unsigned char> m = bytes(ScrubDisocclusionPath(f));
+    for (size_t i = 0; i < mask.size(); ++i) {
+      if (mask[i]) EXPECT_EQ(m[3 * i], kScrubDisoccludedNow) << f << " pixel " << i;
+      else EXPECT_NE(m[3 * i], kScrubDisoccludedNow) << f << " pixel " << i;
+    }
+  }
 }
 
 // The EXRs are readable by OpenEXR's and OpenImageIO's own command-line tools (installed by scripts/setup.sh).
