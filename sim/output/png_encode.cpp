@@ -3,6 +3,7 @@
 #include <png.h>
 
 #include <csetjmp>
+#include <cstdint>
 #include <stdexcept>
 
 namespace restir {
@@ -70,6 +71,21 @@ std::string EncodeRgbPng(const std::vector<unsigned char>& rgb, int w, int h) {
 
 std::string EncodeGreyPng(const std::vector<unsigned char>& grey, int w, int h) {
   return Encode(grey, w, h, Colour::kGrey, nullptr);
+}
+
+bool PngIsWhole(const std::string& bytes) {
+  static const char kSignature[8] = {'\x89', 'P', 'N', 'G', '\r', '\n', '\x1a', '\n'};
+  if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0) return false;
+  size_t pos = 8;
+  while (bytes.size() - pos >= 12) {
+    const auto byte = [&](size_t i) { return static_cast<uint32_t>(static_cast<unsigned char>(bytes[pos + i])); };
+    const uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
+    const bool end = bytes.compare(pos + 4, 4, "IEND") == 0;
+    if (length > bytes.size() - pos - 12) return false;
+    pos += 12 + size_t(length);
+    if (end) return pos == bytes.size();
+  }
+  return false;
 }
 
 }  // namespace restir

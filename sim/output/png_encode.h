@@ -18,4 +18,9 @@ std::string EncodeRgbPng(const std::vector<unsigned char>& rgb, int w, int h);
 // `grey` (w x h, one byte a pixel) as a greyscale PNG, in memory.
 std::string EncodeGreyPng(const std::vector<unsigned char>& grey, int w, int h);
 
+// True when `bytes` are a whole PNG: the signature, then chunks whose lengths lead exactly to IEND at the end (a
+// file cut anywhere fails). Checked without decoding, so a reader can refuse a damaged file before libpng prints
+// its own complaint.
+bool PngIsWhole(const std::string& bytes);
+
 }  // namespace restir

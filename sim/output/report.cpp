@@ -301,7 +301,7 @@ const char* const kSpeedMetrics[] = {"relmse", "flip"};
 
 std::string SpeedPlot(const std::vector<SpeedPoint>& points, const std::string& metric) {
   Plot plot;
-  plot.title = metric + " against ms/frame; ringed and joined: the Pareto front";
+  plot.title = metric + " against ms/frame; outlined and joined: the Pareto front";
   plot.xLabel = "ms per frame (estimator passes, reference excluded)";
   plot.yLabel = metric;
   plot.cssClass = "speed";
@@ -463,18 +463,7 @@ void CheckPngStructure(const std::string& path, const FrameExpectation& expect) 
                                  Size(expect.width, expect.height) + " run writes " +
                                  std::to_string(wantW) + "x" + std::to_string(expect.height));
   }
-  size_t pos = 8;
-  while (bytes.size() - pos >= 12) {
-    const auto byte = [&](size_t i) { return static_cast<uint32_t>(static_cast<unsigned char>(bytes[pos + i])); };
-    const uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
-    const std::string type = bytes.substr(pos + 4, 4);
-    if (length > bytes.size() - pos - 12) break;
-    pos += 12 + size_t(length);
-    if (type == "IEND") {
-      if (pos == bytes.size()) return;
-      break;
-    }
-  }
+  if (PngIsWhole(bytes)) return;
   Unreadable(path, "cut short or damaged: no IEND chunk at its end");
 }
 

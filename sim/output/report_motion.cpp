@@ -312,8 +312,6 @@ bool ScrubFramesPresent(const MotionInputs& in) {
 Videos WriteVideos(const MotionInputs& in) {
   Videos v;
   const fs::path dir = fs::path(in.outDir) / "videos";
-  std::error_code ec;
-  fs::remove_all(dir, ec);
   const std::optional<std::string> ffmpeg = FindFfmpeg();
   if (!ffmpeg) {
     v.note = "no videos: ffmpeg is not installed (scripts/setup.sh installs Debian's ffmpeg)";

@@ -33,7 +33,8 @@ struct Videos {
   std::string grid;                                            // videos/all_presets.mp4, or ""
   std::string note;                                            // why none were made, or ""
 };
-// Writes OUT/videos/ (replacing what is there). Without ffmpeg, says so on stderr and in the note.
+// Writes OUT/videos/<preset>.mp4 and all_presets.mp4 (each whole, through WriteFileAtomic; nothing else there is
+// touched). Without ffmpeg, says so on stderr and in the note.
 Videos WriteVideos(const MotionInputs& in);
 
 // The enlarged region of the reveal: a rectangle of the frame, the frames shown, and each crop's file.

@@ -10,6 +10,7 @@
 #include "sim/output/png_encode.h"
 #include "sim/util/atomic_file.h"
 #include "sim/util/input_error.h"
+#include "sim/util/input_file.h"
 #include "sim/util/text.h"
 
 namespace restir {
@@ -85,6 +86,10 @@ std::vector<std::string> WriteScrubPreset(const std::string& outDir, const std::
 }
 
 std::vector<unsigned char> ReadScrubPng(const std::string& path, int width, int height) {
+  std::string bytes, problem;
+  if (!TryReadRegularFile(path, size_t(1) << 30, bytes, problem))
+    throw InputError(OneLine(path + ": error: cannot read (" + problem + ")"));
+  if (!PngIsWhole(bytes)) throw InputError(path + ": error: cannot read (not a whole PNG: cut short or damaged)");
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw InputError(OneLine(path + ": error: cannot read (" + OIIO::geterror() + ")"));
   const OIIO::ImageSpec spec = in->spec();

@@ -186,11 +186,9 @@ std::string SvgPlot(const Plot& plot) {
           o << "<path class=\"interval\" fill=\"none\" stroke=\"" << colour << "\" d=\"M" << cx << "," << y0 << "V" << y1
             << "M" << l << "," << y0 << "H" << r << "M" << l << "," << y1 << "H" << r << "\"/>\n";
         }
-        if (big)
-          o << "<circle class=\"front\" cx=\"" << Coord(X(s.x[i])) << "\" cy=\"" << Coord(Y(s.y[i]))
-            << "\" r=\"8\" fill=\"none\" stroke=\"#333\" stroke-width=\"1.2\"/>\n";
         o << "<circle cx=\"" << Coord(X(s.x[i])) << "\" cy=\"" << Coord(Y(s.y[i])) << "\" r=\""
-          << (s.line ? 2.5 : big ? 5.0 : 3.5) << "\" fill=\"" << colour << "\">";
+          << (s.line ? 2.5 : big ? 5.0 : 3.5) << "\" fill=\"" << colour << "\""
+          << (big && !s.line ? " stroke=\"#222\" stroke-width=\"1.5\"" : "") << ">";
         if (i < s.titles.size()) o << "<title>" << XmlEscape(s.titles[i]) << "</title>";
         o << "</circle>\n";
       }

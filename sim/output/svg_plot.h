@@ -15,7 +15,7 @@ struct PlotSeries {
   std::vector<double> x, y;          // the points
   bool line = true;                  // a polyline (a lone point gets a marker), or markers only
   std::vector<std::string> titles;   // markers: each point's tooltip (empty: none)
-  std::vector<uint8_t> emphasised;   // markers: nonzero draws a point larger, ringed (empty: none)
+  std::vector<uint8_t> emphasised;   // markers: nonzero draws a point larger, outlined (empty: none)
   std::vector<double> yLow, yHigh;   // markers: a vertical interval bar per point (empty, or non-finite: none)
 };
 

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -14,6 +15,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "sim/util/atomic_file.h"
+#include "sim/util/input_file.h"
 #include "sim/util/text.h"
 
 extern char** environ;
@@ -36,8 +39,22 @@ std::optional<std::string> FindFfmpeg() {
   return std::nullopt;
 }
 
+namespace {
+
+// ffmpeg's own files go to the system's temporary directory, not beside the video: the run's output directory only
+// ever receives whole files through WriteFileAtomic, whoever else writes there at the same time.
+std::string ScratchPath(const std::string& suffix) {
+  static std::atomic<int> counter{0};
+  char name[96];
+  std::snprintf(name, sizeof(name), "restir-sim-video-%d-%d%s", static_cast<int>(::getpid()), counter++,
+                suffix.c_str());
+  return (fs::temp_directory_path() / name).string();
+}
+
+}  // namespace
+
 VideoEncoder::VideoEncoder(const std::string& ffmpeg, const std::string& path, int width, int height, double fps)
-    : path_(path), temporary_(path + ".partial.mp4"), log_(path + ".ffmpeg.log"), width_(width), height_(height) {
+    : path_(path), temporary_(ScratchPath(".mp4")), log_(ScratchPath(".log")), width_(width), height_(height) {
   if (width < 2 || height < 2 || width % 2 || height % 2)
     throw std::runtime_error(path + ": a video's width and height must be even");
   char size[32], rate[32];
@@ -150,9 +167,12 @@ void VideoEncoder::Finish() {
     throw std::runtime_error(path_ + ": ffmpeg failed (" + message + ")");
   }
   fs::remove(log_, ec);
-  fs::rename(temporary_, path_, ec);
-  if (ec) throw std::runtime_error(path_ + ": cannot rename the finished video (" + ec.message() + ")");
+  std::string bytes, problem;
+  const bool read = TryReadRegularFile(temporary_, size_t(1) << 34, bytes, problem);
+  fs::remove(temporary_, ec);
   finished_ = true;
+  if (!read) throw std::runtime_error(path_ + ": cannot read what ffmpeg wrote (" + problem + ")");
+  WriteFileAtomic(path_, bytes);
 }
 
 Canvas::Canvas(int w, int h, unsigned char grey)

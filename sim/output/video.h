@@ -17,7 +17,8 @@ namespace restir {
 std::optional<std::string> FindFfmpeg();
 
 // One video being written: frames in order, each width x height x 3 bytes (rows top to bottom). Width and height
-// must be even (yuv420p). Written to a temporary name and renamed at Finish, so a video is whole or absent.
+// must be even (yuv420p). ffmpeg writes to the system's temporary directory; Finish puts the file in place with
+// WriteFileAtomic, so a video is whole or absent.
 class VideoEncoder {
  public:
   VideoEncoder(const std::string& ffmpeg, const std::string& path, int width, int height, double fps);

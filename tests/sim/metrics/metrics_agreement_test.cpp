@@ -67,6 +67,7 @@ TEST(MetricsAgreement, DisoccludedMetricsUseTheGbufferFlags) {
   o.cacheDir = out + "/cache";
   o.progress = false;
   o.report = false;
+  o.imageFrames = *ParseImageFrames("1:2");  // the frame whose EXR is read below
   const RunResult r = restir::Run(o);
   ASSERT_EQ(r.rows.size(), 4u);
   for (int f = 1; f < 4; ++f) {

@@ -48,6 +48,20 @@ TEST(PngEncode, EveryKindDecodesToItsPixelsAtEverySize) {
   }
 }
 
+// A PNG cut anywhere, or with a byte of a chunk length changed, is not whole; every PNG written here is.
+TEST(PngIsWhole, EveryCutAndEveryBrokenLengthFails) {
+  std::array<unsigned char, 256 * 3> palette{};
+  const std::string png = EncodeIndexedPng(std::vector<unsigned char>(24 * 5, 7), 24, 5, palette);
+  ASSERT_TRUE(PngIsWhole(png));
+  for (size_t n = 0; n < png.size(); ++n) EXPECT_FALSE(PngIsWhole(png.substr(0, n))) << n;
+  EXPECT_FALSE(PngIsWhole(png + "x"));
+  std::string longer = png;
+  longer[8 + 3] = static_cast<char>(longer[8 + 3] + 1);  // IHDR's length
+  EXPECT_FALSE(PngIsWhole(longer));
+  EXPECT_TRUE(PngIsWhole(EncodeRgbPng(std::vector<unsigned char>(3 * 7 * 3, 1), 7, 3)));
+  EXPECT_TRUE(PngIsWhole(EncodeGreyPng(std::vector<unsigned char>(1, 0), 1, 1)));
+}
+
 TEST(PngEncode, APixelCountOtherThanTheSizeIsRefused) {
   std::array<unsigned char, 256 * 3> palette{};
   EXPECT_THROW(EncodeGreyPng(std::vector<unsigned char>(5), 2, 2), std::runtime_error);

@@ -270,6 +270,24 @@ TEST(ReportCli, FramesThatAreNotTheRunsAreRefusedNamingTheDifference) {
     std::ofstream(own / "0001.png", std::ios::binary | std::ios::trunc) << ownPng;
   }
   EXPECT_EQ(Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1").status, 0);
+  // The scrub PNGs the videos and crops are made from: another run's, or one cut short, is refused the same way.
+  const fs::path scrub = dir / "own" / "scrub" / "presets" / "ris";
+  const std::string ownScrub = ReadText(scrub / "0001_error.png");
+  fs::copy_file(dir / "smaller" / "scrub" / "presets" / "ris" / "0001_error.png", scrub / "0001_error.png",
+                fs::copy_options::overwrite_existing);
+  Result r = Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find((scrub / "0001_error.png").string() + ": error: not a frame of this run (32x18"),
+            std::string::npos) << r.output;
+  EXPECT_EQ(Count(r.output, "\n"), 1u) << r.output;
+  std::ofstream(scrub / "0001_error.png", std::ios::binary | std::ios::trunc) << ownScrub.substr(0, ownScrub.size() / 2);
+  r = Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find((scrub / "0001_error.png").string() + ": error: cannot read"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(Count(r.output, "\n"), 1u) << r.output;
+  std::ofstream(scrub / "0001_error.png", std::ios::binary | std::ios::trunc) << ownScrub;
+  EXPECT_EQ(Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1").status, 0);
 }
 
 // Renders the report of a real run in Debian's headless Chromium (installed by scripts/setup.sh: a missing
