@@ -202,7 +202,9 @@ const char* kScrubberScript = R"JS(
     slider.value = st.index;
     label.textContent = "frame " + frame + " (" + (st.index + 1) + " of " + S.frames.length + ")";
     views.forEach(function (v) {
-      v.fig.style.display = st.presets.indexOf(v.preset) >= 0 ? "" : "none";
+      var shown = st.presets.indexOf(v.preset) >= 0;
+      v.fig.style.display = shown ? "" : "none";
+      if (!shown) return;  // a hidden panel loads nothing
       v.img.src = src(v.preset, frame, st.layer);
       v.img.alt = v.preset + " frame " + frame + " " + st.layer;
     });

@@ -378,10 +378,33 @@ TEST(ReportBrowser, RealRunRendersInHeadlessChromiumWithPlotsAndImages) {
 }
 
 
+// A screenshot's pixels, 8 bits a channel.
+struct Screenshot {
+  int w = 0, h = 0, channels = 0;
+  std::vector<unsigned char> px;
+};
+
+// Takes a screenshot of `url` in Chromium with `flags`; fails the test (empty result) when it cannot.
+Screenshot Shoot(const std::string& chromium, const std::string& flags, const fs::path& profile, const fs::path& shot,
+                 const std::string& url) {
+  Screenshot s;
+  const auto r = restir::test::Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + profile.string() +
+                                     " --screenshot=" + shot.string() + " '" + url + "' 2>&1");
+  EXPECT_EQ(r.status, 0) << r.output;
+  auto in = OIIO::ImageInput::open(shot.string());
+  EXPECT_TRUE(in) << OIIO::geterror();
+  if (!in) return s;
+  s.w = in->spec().width, s.h = in->spec().height, s.channels = in->spec().nchannels;
+  s.px.resize(static_cast<size_t>(s.w) * s.h * s.channels);
+  EXPECT_TRUE(in->read_image(0, 0, 0, s.channels, OIIO::TypeDesc::UINT8, s.px.data()));
+  return s;
+}
+
 // An image found in a screenshot: the top-left corner where every pixel of `want` (w x h RGB) equals the
 // screenshot's, or (-1, -1).
-std::pair<int, int> Find(const std::vector<unsigned char>& shot, int sw, int sh, int sc,
-                         const std::vector<unsigned char>& want, int w, int h) {
+std::pair<int, int> Find(const Screenshot& s, const std::vector<unsigned char>& want, int w, int h) {
+  const std::vector<unsigned char>& shot = s.px;
+  const int sw = s.w, sh = s.h, sc = s.channels;
   auto same = [&](int ox, int oy, int x, int y) {
     for (int c = 0; c < 3; ++c)
       if (shot[(static_cast<size_t>(oy + y) * sw + ox + x) * sc + c] != want[(static_cast<size_t>(y) * w + x) * 3 + c])
@@ -430,23 +453,17 @@ TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEver
     SCOPED_TRACE(v.png);
     const fs::path shot = dir / ("scrub" + std::to_string(shots++) + ".png");
     const std::string link = url + "#frame=" + std::to_string(v.frame) + "&layer=" + v.layer + "&presets=" + v.preset;
-    r = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile").string() +
-              " --screenshot=" + shot.string() + " '" + link + "' 2>&1");
-    ASSERT_EQ(r.status, 0) << r.output;
-    auto in = OIIO::ImageInput::open(shot.string());
-    ASSERT_TRUE(in) << OIIO::geterror();
-    const int sw = in->spec().width, sh = in->spec().height, sc = in->spec().nchannels;
-    std::vector<unsigned char> px(static_cast<size_t>(sw) * sh * sc);
-    ASSERT_TRUE(in->read_image(0, 0, 0, sc, OIIO::TypeDesc::UINT8, px.data()));
+    const Screenshot px = Shoot(chromium, flags, dir / "profile", shot, link);
+    ASSERT_FALSE(px.px.empty());
     const std::vector<unsigned char> want = ReadScrubPng((out / v.png).string(), 64, 36);
-    const auto [x, y] = Find(px, sw, sh, sc, want, 64, 36);
+    const auto [x, y] = Find(px, want, 64, 36);
     ASSERT_GE(x, 0) << "the linked frame's PNG is not in the screenshot " << shot;
     std::string otherPng = v.png;
     const std::string from = "000" + std::to_string(v.frame), to = "000" + std::to_string(v.other);
     otherPng.replace(otherPng.find(from), from.size(), to);
     const std::vector<unsigned char> other = ReadScrubPng((out / otherPng).string(), 64, 36);
     ASSERT_NE(other, want) << "the test needs frames that differ";
-    EXPECT_EQ(Find(px, sw, sh, sc, other, 64, 36).first, -1) << otherPng << " is shown too";
+    EXPECT_EQ(Find(px, other, 64, 36).first, -1) << otherPng << " is shown too";
   }
 
   // Without JavaScript: the page a browser shows that runs no script (here: the report with its scripts taken out,
@@ -471,20 +488,13 @@ TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEver
   const nlohmann::json crop = nlohmann::json::parse(ReadText(out / "summary.json"))["crop"];
   ASSERT_TRUE(crop.is_object()) << "smoke reveals pixels: the report has a crop";
   {
-    const fs::path shot = dir / "nojs.png";
-    r = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile-nojs-shot").string() +
-              " --screenshot=" + shot.string() + " " + nojs + " 2>&1");
-    ASSERT_EQ(r.status, 0) << r.output;
-    auto in = OIIO::ImageInput::open(shot.string());
-    ASSERT_TRUE(in) << OIIO::geterror();
-    const int sw = in->spec().width, sh = in->spec().height, sc = in->spec().nchannels;
-    std::vector<unsigned char> px(static_cast<size_t>(sw) * sh * sc);
-    ASSERT_TRUE(in->read_image(0, 0, 0, sc, OIIO::TypeDesc::UINT8, px.data()));
+    const Screenshot px = Shoot(chromium, flags, dir / "profile-nojs-shot", dir / "nojs.png", nojs);
+    ASSERT_FALSE(px.px.empty());
     const int cw = crop["width"].get<int>() * crop["scale"].get<int>(), ch = crop["height"].get<int>() * crop["scale"].get<int>();
     char name[64];
     std::snprintf(name, sizeof(name), "report_images/crops/ris_%04d_estimate.png", crop["frames"][0].get<int>());
     const std::vector<unsigned char> want = ReadScrubPng((out / name).string(), cw, ch);
-    EXPECT_GE(Find(px, sw, sh, sc, want, cw, ch).first, 0) << name << " is not in the screenshot without scripts";
+    EXPECT_GE(Find(px, want, cw, ch).first, 0) << name << " is not in the screenshot without scripts";
   }
   // With it, the scrubber is shown with a panel per preset.
   const Result live = Shell("timeout 180 " + chromium + flags + " --user-data-dir=" + (dir / "profile-js").string() +
