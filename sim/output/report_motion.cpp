@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 
+#include <tbb/parallel_for.h>
+
 #include "sim/output/bitmap_font.h"
 #include "sim/output/png_encode.h"
 #include "sim/output/scrub_frames.h"
@@ -321,13 +323,13 @@ Videos WriteVideos(const MotionInputs& in) {
     return v;
   }
   fs::create_directories(dir);
-  for (const std::string& p : in.presets) {
-    const std::string relative = "videos/" + p + ".mp4";
-    WritePresetVideo(in, *ffmpeg, p, relative);
-    v.perPreset.emplace_back(p, relative);
-  }
+  for (const std::string& p : in.presets) v.perPreset.emplace_back(p, "videos/" + p + ".mp4");
   v.grid = "videos/all_presets.mp4";
-  WriteGridVideo(in, *ffmpeg, v.grid);
+  // Each video on a task of its own (ffmpeg runs one encoder thread a video): the same files in any order.
+  tbb::parallel_for(size_t{0}, v.perPreset.size() + 1, [&](size_t k) {
+    if (k < v.perPreset.size()) WritePresetVideo(in, *ffmpeg, v.perPreset[k].first, v.perPreset[k].second);
+    else WriteGridVideo(in, *ffmpeg, v.grid);
+  });
   return v;
 }
 

@@ -1,6 +1,7 @@
 #include "sim/output/video.h"
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -50,6 +51,32 @@ std::string ScratchPath(const std::string& suffix) {
                 suffix.c_str());
   return (fs::temp_directory_path() / name).string();
 }
+
+// ffmpeg ending early closes the pipe: a write to it raises SIGPIPE, which would end this process. Blocked in the
+// writing thread only (other threads write other videos at the same time), the signal stays pending and the write
+// fails with EPIPE; the pending signal is taken before the mask is restored.
+class SigpipeBlocked {
+ public:
+  SigpipeBlocked() {
+    sigemptyset(&pipe_);
+    sigaddset(&pipe_, SIGPIPE);
+    pthread_sigmask(SIG_BLOCK, &pipe_, &previous_);
+  }
+  ~SigpipeBlocked() {
+    sigset_t pending;
+    sigpending(&pending);
+    if (sigismember(&pending, SIGPIPE) && !sigismember(&previous_, SIGPIPE)) {
+      const timespec now{0, 0};
+      sigtimedwait(&pipe_, nullptr, &now);
+    }
+    pthread_sigmask(SIG_SETMASK, &previous_, nullptr);
+  }
+  SigpipeBlocked(const SigpipeBlocked&) = delete;
+  SigpipeBlocked& operator=(const SigpipeBlocked&) = delete;
+
+ private:
+  sigset_t pipe_, previous_;
+};
 
 }  // namespace
 
@@ -133,12 +160,11 @@ void VideoEncoder::AddFrame(const std::vector<unsigned char>& rgb) {
   if (!pipe_) throw std::runtime_error(path_ + ": ffmpeg has already failed");
   if (rgb.size() != static_cast<size_t>(width_) * height_ * 3)
     throw std::runtime_error(path_ + ": a frame of the wrong size");
-  // ffmpeg ending early closes the pipe: SIGPIPE is ignored for the write, which then fails with EPIPE.
-  struct sigaction ignore {}, previous{};
-  ignore.sa_handler = SIG_IGN;
-  ::sigaction(SIGPIPE, &ignore, &previous);
-  const size_t n = std::fwrite(rgb.data(), 1, rgb.size(), pipe_);
-  ::sigaction(SIGPIPE, &previous, nullptr);
+  size_t n = 0;
+  {
+    const SigpipeBlocked blocked;
+    n = std::fwrite(rgb.data(), 1, rgb.size(), pipe_);
+  }
   if (n != rgb.size()) {
     const std::string message = FfmpegMessage(log_);
     Stop();
@@ -148,11 +174,11 @@ void VideoEncoder::AddFrame(const std::vector<unsigned char>& rgb) {
 
 void VideoEncoder::Finish() {
   if (!pipe_ || pid_ <= 0) throw std::runtime_error(path_ + ": ffmpeg has already failed");
-  struct sigaction ignore {}, previous{};
-  ignore.sa_handler = SIG_IGN;
-  ::sigaction(SIGPIPE, &ignore, &previous);
-  const bool flushed = std::fclose(pipe_) == 0;
-  ::sigaction(SIGPIPE, &previous, nullptr);
+  bool flushed = false;
+  {
+    const SigpipeBlocked blocked;
+    flushed = std::fclose(pipe_) == 0;
+  }
   pipe_ = nullptr;
   int status = 0;
   while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
