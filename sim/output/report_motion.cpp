@@ -315,14 +315,12 @@ bool ScrubFramesPresent(const MotionInputs& in) {
 
 Videos WriteVideos(const MotionInputs& in) {
   Videos v;
-  const fs::path dir = fs::path(in.outDir) / "videos";
   const std::optional<std::string> ffmpeg = FindFfmpeg();
   if (!ffmpeg) {
     v.note = "no videos: ffmpeg is not installed (scripts/setup.sh installs Debian's ffmpeg)";
     std::fprintf(stderr, "restir-sim: %s\n", v.note.c_str());
     return v;
   }
-  fs::create_directories(dir);
   for (const std::string& p : in.presets) v.perPreset.emplace_back(p, "videos/" + p + ".mp4");
   v.grid = "videos/all_presets.mp4";
   // Each video on a task of its own (ffmpeg runs one encoder thread a video): the same files in any order.
@@ -377,8 +375,7 @@ Crops WriteCrops(const MotionInputs& in) {
   }
   for (int d : {0, 2, 6})
     if (std::binary_search(in.frames.begin(), in.frames.end(), reveal + d)) c.frames.push_back(reveal + d);
-  const std::string dir = "report_images/crops/";
-  fs::create_directories(fs::path(in.outDir) / dir);
+  const std::string dir = "report_images/crops/";  // WriteFileAtomic makes it
   auto write = [&](const std::string& source, const std::string& name) {
     const std::string relative = dir + name + ".png";
     WriteFileAtomic(Path(in, relative), EncodeRgbPng(CropScaled(Read(in, source), w, c), c.width * c.scale,

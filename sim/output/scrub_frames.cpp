@@ -23,10 +23,9 @@ std::string Number(int frame) {
   return buf;
 }
 
+// WriteFileAtomic makes the directories, and names the file when it cannot (exit status 2, not a crash).
 void Write(const std::string& outDir, const std::string& relative, const std::string& png) {
-  const std::filesystem::path path = std::filesystem::path(outDir) / relative;
-  std::filesystem::create_directories(path.parent_path());
-  WriteFileAtomic(path.string(), png);
+  WriteFileAtomic((std::filesystem::path(outDir) / relative).string(), png);
 }
 
 }  // namespace

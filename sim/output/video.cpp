@@ -101,7 +101,8 @@ VideoEncoder::VideoEncoder(const std::string& ffmpeg, const std::string& path, i
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(std::string("cannot start ffmpeg: ") + std::strerror(errno));
+  if (::pipe2(fds, O_CLOEXEC) != 0)
+    throw OutputError(path + ": error: cannot write (cannot start ffmpeg: " + std::strerror(errno) + ")");
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);
@@ -113,13 +114,13 @@ VideoEncoder::VideoEncoder(const std::string& ffmpeg, const std::string& path, i
   if (rc != 0) {
     ::close(fds[1]);
     pid_ = -1;
-    throw std::runtime_error("cannot start " + ffmpeg + ": " + std::strerror(rc));
+    throw OutputError(path + ": error: cannot write (cannot start " + ffmpeg + ": " + std::strerror(rc) + ")");
   }
   pipe_ = ::fdopen(fds[1], "wb");
   if (!pipe_) {
     ::close(fds[1]);
     Stop();
-    throw std::runtime_error("cannot write to ffmpeg");
+    throw OutputError(path + ": error: cannot write (no pipe to ffmpeg)");
   }
 }
 
@@ -168,7 +169,7 @@ void VideoEncoder::AddFrame(const std::vector<unsigned char>& rgb) {
   if (n != rgb.size()) {
     const std::string message = FfmpegMessage(log_);
     Stop();
-    throw std::runtime_error(path_ + ": ffmpeg stopped reading frames (" + message + ")");
+    throw OutputError(path_ + ": error: cannot write (ffmpeg stopped reading frames: " + message + ")");
   }
 }
 
@@ -190,14 +191,14 @@ void VideoEncoder::Finish() {
     const std::string message = FfmpegMessage(log_);
     fs::remove(temporary_, ec);
     fs::remove(log_, ec);
-    throw std::runtime_error(path_ + ": ffmpeg failed (" + message + ")");
+    throw OutputError(path_ + ": error: cannot write (ffmpeg failed: " + message + ")");
   }
   fs::remove(log_, ec);
   std::string bytes, problem;
   const bool read = TryReadRegularFile(temporary_, size_t(1) << 34, bytes, problem);
   fs::remove(temporary_, ec);
   finished_ = true;
-  if (!read) throw std::runtime_error(path_ + ": cannot read what ffmpeg wrote (" + problem + ")");
+  if (!read) throw OutputError(path_ + ": error: cannot write (cannot read what ffmpeg wrote: " + problem + ")");
   WriteFileAtomic(path_, bytes);
 }
 

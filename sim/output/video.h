@@ -26,9 +26,9 @@ class VideoEncoder {
   VideoEncoder(const VideoEncoder&) = delete;
   VideoEncoder& operator=(const VideoEncoder&) = delete;
 
-  // Throws std::runtime_error when ffmpeg has gone (its message included).
+  // Throws OutputError (exit status 2, naming the video) when ffmpeg has gone, its message included.
   void AddFrame(const std::vector<unsigned char>& rgb);
-  // Waits for ffmpeg; throws std::runtime_error with its message when it failed.
+  // Waits for ffmpeg; throws OutputError naming the video with ffmpeg's message when it failed.
   void Finish();
 
  private:
