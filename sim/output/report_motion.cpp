@@ -345,14 +345,15 @@ Crops WriteCrops(const MotionInputs& in) {
   // The bounding box, grown to at least 1/8 of the frame each way (a few pixels alone say nothing) and, where it
   // is more than a quarter of the frame, the densest quarter of it: the enlargement exists to show what a thumbnail
   // cannot.
-  const int minW = std::max(1, std::min(w, std::max(8, w / 8))), minH = std::max(1, std::min(h, std::max(8, h / 8)));
-  const int maxW = std::max(minW, w / 4), maxH = std::max(minH, h / 4);
+  // At most 215 x 160 pixels, so that even a 1080p run's crop is shown at least twice its size.
+  const int maxW = std::min(w, std::max(8, std::min(w / 4, 215))), maxH = std::min(h, std::max(8, std::min(h / 4, 160)));
+  const int minW = std::min(maxW, std::max(8, w / 8)), minH = std::min(maxH, std::max(8, h / 8));
   c.width = std::clamp(x1 - x0, minW, maxW);
   c.height = std::clamp(y1 - y0, minH, maxH);
   if (x1 - x0 > c.width || y1 - y0 > c.height) {
     DensestWindow(count, w, x0, y0, x1, y1, std::min(c.width, x1 - x0), std::min(c.height, y1 - y0), c.x, c.y);
-    c.rule = "the densest window of a quarter of the frame's width and height inside the bounding box of the "
-             "pixels revealed in the post-reveal frames";
+    c.rule = "the densest window of a quarter of the frame's width and height (at most 215 x 160 pixels) inside the "
+             "bounding box of the pixels revealed in the post-reveal frames";
   } else {
     c.x = (x0 + x1) / 2 - c.width / 2;
     c.y = (y0 + y1) / 2 - c.height / 2;

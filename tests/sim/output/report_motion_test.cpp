@@ -93,6 +93,16 @@ TEST(Crops, ALargeRevealShowsItsDensestQuarterAndNoRevealShowsNone) {
   EXPECT_TRUE(Contains(c, blob)) << c.x << "," << c.y << " " << c.width << "x" << c.height;
   EXPECT_EQ(c.frames.front(), 1);
 
+  // A wide frame's crop stays small enough to be shown enlarged: at most 215 x 160, at least twice its size.
+  const Rect far{900, 500, 905, 505};
+  const MotionInputs wide = FakeRun("restir-crop-wide", 1000, 600, 5, {{}, {{0, 0, 1000, 600}, far}, {far}});
+  const Crops cw = WriteCrops(wide);
+  ASSERT_TRUE(cw.present);
+  EXPECT_EQ(cw.width, 215);
+  EXPECT_EQ(cw.height, 150);  // a quarter of 600
+  EXPECT_EQ(cw.scale, 2);
+  EXPECT_TRUE(Contains(cw, far)) << cw.x << "," << cw.y;
+
   const MotionInputs none = FakeRun("restir-crop-none", 16, 16, 3, {});
   EXPECT_FALSE(WriteCrops(none).present);
   std::ostringstream html;
