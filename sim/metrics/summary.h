@@ -26,11 +26,11 @@ double PostRevealMean(const std::vector<double>& values, const std::vector<doubl
 // positive.
 double Efficiency(double meanRelmse, double meanMsFrame);
 
-// Σ luma_sum / Σ reference_luma_sum over the frames (the accumulated luma ratio); NaN without reference light.
 // The Pareto front of points (cost[i], error[i]), lower better in both: 1 where no other point is at most as costly
 // and as wrong and better in one. Non-finite points are never on it and dominate nothing.
 std::vector<uint8_t> ParetoFront(const std::vector<double>& cost, const std::vector<double>& error);
 
+// Σ luma_sum / Σ reference_luma_sum over the frames (the accumulated luma ratio); NaN without reference light.
 double AccumulatedLumaRatio(const std::vector<double>& lumaSums, const std::vector<double>& referenceLumaSums);
 
 // Frames are correlated (temporal reuse carries error from frame to frame), so the spread of a run's frames is read

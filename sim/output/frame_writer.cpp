@@ -199,6 +199,12 @@ void WriteFrameExr(const std::string& path, const FrameLayers& layers, ExrCompre
   WriteFileAtomic(path, stream.Bytes());
 }
 
+std::string FrameNumber(int frame) {
+  char buf[16];
+  std::snprintf(buf, sizeof(buf), "%04d", frame);
+  return buf;
+}
+
 std::string EncodePng(const std::vector<unsigned char>& rgb, int w, int h, bool srgb) {
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);

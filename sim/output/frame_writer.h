@@ -39,6 +39,9 @@ enum class ExrCompression : uint8_t {
 const char* ExrCompressionName(ExrCompression c);  // none, rle, zip
 std::optional<ExrCompression> ParseExrCompression(const std::string& name);
 
+// A frame's number as every per-frame file names it: four digits at least, "0007".
+std::string FrameNumber(int frame);
+
 void WriteFrameExr(const std::string& path, const FrameLayers& layers,
                    ExrCompression compression = ExrCompression::kNone);
 

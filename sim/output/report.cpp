@@ -116,12 +116,6 @@ std::string UrlPath(const std::string& s) {
   return o;
 }
 
-std::string FrameName(int frame) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%04d", frame);
-  return buf;
-}
-
 // Everything summary.json and the summary table say about one preset.
 struct PresetSummary {
   std::string name;
@@ -491,7 +485,7 @@ void CheckFrameExr(const std::string& path, const OIIO::ImageSpec& spec, const F
 FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, int frame,
                          const FrameExpectation& expect) {
   FrameMaps maps;
-  const std::string exr = (fs::path(outDir) / "frames" / preset / (FrameName(frame) + ".exr")).string();
+  const std::string exr = (fs::path(outDir) / "frames" / preset / (FrameNumber(frame) + ".exr")).string();
   if (!FrameFileUsable(exr)) return maps;
   OIIO::ImageSpec spec;
   const std::vector<float> px = ReadWholeImage(exr, spec);
@@ -505,7 +499,7 @@ FrameMaps WriteFrameMaps(const std::string& outDir, const std::string& preset, i
   const int er[3] = {channel("error.R"), channel("error.G"), channel("error.B")};
   const int rr[3] = {channel("reference.R"), channel("reference.G"), channel("reference.B")};
   const int fl = channel("flip.Y");
-  const std::string rel = "report_images/" + preset + "/" + FrameName(frame);
+  const std::string rel = "report_images/" + preset + "/" + FrameNumber(frame);
   const size_t n = static_cast<size_t>(w) * h;
   std::vector<double> v(n);
   if (er[0] >= 0 && er[1] >= 0 && er[2] >= 0 && rr[0] >= 0 && rr[1] >= 0 && rr[2] >= 0) {
@@ -810,7 +804,7 @@ void HtmlImageStrip(std::ostream& o, const MetricsTable& t, int frame, const std
        "<th>error</th><th>FLIP</th></tr>\n";
   for (const PresetSeries& p : t.presets) {
     if (std::find(p.frames.begin(), p.frames.end(), frame) == p.frames.end()) continue;
-    const std::string preview = "frames/" + p.name + "/" + FrameName(frame) + ".png";
+    const std::string preview = "frames/" + p.name + "/" + FrameNumber(frame) + ".png";
     const std::string previewPath = (fs::path(outDir) / preview).string();
     const bool hasPreview = FrameFileUsable(previewPath);
     if (hasPreview) CheckPngStructure(previewPath, expect);

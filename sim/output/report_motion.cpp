@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include "sim/output/bitmap_font.h"
+#include "sim/output/frame_writer.h"
 #include "sim/output/png_encode.h"
 #include "sim/output/scrub_frames.h"
 #include "sim/output/video.h"
@@ -107,13 +108,22 @@ void WriteGridVideo(const MotionInputs& in, const std::string& ffmpeg, const std
 
 // ---- crops ----
 
-// Per pixel, how many of the post-reveal frames' masks mark it revealed (recently or now).
-std::vector<int> RevealCounts(const MotionInputs& in) {
-  std::vector<int> count(static_cast<size_t>(in.width) * in.height, 0);
+// The post-reveal frames' disocclusion masks, one byte a pixel, read once for both uses below.
+std::vector<std::vector<unsigned char>> RevealMasks(const MotionInputs& in) {
+  std::vector<std::vector<unsigned char>> masks;
   for (int frame : in.postRevealFrames) {
-    const std::vector<unsigned char> mask = Read(in, ScrubDisocclusionPath(frame));
-    for (size_t i = 0; i < count.size(); ++i) count[i] += mask[3 * i] >= kScrubRevealedRecently;
+    const std::vector<unsigned char> rgb = Read(in, ScrubDisocclusionPath(frame));
+    std::vector<unsigned char>& mask = masks.emplace_back(rgb.size() / 3);
+    for (size_t i = 0; i < mask.size(); ++i) mask[i] = rgb[3 * i];
   }
+  return masks;
+}
+
+// Per pixel, how many of the masks mark it revealed (recently or now).
+std::vector<int> RevealCounts(const std::vector<std::vector<unsigned char>>& masks, size_t pixels) {
+  std::vector<int> count(pixels, 0);
+  for (const std::vector<unsigned char>& mask : masks)
+    for (size_t i = 0; i < pixels; ++i) count[i] += mask[i] >= kScrubRevealedRecently;
   return count;
 }
 
@@ -147,13 +157,6 @@ std::vector<unsigned char> CropScaled(const std::vector<unsigned char>& rgb, int
     }
   return out;
 }
-
-std::string Frame4(int frame) {
-  char buf[16];
-  std::snprintf(buf, sizeof(buf), "%04d", frame);
-  return buf;
-}
-
 
 // The scrubber's script: state in the address's fragment (#frame=F&layer=L&presets=a,b&zoom=Z&x=X&y=Y), so a link
 // shows a frame; every panel shares one view (zoom about the pointer with the wheel, pan by dragging).
@@ -335,7 +338,8 @@ Crops WriteCrops(const MotionInputs& in) {
   Crops c;
   if (in.postRevealFrames.empty()) return c;
   const int w = in.width, h = in.height;
-  const std::vector<int> count = RevealCounts(in);
+  const std::vector<std::vector<unsigned char>> masks = RevealMasks(in);
+  const std::vector<int> count = RevealCounts(masks, static_cast<size_t>(w) * h);
   int x0 = w, y0 = h, x1 = 0, y1 = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
@@ -343,9 +347,8 @@ Crops WriteCrops(const MotionInputs& in) {
                                         y1 = std::max(y1, y + 1);
   if (x1 <= x0) return c;
   // The bounding box, grown to at least 1/8 of the frame each way (a few pixels alone say nothing) and, where it
-  // is more than a quarter of the frame, the densest quarter of it: the enlargement exists to show what a thumbnail
-  // cannot.
-  // At most 215 x 160 pixels, so that even a 1080p run's crop is shown at least twice its size.
+  // is more than a quarter of the frame (or 215 x 160 pixels, so that even a 1080p run's crop is shown at least twice
+  // its size), the densest window of that size in it: the enlargement exists to show what a thumbnail cannot.
   const int maxW = std::min(w, std::max(8, std::min(w / 4, 215))), maxH = std::min(h, std::max(8, std::min(h / 4, 160)));
   const int minW = std::min(maxW, std::max(8, w / 8)), minH = std::min(maxH, std::max(8, h / 8));
   c.width = std::clamp(x1 - x0, minW, maxW);
@@ -367,12 +370,11 @@ Crops WriteCrops(const MotionInputs& in) {
   // 2 and 6 frames later (those that exist), to show the recovery.
   int best = -1;
   int reveal = in.postRevealFrames.front();
-  for (int frame : in.postRevealFrames) {
-    const std::vector<unsigned char> mask = Read(in, ScrubDisocclusionPath(frame));
+  for (size_t k = 0; k < masks.size(); ++k) {
     int n = 0;
     for (int y = c.y; y < c.y + c.height; ++y)
-      for (int x = c.x; x < c.x + c.width; ++x) n += mask[3 * (y * size_t(w) + x)] == kScrubDisoccludedNow;
-    if (n > best) best = n, reveal = frame;
+      for (int x = c.x; x < c.x + c.width; ++x) n += masks[k][y * size_t(w) + x] == kScrubDisoccludedNow;
+    if (n > best) best = n, reveal = in.postRevealFrames[k];
   }
   for (int d : {0, 2, 6})
     if (std::binary_search(in.frames.begin(), in.frames.end(), reveal + d)) c.frames.push_back(reveal + d);
@@ -385,14 +387,14 @@ Crops WriteCrops(const MotionInputs& in) {
   };
   if (in.hasReference) {
     std::vector<std::string> row;
-    for (int f : c.frames) row.push_back(write(ScrubReferencePath(f), "reference_" + Frame4(f)));
+    for (int f : c.frames) row.push_back(write(ScrubReferencePath(f), "reference_" + FrameNumber(f)));
     c.rows.emplace_back("reference", row);
   }
   for (const std::string& p : in.presets) {
     std::vector<std::string> est, err;
     for (int f : c.frames) {
-      est.push_back(write(ScrubPresetPath(p, f, ScrubLayer::kEstimate), p + "_" + Frame4(f) + "_estimate"));
-      if (in.hasReference) err.push_back(write(ScrubPresetPath(p, f, ScrubLayer::kError), p + "_" + Frame4(f) + "_error"));
+      est.push_back(write(ScrubPresetPath(p, f, ScrubLayer::kEstimate), p + "_" + FrameNumber(f) + "_estimate"));
+      if (in.hasReference) err.push_back(write(ScrubPresetPath(p, f, ScrubLayer::kError), p + "_" + FrameNumber(f) + "_error"));
     }
     c.rows.emplace_back(p, est);
     if (in.hasReference) c.rows.emplace_back(p + " error", err);

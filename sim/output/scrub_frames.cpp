@@ -2,7 +2,6 @@
 
 #include <OpenImageIO/imageio.h>
 
-#include <cstdio>
 #include <filesystem>
 
 #include "sim/output/frame_writer.h"
@@ -16,12 +15,6 @@
 namespace restir {
 
 namespace {
-
-std::string Number(int frame) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%04d", frame);
-  return buf;
-}
 
 // WriteFileAtomic makes the directories, and names the file when it cannot (exit status 2, not a crash).
 void Write(const std::string& outDir, const std::string& relative, const std::string& png) {
@@ -39,10 +32,10 @@ const char* ScrubLayerName(ScrubLayer layer) {
   return "?";
 }
 
-std::string ScrubReferencePath(int frame) { return "scrub/reference/" + Number(frame) + ".png"; }
-std::string ScrubDisocclusionPath(int frame) { return "scrub/disocclusion/" + Number(frame) + ".png"; }
+std::string ScrubReferencePath(int frame) { return "scrub/reference/" + FrameNumber(frame) + ".png"; }
+std::string ScrubDisocclusionPath(int frame) { return "scrub/disocclusion/" + FrameNumber(frame) + ".png"; }
 std::string ScrubPresetPath(const std::string& preset, int frame, ScrubLayer layer) {
-  return "scrub/presets/" + preset + "/" + Number(frame) + "_" + ScrubLayerName(layer) + ".png";
+  return "scrub/presets/" + preset + "/" + FrameNumber(frame) + "_" + ScrubLayerName(layer) + ".png";
 }
 
 std::vector<std::string> WriteScrubFrame(const std::string& outDir, int frame, int width, int height,

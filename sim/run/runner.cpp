@@ -31,7 +31,6 @@
 #include "sim/estimator/pipeline.h"
 #include "sim/estimator/presets.h"
 #include "sim/run/progress.h"
-#include "sim/output/report.h"
 #include "sim/output/scrub_frames.h"
 #include "sim/run/run_stages.h"
 #include "sim/reference/reference.h"
@@ -343,8 +342,7 @@ void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetF
 // One preset's frame files (its EXR and preview when the frame has them) and its scrub PNGs, handed to the
 // background writer.
 void SubmitPresetFiles(RunContext& run, const RunFrame& f, const std::string& preset, PresetFrame& pf) {
-  char name[32];
-  std::snprintf(name, sizeof(name), "%04d", f.frame);
+  const std::string name = FrameNumber(f.frame);
   const auto stem = std::filesystem::path(run.opt.outDir) / "frames" / preset / name;
   if (run.state.scrubExposure <= 0.0f) run.state.scrubExposure = PreviewExposure(pf.fr.image);  // no reference
   // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as MeasurePresets

@@ -30,6 +30,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Headless Chromium from disk, with nothing of its own reaching the network.
+const std::string kChromiumFlags =
+    " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
+    "--disable-component-update --disable-sync";
+
 fs::path FreshDir(const std::string& name) {
   const fs::path dir = fs::path(::testing::TempDir()) / (name + "-" + std::to_string(::getpid()));
   fs::remove_all(dir);
@@ -317,9 +322,7 @@ TEST(ReportBrowser, RealRunRendersInHeadlessChromiumWithPlotsAndImages) {
   ASSERT_EQ(r.status, 0) << r.output;
   for (const auto& [path, bytes] : images) EXPECT_EQ(ReadText(path), bytes) << path;
 
-  const std::string flags =
-      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
-      "--disable-component-update --disable-sync --window-size=1280,2000";
+  const std::string flags = kChromiumFlags + " --window-size=1280,2000";
   const std::string url = "file://" + fs::absolute(out / "report.html").string();
   const fs::path shot = dir / "screenshot.png";
   const auto t0 = std::chrono::steady_clock::now();
@@ -435,10 +438,10 @@ TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEver
                                  "--reference-spp 32 --no-progress --cache-dir " +
                    (dir / "cache").string() + " --out " + out.string() + " 2>&1");
   ASSERT_EQ(r.status, 0) << r.output;
-  const std::string flags =
-      " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --disable-background-networking "
-      "--disable-component-update --disable-sync --force-color-profile=srgb --force-device-scale-factor=1 "
-      "--hide-scrollbars --virtual-time-budget=4000 --window-size=1280,4000";
+  // Pixels as the PNGs hold them (sRGB, one device pixel a CSS pixel), the images loaded before the shot.
+  const std::string flags = kChromiumFlags +
+                            " --force-color-profile=srgb --force-device-scale-factor=1 --hide-scrollbars "
+                            "--virtual-time-budget=4000 --window-size=1280,4000";
   const std::string url = "file://" + fs::absolute(out / "report.html").string();
   struct View {
     int frame;
