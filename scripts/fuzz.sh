@@ -24,17 +24,18 @@ cmake --build --preset fuzz
 export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
-# fuzz TARGET SECONDS MAX_LEN SEEDS... [-- EXTRA LIBFUZZER FLAGS]
+# fuzz TARGET SECONDS MAX_LEN TIMEOUT SEEDS... [-- EXTRA LIBFUZZER FLAGS]
+# TIMEOUT is libFuzzer's per-input limit in seconds: a hang is a finding.
 fuzz() {
-  local target=$1 secs=$2 maxlen=$3
-  shift 3
+  local target=$1 secs=$2 maxlen=$3 timeout=$4
+  shift 4
   local seeds=() extra=()
   while [ $# -gt 0 ] && [ "$1" != "--" ]; do seeds+=("$1"); shift; done
   [ $# -gt 0 ] && shift && extra=("$@")
   local work=build/fuzz/corpus/$target artifacts=build/fuzz/artifacts/$target
   mkdir -p "$work" "$artifacts"
   local status=0
-  build/fuzz/"$target" "$work" "${seeds[@]}" "${extra[@]}" -max_total_time="$secs" -max_len="$maxlen" -timeout=10 \
+  build/fuzz/"$target" "$work" "${seeds[@]}" "${extra[@]}" -max_total_time="$secs" -max_len="$maxlen" -timeout="$timeout" \
     -rss_limit_mb=2048 -malloc_limit_mb=1024 -artifact_prefix="$artifacts/" -print_final_stats=1 || status=$?
   if [ "$status" -ne 0 ]; then
     echo "fuzz: $target FAILED (exit $status); reproduce with: build/fuzz/$target $artifacts/<file>" >&2
@@ -44,9 +45,13 @@ fuzz() {
   echo "fuzz: $target: no findings in ${secs} s"
 }
 
-fuzz sequence_fuzz "$seconds" 8192 sequences tests/data/bad_sequences -- -dict=tests/fuzz/sequence.dict
-fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 tests/fuzz/cache_seeds
-fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 tests/fuzz/metrics_seeds
-fuzz relative_error_fuzz $(( (seconds + 3) / 4 )) 256 tests/fuzz/relative_error_seeds
-fuzz asset_fuzz $(( (seconds + 3) / 4 )) 16384 tests/fuzz/asset_seeds -- -dict=tests/fuzz/asset.dict
-fuzz gltf_fuzz $(( (seconds + 3) / 4 )) 16384 tests/fuzz/gltf_seeds -- -dict=tests/fuzz/asset.dict
+# The sequence parser imports every asset a sequence names, each in a forked importer and its textures in a forked
+# decoder (sim/assets/asset_import.h): sequences/asset_table.json's five assets take 3-6 s per input under ASan on
+# an idle 2-core machine, more as the fuzzer's memory grows (a fork copies its page tables), so 10 s reported a
+# slow input as a hang (CI, stop 52). 30 s still reports a hang (of the importer's child too: its own limit is 60 s).
+fuzz sequence_fuzz "$seconds" 8192 30 sequences tests/data/bad_sequences -- -dict=tests/fuzz/sequence.dict
+fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 10 tests/fuzz/cache_seeds
+fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 10 tests/fuzz/metrics_seeds
+fuzz relative_error_fuzz $(( (seconds + 3) / 4 )) 256 10 tests/fuzz/relative_error_seeds
+fuzz asset_fuzz $(( (seconds + 3) / 4 )) 16384 10 tests/fuzz/asset_seeds -- -dict=tests/fuzz/asset.dict
+fuzz gltf_fuzz $(( (seconds + 3) / 4 )) 16384 10 tests/fuzz/gltf_seeds -- -dict=tests/fuzz/asset.dict

@@ -574,18 +574,27 @@ bool IsSupportedAssetExtension(const std::string& e) {
 }
 
 void DecodeAssetTextures(ImportedAsset& asset) {
-  asset.textures.clear();
+  std::vector<EncodedImage> encoded;
   for (const EncodedTexture& e : asset.encodedTextures) {
     if (e.rawWidth <= 0) {
-      asset.textures.push_back(DecodeTexture(e.bytes, e.name));
+      encoded.push_back(EncodedImage{&e.bytes, e.name});
+      continue;
+    }
+    if (e.rawWidth > 16384 || e.rawHeight <= 0 || e.rawHeight > 16384 ||
+        e.bytes.size() != size_t(e.rawWidth) * size_t(e.rawHeight) * 4)
+      throw InputError(OneLine(e.name + ": error: the embedded texture's size does not match its texels"));
+  }
+  std::vector<Texture> decoded = DecodeTextures(encoded);
+  asset.textures.clear();
+  size_t next = 0;
+  for (const EncodedTexture& e : asset.encodedTextures) {
+    if (e.rawWidth <= 0) {
+      asset.textures.push_back(std::move(decoded[next++]));
       asset.textures.back().wrapU = e.wrapU;
       asset.textures.back().wrapV = e.wrapV;
       continue;
     }
-    // Raw BGRA8 texels, sRGB-encoded like every 8-bit colour texture.
-    if (e.rawWidth > 16384 || e.rawHeight <= 0 || e.rawHeight > 16384 ||
-        e.bytes.size() != size_t(e.rawWidth) * size_t(e.rawHeight) * 4)
-      throw InputError(OneLine(e.name + ": error: the embedded texture's size does not match its texels"));
+    // Raw BGRA8 texels (their size checked above), sRGB-encoded like every 8-bit colour texture.
     Texture t;
     t.name = e.name;
     t.width = e.rawWidth;

@@ -5,8 +5,8 @@
 //
 // Assimp runs in a child process (ImportAsset): a file that crashes or hangs it, or asks for more memory than a
 // scene can have, becomes one InputError naming the file, never a crash of the simulator. The child only parses;
-// textures come back as the file holds them and are decoded by OpenImageIO, each in a child of its own
-// (sim/assets/texture.h DecodeTexture), so that a texture that crashes its decoder is one InputError too.
+// textures come back as the file holds them and are decoded by OpenImageIO, all of an asset's in one child of their
+// own (sim/assets/texture.h DecodeTextures), so that a texture that crashes its decoder is one InputError too.
 #pragma once
 
 #include <cstdint>
@@ -83,7 +83,7 @@ ImportedAsset ImportAssetInProcess(const std::string& path, const AssetLimits& l
 // The child's half: Assimp's parse and the conversion, textures left encoded. Throws InputError.
 ImportedAsset ImportAssetGeometry(const std::string& path, const AssetLimits& limits);
 
-// Decodes encodedTextures into textures (sim/assets/texture.h DecodeTexture); throws InputError naming the texture.
+// Decodes encodedTextures into textures (sim/assets/texture.h DecodeTextures); throws InputError naming the texture.
 void DecodeAssetTextures(ImportedAsset& asset);
 
 // The bytes the child sends the parent, and back; DeserializeAsset throws InputError naming `path` on any

@@ -1,7 +1,7 @@
 // ImportAsset: the importer in a child process (sim/util/isolation.h). Assimp 5.2 is a large C++ parser fed third-party
 // files; the child imports and serialises the result (sim/assets/asset_bytes.cpp), the parent validates what it
-// gets. The textures come back as the file holds them and are decoded each in a child of its own
-// (sim/assets/texture.h).
+// gets. The textures come back as the file holds them and are decoded together in one child of their own
+// (sim/assets/texture.h DecodeTextures).
 #include "sim/assets/asset_import.h"
 #include "sim/util/isolation.h"
 #include "sim/util/input_error.h"

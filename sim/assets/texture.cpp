@@ -219,28 +219,35 @@ class ExrPoolPaused {
 };
 
 // The decoded image as the child sends it: width and height (int32), then the texels' floats.
-std::string SerializeDecoded(const Texture& t) {
+void AppendDecoded(const Texture& t, std::string& out) {
   const int32_t size[2] = {t.width, t.height};
-  std::string out(reinterpret_cast<const char*>(size), sizeof(size));
+  out.append(reinterpret_cast<const char*>(size), sizeof(size));
   out.append(reinterpret_cast<const char*>(t.rgb.data()), t.rgb.size() * sizeof(float));
-  return out;
 }
 
-// The parent's reading of SerializeDecoded: false where the bytes do not hold a whole image within the limits.
-bool DeserializeDecoded(const std::string& bytes, Texture& t) {
+// The parent's reading of one AppendDecoded from `bytes` at `at`, which it advances: false where the bytes do not
+// hold a whole image within the limits.
+bool ReadDecoded(const std::string& bytes, size_t& at, Texture& t) {
   int32_t size[2];
-  if (bytes.size() < sizeof(size)) return false;
-  std::memcpy(size, bytes.data(), sizeof(size));
+  if (bytes.size() - at < sizeof(size)) return false;
+  std::memcpy(size, bytes.data() + at, sizeof(size));
   if (size[0] <= 0 || size[1] <= 0 || size[0] > kMaxTextureSide || size[1] > kMaxTextureSide ||
       int64_t(size[0]) * size[1] > kMaxTextureTexels)
     return false;
   const size_t floats = size_t(size[0]) * size_t(size[1]) * 3;
-  if (bytes.size() != sizeof(size) + floats * sizeof(float)) return false;
+  if (bytes.size() - at - sizeof(size) < floats * sizeof(float)) return false;
   t.width = size[0];
   t.height = size[1];
   t.rgb.resize(floats);
-  std::memcpy(t.rgb.data(), bytes.data() + sizeof(size), floats * sizeof(float));
+  std::memcpy(t.rgb.data(), bytes.data() + at + sizeof(size), floats * sizeof(float));
+  at += sizeof(size) + floats * sizeof(float);
   return true;
+}
+
+// Decoded textures hold no negative or non-finite texel (HDR files may hold NaN or negative ones).
+void ClampTexels(Texture& t) {
+  for (float& v : t.rgb)
+    if (!std::isfinite(v) || v < 0.0f) v = 0.0f;
 }
 
 }  // namespace
@@ -250,7 +257,8 @@ bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Tex
   const auto work = [&](std::string& out) {
     Texture decoded;
     if (!DecodeLinearImageHere(bytes, name, decoded, out)) return false;
-    out = SerializeDecoded(decoded);
+    out.clear();
+    AppendDecoded(decoded, out);
     return true;
   };
   IsolatedResult r;
@@ -263,7 +271,8 @@ bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Tex
     return false;
   }
   t.name = name;
-  if (!DeserializeDecoded(r.bytes, t)) {
+  size_t at = 0;
+  if (!ReadDecoded(r.bytes, at, t) || at != r.bytes.size()) {
     t = Texture{};
     problem = "the image decoder sent a damaged result";
     return false;
@@ -275,9 +284,52 @@ Texture DecodeTexture(const std::string& bytes, const std::string& name) {
   Texture t;
   std::string problem;
   if (!TryDecodeLinearImage(bytes, name, t, problem)) throw InputError(OneLine(name + ": error: " + problem));
-  for (float& v : t.rgb)
-    if (!std::isfinite(v) || v < 0.0f) v = 0.0f;  // HDR files may hold NaN or negative texels
+  ClampTexels(t);
   return t;
+}
+
+std::vector<Texture> DecodeTextures(const std::vector<EncodedImage>& images) {
+  if (images.size() <= 1) {
+    std::vector<Texture> one;
+    for (const EncodedImage& image : images) one.push_back(DecodeTexture(*image.bytes, image.name));
+    return one;
+  }
+  // One child for all of them: a fork costs more than decoding a small texture (most of an asset's), and an
+  // asset may hold dozens.
+  const auto work = [&](std::string& out) {
+    std::string all;
+    for (const EncodedImage& image : images) {
+      Texture decoded;
+      std::string problem;
+      if (!DecodeLinearImageHere(*image.bytes, image.name, decoded, problem)) {
+        out = OneLine(image.name + ": error: " + problem);
+        return false;
+      }
+      AppendDecoded(decoded, all);
+    }
+    out = std::move(all);
+    return true;
+  };
+  IsolatedResult r;
+  {
+    const ExrPoolPaused paused;
+    r = RunIsolated(work, IsolatedTool{"the image decoder", "OpenImageIO"}, IsolationLimits{});
+  }
+  if (r.status == IsolatedResult::Status::kRefused) throw InputError(r.bytes);  // names the image
+  std::vector<Texture> textures(images.size());
+  size_t at = 0;
+  bool whole = r.status == IsolatedResult::Status::kDone;
+  for (size_t i = 0; whole && i < images.size(); ++i) {
+    whole = ReadDecoded(r.bytes, at, textures[i]);
+    textures[i].name = images[i].name;
+    ClampTexels(textures[i]);
+  }
+  if (whole && at == r.bytes.size()) return textures;
+  // The child crashed, hung, ran out of memory (it held them all) or sent less than it should: one child per
+  // image, as DecodeTexture, names the one that fails alone, or decodes them all.
+  textures.clear();
+  for (const EncodedImage& image : images) textures.push_back(DecodeTexture(*image.bytes, image.name));
+  return textures;
 }
 
 }  // namespace restir

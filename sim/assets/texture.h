@@ -53,4 +53,14 @@ float SrgbToLinear(float encoded);
 // decoder runs in a forked child (sim/util/isolation.h): bytes that crash or hang it are such an InputError too.
 Texture DecodeTexture(const std::string& bytes, const std::string& name);
 
+// An encoded image and its name, for DecodeTextures.
+struct EncodedImage {
+  const std::string* bytes;  // the file's bytes, alive for the call
+  std::string name;          // as DecodeTexture's `name`
+};
+
+// DecodeTexture of each, in one child process for all (a fork costs more than a small texture's decoding): the
+// same textures, and on failure the same InputError naming the first image that fails alone.
+std::vector<Texture> DecodeTextures(const std::vector<EncodedImage>& images);
+
 }  // namespace restir
