@@ -46,9 +46,9 @@ fuzz() {
 }
 
 # The sequence parser imports every asset a sequence names, each in a forked importer and its textures in a forked
-# decoder (sim/assets/asset_import.h): sequences/asset_table.json's five assets take 3-6 s per input under ASan on
-# an idle 2-core machine, more as the fuzzer's memory grows (a fork copies its page tables), so 10 s reported a
-# slow input as a hang (CI, stop 52). 30 s still reports a hang (of the importer's child too: its own limit is 60 s).
+# decoder (sim/assets/asset_import.h): mutations of sequences/asset_table.json (five assets, eight forks) took up
+# to 4 s per input under ASan on an idle 2-core machine, more as the fuzzer's memory grows (a fork copies its page
+# tables) and under load, and 10 s once reported such a slow input as a hang (CI, stop 52, one child per texture). 30 s still reports a hang (of the importer's child too: its own limit is 60 s).
 fuzz sequence_fuzz "$seconds" 8192 30 sequences tests/data/bad_sequences -- -dict=tests/fuzz/sequence.dict
 fuzz cache_fuzz $(( (seconds + 1) / 2 )) 4096 10 tests/fuzz/cache_seeds
 fuzz metrics_csv_fuzz $(( (seconds + 1) / 2 )) 8192 10 tests/fuzz/metrics_seeds
