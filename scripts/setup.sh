@@ -30,6 +30,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   openexr openimageio-tools   # exrheader and oiiotool: the tests read our EXRs with the libraries' own tools
   chromium               # headless browser: a test renders report.html and checks its plots and images
+  firefox-esr            # the second browser the report's scrubber is tested in (Chromium's and Firefox's engines)
   ffmpeg                 # the run's videos (sim/output/video.h); its ffprobe checks them in the tests
   time                   # GNU time: the hostile-input cases measure each run's peak memory with it
 )
