@@ -192,7 +192,8 @@ void AddRunOutputOptions(CLI::App* run, RunArgs& a) {
       ->capture_default_str();
   run->add_option("--images", a.images,
                   "Which frames get an EXR (every layer) and a PNG preview under frames/: report (the first, middle "
-                  "and last, which the report's strips show), all, or A:B (A to B-1; either side may be empty). "
+                  "and last, which the report's strips show), all, or A:B (A to B-1, either side may be empty, "
+                  "and the report's three). "
                   "Every frame's small PNGs for the report's scrubber and videos go to scrub/ whichever is chosen")
       ->capture_default_str();
   run->add_flag("--no-images", a.noImages,
@@ -278,7 +279,8 @@ int ExecuteRun(RunArgs& a, int argc, char** argv) {
   const RunOptions& opt = a.opt;
   const RunResult r = Run(opt);
   if (r.alreadyComplete) {
-    std::fprintf(stderr, "%s: this run is already complete (run.json); nothing to do\n", opt.outDir.c_str());
+    std::fprintf(stderr, "%s: this run is already complete (run.json); %s\n", opt.outDir.c_str(),
+                 r.reportWritten ? "wrote its missing report" : "nothing to do");
     return 0;
   }
   if (r.resumedAtFrame >= 0)

@@ -170,7 +170,7 @@ const char* kScrubberScript = R"JS(
   var panels = document.getElementById("scrub-panels");
   var fit = Math.min(1, S.view / S.width);
   var st = {index: 0, layer: "estimate", presets: S.presets.slice(), zoom: fit, x: 0, y: 0};
-  var timer = null, views = [];
+  var timer = null, hashTimer = null, views = [];
   function pad(f) { var s = String(f); while (s.length < 4) s = "0" + s; return s; }
   function src(preset, frame, layer) {
     if (layer === "reference") return "scrub/reference/" + pad(frame) + ".png";
@@ -191,18 +191,24 @@ const char* kScrubberScript = R"JS(
     }
     return /(^|&)frame=/.test(location.hash.replace(/^#/, ""));
   }
+  // The address follows what is shown, a quarter second late: Firefox refuses more than 200 replaceState calls in
+  // 10 s (playing is 30 a second), and a link to a section (#plots) stays as it is until the reader moves something.
   function writeHash() {
-    var h = "#frame=" + S.frames[st.index] + "&layer=" + st.layer + "&presets=" +
-            st.presets.map(encodeURIComponent).join(",");
-    if (st.zoom !== fit || st.x !== 0 || st.y !== 0) h += "&zoom=" + st.zoom + "&x=" + st.x + "&y=" + st.y;
-    if (history.replaceState) history.replaceState(null, "", h);
+    if (hashTimer) return;
+    hashTimer = setTimeout(function () {
+      hashTimer = null;
+      var h = "#frame=" + S.frames[st.index] + "&layer=" + st.layer + "&presets=" +
+              st.presets.map(encodeURIComponent).join(",");
+      if (st.zoom !== fit || st.x !== 0 || st.y !== 0) h += "&zoom=" + st.zoom + "&x=" + st.x + "&y=" + st.y;
+      try { if (history.replaceState) history.replaceState(null, "", h); } catch (e) { /* refused: keep showing */ }
+    }, 250);
   }
   function applyView() {
     views.forEach(function (v) {
       v.img.style.transform = "translate(" + st.x + "px," + st.y + "px) scale(" + st.zoom + ")";
     });
   }
-  function show() {
+  function show(moved) {
     var frame = S.frames[st.index];
     slider.value = st.index;
     label.textContent = "frame " + frame + " (" + (st.index + 1) + " of " + S.frames.length + ")";
@@ -220,7 +226,7 @@ const char* kScrubberScript = R"JS(
       c.checked = st.presets.indexOf(c.value) >= 0;
     });
     applyView();
-    writeHash();
+    if (moved) writeHash();
     var next = S.frames[(st.index + 1) % S.frames.length];  // the next frame, fetched while this one shows
     st.presets.forEach(function (p) { new Image().src = src(p, next, st.layer); });
   }
@@ -261,21 +267,21 @@ const char* kScrubberScript = R"JS(
     });
   });
   slider.max = S.frames.length - 1;
-  slider.addEventListener("input", function () { st.index = parseInt(slider.value, 10); show(); });
+  slider.addEventListener("input", function () { st.index = parseInt(slider.value, 10); show(true); });
   Array.prototype.forEach.call(root.querySelectorAll("input[name=scrub-layer]"), function (r) {
-    r.addEventListener("change", function () { st.layer = r.value; show(); });
+    r.addEventListener("change", function () { st.layer = r.value; show(true); });
   });
   Array.prototype.forEach.call(root.querySelectorAll("input[name=scrub-preset]"), function (c) {
     c.addEventListener("change", function () {
       st.presets = S.presets.filter(function (p) {
         return root.querySelector("input[name=scrub-preset][value='" + p + "']").checked;
       });
-      show();
+      show(true);
     });
   });
   function play(on) {
     if (timer) { clearInterval(timer); timer = null; }
-    if (on) timer = setInterval(function () { st.index = (st.index + 1) % S.frames.length; show(); }, 1000 / S.fps);
+    if (on) timer = setInterval(function () { st.index = (st.index + 1) % S.frames.length; show(true); }, 1000 / S.fps);
     playButton.textContent = timer ? "pause" : "play";
   }
   playButton.addEventListener("click", function () { play(!timer); });
@@ -287,12 +293,17 @@ const char* kScrubberScript = R"JS(
     if (e.key === "ArrowRight" || e.key === "ArrowLeft") {
       e.preventDefault();
       st.index = (st.index + (e.key === "ArrowRight" ? 1 : S.frames.length - 1)) % S.frames.length;
-      show();
-    } else if (e.key === " ") { e.preventDefault(); play(!timer); }
+      show(true);
+    } else if (e.key === " " && e.target.tagName !== "BUTTON") {  // a focused button's space is its own click
+      e.preventDefault();
+      play(!timer);
+    }
   });
+  // A frame link pasted into an open report (replaceState, the scrubber's own writing, fires no hashchange).
+  window.addEventListener("hashchange", function () { if (readHash()) show(false); });
   root.hidden = false;
   var linked = readHash();
-  show();
+  show(false);
   if (linked && root.getBoundingClientRect().top > window.innerHeight) root.scrollIntoView();
 })();
 )JS";

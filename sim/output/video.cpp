@@ -49,7 +49,10 @@ std::string ScratchPath(const std::string& suffix) {
   char name[96];
   std::snprintf(name, sizeof(name), "restir-sim-video-%d-%d%s", static_cast<int>(::getpid()), counter++,
                 suffix.c_str());
-  return (fs::temp_directory_path() / name).string();
+  std::error_code ec;
+  fs::path dir = fs::temp_directory_path(ec);
+  if (ec) dir = "/tmp";  // TMPDIR names no directory: where mkstemp and ffmpeg's own defaults look
+  return (dir / name).string();
 }
 
 // ffmpeg ending early closes the pipe: a write to it raises SIGPIPE, which would end this process. Blocked in the
@@ -114,12 +117,17 @@ VideoEncoder::VideoEncoder(const std::string& ffmpeg, const std::string& path, i
   if (rc != 0) {
     ::close(fds[1]);
     pid_ = -1;
+    std::error_code ec;
+    fs::remove(log_, ec);  // the spawn may have opened it before exec failed
     throw OutputError(path + ": error: cannot write (cannot start " + ffmpeg + ": " + std::strerror(rc) + ")");
   }
   pipe_ = ::fdopen(fds[1], "wb");
   if (!pipe_) {
     ::close(fds[1]);
     Stop();
+    std::error_code ec;
+    fs::remove(temporary_, ec);
+    fs::remove(log_, ec);
     throw OutputError(path + ": error: cannot write (no pipe to ffmpeg)");
   }
 }

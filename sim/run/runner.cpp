@@ -236,7 +236,8 @@ ReferenceParams ReferenceParamsFor(const RunOptions& opt, const RenderDefaults& 
   return params;
 }
 
-// The frames of begin..end-1 that `images` selects for an EXR and a preview.
+// The frames of begin..end-1 that `images` selects for an EXR and a preview: a range adds to the report's three
+// (the report shows those); a range that holds none of the run's frames is an InputError, as --frames's is.
 std::vector<int> FrameFileFrames(const ImageFrames& images, int begin, int end) {
   std::vector<int> all;
   for (int f = begin; f < end; ++f) all.push_back(f);
@@ -245,9 +246,15 @@ std::vector<int> FrameFileFrames(const ImageFrames& images, int begin, int end) 
     case ImageFrames::Kind::kAll: return all;
     case ImageFrames::Kind::kRange: break;
   }
-  std::vector<int> chosen;
+  const auto inRange = [&](int f) { return f >= images.begin && (images.end < 0 || f < images.end); };
+  if (std::none_of(all.begin(), all.end(), inRange))
+    throw InputError("--images: error: " + ImageFramesName(images) + " holds none of the run's frames " +
+                     std::to_string(begin) + ":" + std::to_string(end));
+  std::vector<int> chosen = ReportStripFrames(all);
   for (int f : all)
-    if (f >= images.begin && (images.end < 0 || f < images.end)) chosen.push_back(f);
+    if (inRange(f)) chosen.push_back(f);
+  std::sort(chosen.begin(), chosen.end());
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
   return chosen;
 }
 
@@ -763,6 +770,13 @@ RunResult Run(const RunOptions& opt) {
   // Unless a file it wrote has gone or changed since: then it renders again to write it.
   if (opt.resume && CompleteRunIntact(opt, plan)) {
     result.alreadyComplete = true;
+    // run.json says complete before the report is made (the report shows it), so a run stopped while its videos
+    // were encoded is complete without a report: make it now.
+    if (opt.report && (!std::filesystem::exists(std::filesystem::path(opt.outDir) / "report.html") ||
+                       !std::filesystem::exists(std::filesystem::path(opt.outDir) / "summary.json"))) {
+      WriteReport(opt.outDir);
+      result.reportWritten = true;
+    }
     return result;
   }
 

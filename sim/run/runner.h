@@ -18,7 +18,7 @@ struct ImageFrames {
   enum class Kind : uint8_t {
     kReport,  // the frames the report's strips show: first, middle and last (ReportStripFrames, sim/output/report.h)
     kAll,     // every frame
-    kRange,   // frames begin..end-1 of the run
+    kRange,   // frames begin..end-1 of the run, and the report's (a range asks for more, not other)
   };
   Kind kind = Kind::kReport;
   int begin = 0, end = 0;  // kRange only
@@ -71,6 +71,7 @@ struct RunResult {
   double wallSeconds = 0.0;
   int resumedAtFrame = -1;  // the first frame rendered after resuming from a checkpoint; -1: not resumed
   bool alreadyComplete = false;  // --resume found this configuration complete in the output directory: nothing done
+  bool reportWritten = false;    // ... but for its report (and videos), which it was stopped before writing
 };
 
 // Throws InputError for bad input (unknown or repeated preset, frame range, unreadable sequence, unwritable output,

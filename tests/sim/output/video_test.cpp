@@ -2,6 +2,7 @@
 // given into an H.264 MP4 that ffprobe reads back with their count and size, whose decoded frames hold the colours
 // given (the BT.709 matrix and range are tagged as encoded), and whose bytes are the same on a second encode.
 #include "sim/output/video.h"
+#include "sim/util/atomic_file.h"
 
 #include <gtest/gtest.h>
 
@@ -118,6 +119,38 @@ TEST(Video, AFailingEncoderLeavesNoFileAndSaysSo) {
   }
   EXPECT_FALSE(fs::exists(dir / "x.mp4"));
   EXPECT_EQ(ScratchLeft(), 0);
+  // An encoder that cannot be started (a directory): one OutputError naming the video, no scratch file left.
+  try {
+    VideoEncoder video(dir.string(), (dir / "y.mp4").string(), 64, 36, 30.0);
+    ADD_FAILURE() << "a directory was started as the encoder";
+  } catch (const OutputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind((dir / "y.mp4").string() + ": error: ", 0), 0u) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "y.mp4"));
+  EXPECT_EQ(ScratchLeft(), 0);
+}
+
+// TMPDIR naming no directory: the scratch files go to /tmp and the video is made.
+TEST(Video, ATmpdirThatIsNoDirectoryFallsBackToTmp) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("restir-video-tmpdir-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const char* old = std::getenv("TMPDIR");
+  const std::string saved = old ? old : "";
+  ::setenv("TMPDIR", (dir / "missing").string().c_str(), 1);
+  {
+    VideoEncoder video(Ffmpeg(), (dir / "v.mp4").string(), 64, 36, 30.0);
+    for (int k = 0; k < 3; ++k) video.AddFrame(TestFrame(k, 64, 36));
+    video.Finish();
+  }
+  if (old)
+    ::setenv("TMPDIR", saved.c_str(), 1);
+  else
+    ::unsetenv("TMPDIR");
+  EXPECT_TRUE(fs::is_regular_file(dir / "v.mp4"));
+  EXPECT_FALSE(fs::exists(dir / "missing"));
+  EXPECT_EQ(ScratchLeft(), 0);
+  fs::remove_all(dir);
 }
 
 TEST(Video, RestirFfmpegChoosesTheEncoderAndEmptyMeansNone) {

@@ -268,6 +268,16 @@ TEST(ResumeOutputs, MissingOrDamagedFrameFilesAreWrittenAgain) {
   // A second resume finds every file as written: nothing to say, nothing to do.
   ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, damaged, true, "ris,restir-unbiased", base / "cache"), log))), 0);
   EXPECT_EQ(ReadAll(log).find("restir-sim: "), std::string::npos) << ReadAll(log);
+  // Stopped while its report was made (run.json already complete): a resume makes the report and videos again.
+  fs::remove(damaged / "report.html");
+  fs::remove(damaged / "summary.json");
+  fs::remove_all(damaged / "videos");
+  ASSERT_EQ(WEXITSTATUS(Wait(Spawn(RunArgs(sequence, damaged, true, "ris,restir-unbiased", base / "cache"), log))), 0);
+  EXPECT_NE(ReadAll(log).find("already complete (run.json); wrote its missing report"), std::string::npos)
+      << ReadAll(log);
+  EXPECT_TRUE(fs::exists(damaged / "report.html"));
+  EXPECT_TRUE(fs::exists(damaged / "summary.json"));
+  EXPECT_EQ(ExpectSameFrames(full, damaged), 2 * 3 * 2);  // the videos too, to the byte
 
   ASSERT_TRUE(RunAndKill(EveryFrame(RunArgs(sequence, killed, false, "ris,restir-unbiased", base / "cache")), killed, 6))
       << "the run finished before it was killed";

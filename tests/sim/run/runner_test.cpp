@@ -296,8 +296,9 @@ TEST(Run, AFrameFileThatCannotBeWrittenInALaterFrameEndsTheRun) {
     EXPECT_EQ(e.path().string().find("restir-sim-tmp"), std::string::npos) << e.path();
 }
 
-// --images: "report", "all" or a range chooses which frames get an EXR and a preview (run.json lists them);
-// every frame gets its scrub PNGs whichever is chosen.
+// --images: "report", "all" or a range (with the report's three: it asks for more) chooses which frames get an EXR
+// and a preview (run.json lists them); every frame gets its scrub PNGs whichever is chosen. A range that holds none
+// of the run's frames is refused before anything is written.
 TEST(Run, ImagesChooseWhichFramesGetAnExrAndEveryFrameGetsItsScrubPngs) {
   struct Case {
     std::string images;
@@ -305,8 +306,8 @@ TEST(Run, ImagesChooseWhichFramesGetAnExrAndEveryFrameGetsItsScrubPngs) {
     std::vector<int> want;
   };
   const Case cases[] = {{"report", 0, 6, {0, 3, 5}}, {"report", 1, 3, {1, 2}}, {"report", 2, 3, {2}},
-                        {"all", 1, 5, {1, 2, 3, 4}}, {"2:4", 0, 6, {2, 3}},      {":2", 1, 6, {1}},
-                        {"4:", 0, 6, {4, 5}},        {"7:9", 0, 6, {}}};
+                        {"all", 1, 5, {1, 2, 3, 4}}, {"1:3", 0, 6, {0, 1, 2, 3, 5}}, {":2", 1, 6, {1, 3, 5}},
+                        {"4:", 0, 6, {0, 3, 4, 5}},  {"5:9", 0, 6, {0, 3, 5}}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.images + " over " + std::to_string(c.begin) + ":" + std::to_string(c.end));
     const std::string out = TempOut("restir-run-images");
@@ -339,6 +340,21 @@ TEST(Run, ImagesChooseWhichFramesGetAnExrAndEveryFrameGetsItsScrubPngs) {
     const auto j = nlohmann::json::parse(rj);
     EXPECT_EQ(j["images"]["selection"], c.images == ":2" ? "0:2" : c.images == "4:" ? "4:" : c.images);
     EXPECT_EQ(j["images"]["frameFiles"].get<std::vector<int>>(), c.want);
+  }
+  for (const char* none : {"7:9", "6:", ":1"}) {
+    SCOPED_TRACE(none);
+    const std::string out = TempOut("restir-run-images-none");
+    RunOptions o = SmokeOptions(out);
+    o.frameBegin = 1;
+    o.frameEnd = 6;
+    o.imageFrames = *ParseImageFrames(none);
+    try {
+      restir::Run(o);
+      ADD_FAILURE() << "ran";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), "--images: error: " + ImageFramesName(o.imageFrames) + " holds none of the run's frames 1:6");
+    }
+    EXPECT_FALSE(std::filesystem::exists(out + "/run.json"));
   }
 }
 
