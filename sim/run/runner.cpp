@@ -351,7 +351,6 @@ void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetF
 void SubmitPresetFiles(RunContext& run, const RunFrame& f, const std::string& preset, PresetFrame& pf) {
   const std::string name = FrameNumber(f.frame);
   const auto stem = std::filesystem::path(run.opt.outDir) / "frames" / preset / name;
-  if (run.state.scrubExposure <= 0.0f) run.state.scrubExposure = PreviewExposure(pf.fr.image);  // no reference
   // The job owns what it writes: this preset's images (the estimate and FLIP map copied, as MeasurePresets
   // reads them; the ensemble images moved) and the frame's shared inputs. Submitted now, so the writer
   // works while the next preset renders.
@@ -598,6 +597,9 @@ void PrepareSharedInputs(RunContext& run, RunFrame& f) {
 void RenderPresets(RunContext& run, RunFrame& f) {
   std::vector<PresetState>& presets = run.state.presets;
   f.work.resize(presets.size());
+  // Without a reference the run's one exposure comes from its first frame's estimate of the preset whose name sorts
+  // first, not of the first given (a resume may give them in another order): that frame's files wait for it.
+  const bool exposureDue = run.opt.writeImages && run.state.scrubExposure <= 0.0f;
   for (size_t p = 0; p < presets.size(); ++p) {
     PresetState& ps = presets[p];
     PresetFrame& pf = f.work[p];
@@ -611,8 +613,14 @@ void RenderPresets(RunContext& run, RunFrame& f) {
     pf.fr = ps.members[0]->RenderFrame(inputs);
     if (run.plan.members > 1) RenderEnsemble(run, f, ps, pf, share);
     if (run.opt.reference) pf.flipMap = HdrFlip(*f.flipReference, pf.fr.image);
-    if (run.opt.writeImages) SubmitPresetFiles(run, f, ps.preset.name, pf);
+    if (run.opt.writeImages && !exposureDue) SubmitPresetFiles(run, f, ps.preset.name, pf);
   }
+  if (!exposureDue) return;
+  size_t first = 0;
+  for (size_t p = 1; p < presets.size(); ++p)
+    if (presets[p].preset.name < presets[first].preset.name) first = p;
+  run.state.scrubExposure = PreviewExposure(f.work[first].fr.image);
+  for (size_t p = 0; p < presets.size(); ++p) SubmitPresetFiles(run, f, presets[p].preset.name, f.work[p]);
 }
 
 // A preset per task (MeasureFrame sums in pixel order, serially: the same bits whatever the thread count).
