@@ -250,59 +250,25 @@ void ClampTexels(Texture& t) {
     if (!std::isfinite(v) || v < 0.0f) v = 0.0f;
 }
 
-}  // namespace
+// What one child made of a list of images: all of them decoded (texels as the files hold them), or the problem and
+// which image the decoder refused (`refused` < the list's size), or the problem alone where the child crashed, hung,
+// ran out of memory or sent a damaged result.
+struct ChildDecoding {
+  std::vector<Texture> textures;  // one per image, when every one decoded
+  std::string problem;            // one line, without the image's name
+  size_t refused = SIZE_MAX;      // the image the decoder refused
+};
 
-bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
-  t = Texture{};
-  const auto work = [&](std::string& out) {
-    Texture decoded;
-    if (!DecodeLinearImageHere(bytes, name, decoded, out)) return false;
-    out.clear();
-    AppendDecoded(decoded, out);
-    return true;
-  };
-  IsolatedResult r;
-  {
-    const ExrPoolPaused paused;
-    r = RunIsolated(work, IsolatedTool{"the image decoder", "OpenImageIO"}, IsolationLimits{});
-  }
-  if (r.status != IsolatedResult::Status::kDone) {
-    problem = r.bytes;
-    return false;
-  }
-  t.name = name;
-  size_t at = 0;
-  if (!ReadDecoded(r.bytes, at, t) || at != r.bytes.size()) {
-    t = Texture{};
-    problem = "the image decoder sent a damaged result";
-    return false;
-  }
-  return true;
-}
-
-Texture DecodeTexture(const std::string& bytes, const std::string& name) {
-  Texture t;
-  std::string problem;
-  if (!TryDecodeLinearImage(bytes, name, t, problem)) throw InputError(OneLine(name + ": error: " + problem));
-  ClampTexels(t);
-  return t;
-}
-
-std::vector<Texture> DecodeTextures(const std::vector<EncodedImage>& images) {
-  if (images.size() <= 1) {
-    std::vector<Texture> one;
-    for (const EncodedImage& image : images) one.push_back(DecodeTexture(*image.bytes, image.name));
-    return one;
-  }
-  // One child for all of them: a fork costs more than decoding a small texture (most of an asset's), and an
-  // asset may hold dozens.
+// Every image in one forked child (sim/util/isolation.h): a fork costs more than decoding a small texture, and an
+// asset may hold dozens. The child sends each AppendDecoded in turn, or "<index> <problem>" for the one it refused.
+ChildDecoding DecodeInOneChild(const std::vector<EncodedImage>& images) {
   const auto work = [&](std::string& out) {
     std::string all;
-    for (const EncodedImage& image : images) {
+    for (size_t i = 0; i < images.size(); ++i) {
       Texture decoded;
       std::string problem;
-      if (!DecodeLinearImageHere(*image.bytes, image.name, decoded, problem)) {
-        out = OneLine(image.name + ": error: " + problem);
+      if (!DecodeLinearImageHere(*images[i].bytes, images[i].name, decoded, problem)) {
+        out = std::to_string(i) + " " + problem;
         return false;
       }
       AppendDecoded(decoded, all);
@@ -315,21 +281,64 @@ std::vector<Texture> DecodeTextures(const std::vector<EncodedImage>& images) {
     const ExrPoolPaused paused;
     r = RunIsolated(work, IsolatedTool{"the image decoder", "OpenImageIO"}, IsolationLimits{});
   }
-  if (r.status == IsolatedResult::Status::kRefused) throw InputError(r.bytes);  // names the image
+  ChildDecoding d;
+  if (r.status == IsolatedResult::Status::kRefused) {
+    const size_t space = r.bytes.find(' ');
+    const std::string index = r.bytes.substr(0, space);
+    if (space != std::string::npos && !index.empty() && index.size() < 10 &&
+        index.find_first_not_of("0123456789") == std::string::npos && std::stoul(index) < images.size()) {
+      d.refused = std::stoul(index);
+      d.problem = r.bytes.substr(space + 1);
+      return d;
+    }
+    d.problem = "the image decoder sent a damaged result";  // a refusal without its image's index
+    return d;
+  }
+  if (r.status != IsolatedResult::Status::kDone) {
+    d.problem = r.bytes;
+    return d;
+  }
   std::vector<Texture> textures(images.size());
   size_t at = 0;
-  bool whole = r.status == IsolatedResult::Status::kDone;
-  for (size_t i = 0; whole && i < images.size(); ++i) {
-    whole = ReadDecoded(r.bytes, at, textures[i]);
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (!ReadDecoded(r.bytes, at, textures[i])) break;
     textures[i].name = images[i].name;
-    ClampTexels(textures[i]);
+    if (i + 1 == images.size() && at == r.bytes.size()) {
+      d.textures = std::move(textures);
+      return d;
+    }
   }
-  if (whole && at == r.bytes.size()) return textures;
-  // The child crashed, hung, ran out of memory (it held them all) or sent less than it should: one child per
-  // image, as DecodeTexture, names the one that fails alone, or decodes them all.
-  textures.clear();
-  for (const EncodedImage& image : images) textures.push_back(DecodeTexture(*image.bytes, image.name));
-  return textures;
+  d.problem = "the image decoder sent a damaged result";
+  return d;
+}
+
+}  // namespace
+
+bool TryDecodeLinearImage(const std::string& bytes, const std::string& name, Texture& t, std::string& problem) {
+  ChildDecoding d = DecodeInOneChild({EncodedImage{&bytes, name}});
+  const bool decoded = !d.textures.empty();
+  t = decoded ? std::move(d.textures[0]) : Texture{};
+  problem = std::move(d.problem);
+  return decoded;
+}
+
+Texture DecodeTexture(const std::string& bytes, const std::string& name) {
+  return std::move(DecodeTextures({EncodedImage{&bytes, name}})[0]);
+}
+
+std::vector<Texture> DecodeTextures(const std::vector<EncodedImage>& images) {
+  if (images.empty()) return {};
+  ChildDecoding d = DecodeInOneChild(images);
+  if (d.refused < images.size()) throw InputError(OneLine(images[d.refused].name + ": error: " + d.problem));
+  if (d.textures.empty() && images.size() == 1) throw InputError(OneLine(images[0].name + ": error: " + d.problem));
+  if (d.textures.empty()) {
+    // The child crashed, hung, ran out of memory (it held them all) or sent less than it should: a child per image
+    // names the one that fails alone, or decodes them all.
+    for (const EncodedImage& image : images) d.textures.push_back(DecodeTexture(*image.bytes, image.name));
+    return d.textures;
+  }
+  for (Texture& t : d.textures) ClampTexels(t);
+  return d.textures;
 }
 
 }  // namespace restir
