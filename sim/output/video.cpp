@@ -51,7 +51,7 @@ std::string ScratchPath(const std::string& suffix) {
                 suffix.c_str());
   std::error_code ec;
   fs::path dir = fs::temp_directory_path(ec);
-  if (ec) dir = "/tmp";  // TMPDIR names no directory: where mkstemp and ffmpeg's own defaults look
+  if (ec) dir = "/tmp";  // TMPDIR names no directory
   return (dir / name).string();
 }
 

@@ -2,7 +2,7 @@
 // preset), elapsed time and an ETA from the frames finished in this session. On a terminal, one line redrawn in
 // place; elsewhere (a batch job's log file, a pipe), one whole line every `logSeconds`, so that a Slurm job's
 // stderr shows the run moving without filling the file: at a stage's start when one is due, and from a thread of its
-// own while a stage runs longer than that (a reference, the report's videos).
+// own while a stage runs longer than that (a reference).
 #pragma once
 
 #include <condition_variable>

@@ -295,6 +295,15 @@ TEST(ReportCli, FramesThatAreNotTheRunsAreRefusedNamingTheDifference) {
   EXPECT_EQ(Shell(SimBinary() + " report " + (dir / "own").string() + " 2>&1").status, 0);
 }
 
+// The run the browser tests load: smoke's 6 frames at 64 x 36 with two presets, into `out`.
+bool RunSmokeForScrubber(const fs::path& dir, const fs::path& out) {
+  const Result r = Shell(SimBinary() + " run sequences/smoke.json --preset ris,temporal --resolution 64x36 "
+                                       "--reference-spp 32 --no-progress --cache-dir " +
+                         (dir / "cache").string() + " --out " + out.string() + " 2>&1");
+  EXPECT_EQ(r.status, 0) << r.output;
+  return r.status == 0;
+}
+
 // Renders the report of a real run in Debian's headless Chromium (installed by scripts/setup.sh: a missing
 // browser fails this test) and checks what a reader would see: a non-blank page, every plot with a polyline per
 // preset, and every image it references on disk.
@@ -304,11 +313,8 @@ TEST(ReportBrowser, RealRunRendersInHeadlessChromiumWithPlotsAndImages) {
       << chromium << " is missing: scripts/setup.sh installs Debian's chromium package, which this test needs";
   const fs::path dir = FreshDir("restir-report-browser");
   const fs::path out = dir / "run";
-  Result r = Shell(SimBinary() + " run sequences/smoke.json --preset ris,temporal --resolution 64x36 "
-                                 "--reference-spp 32 --no-progress --cache-dir " +
-                   (dir / "cache").string() + " --out " + out.string() + " 2>&1");
-  ASSERT_EQ(r.status, 0) << r.output;
-  r = Shell(SimBinary() + " report " + out.string() + " 2>&1");
+  ASSERT_TRUE(RunSmokeForScrubber(dir, out));
+  Result r = Shell(SimBinary() + " report " + out.string() + " 2>&1");
   ASSERT_EQ(r.status, 0) << r.output;
   ASSERT_TRUE(fs::exists(out / "report.html"));
   ASSERT_TRUE(fs::exists(out / "summary.json"));
@@ -431,6 +437,20 @@ std::pair<int, int> Find(const Screenshot& s, const std::vector<unsigned char>& 
   return {-1, -1};
 }
 
+// The screenshot shows `png` (a 64 x 36 scrub PNG of `frame`, relative to `out`) with its exact pixels, and not the
+// same PNG of frame `other`.
+void ExpectShowsFrame(const Screenshot& px, const fs::path& out, const std::string& png, int frame, int other) {
+  SCOPED_TRACE(png);
+  const std::vector<unsigned char> want = ReadScrubPng((out / png).string(), 64, 36);
+  EXPECT_GE(Find(px, want, 64, 36).first, 0) << "the linked frame's PNG is not in the screenshot";
+  std::string otherPng = png;
+  const std::string from = "000" + std::to_string(frame), to = "000" + std::to_string(other);
+  otherPng.replace(otherPng.find(from), from.size(), to);
+  const std::vector<unsigned char> unwanted = ReadScrubPng((out / otherPng).string(), 64, 36);
+  ASSERT_NE(unwanted, want) << "the test needs frames that differ";
+  EXPECT_EQ(Find(px, unwanted, 64, 36).first, -1) << otherPng << " is shown too";
+}
+
 // The frame scrubber in Debian's headless Chromium, from disk: a link to a frame, layer and preset shows that
 // frame's PNG with its exact pixels (found in the screenshot); another frame's is not what is shown. Without
 // JavaScript the scrubber stays hidden and the rest of the page (strips, videos) is there. The videos have the
@@ -440,10 +460,7 @@ TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEver
   ASSERT_EQ(::access(chromium.c_str(), X_OK), 0) << chromium << " is missing: scripts/setup.sh installs it";
   const fs::path dir = FreshDir("restir-report-scrubber");
   const fs::path out = dir / "run";
-  Result r = Shell(SimBinary() + " run sequences/smoke.json --preset ris,temporal --resolution 64x36 "
-                                 "--reference-spp 32 --no-progress --cache-dir " +
-                   (dir / "cache").string() + " --out " + out.string() + " 2>&1");
-  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_TRUE(RunSmokeForScrubber(dir, out));
   // Pixels as the PNGs hold them (sRGB, one device pixel a CSS pixel), the images loaded before the shot.
   const std::string flags = kChromiumFlags +
                             " --force-color-profile=srgb --force-device-scale-factor=1 --hide-scrollbars "
@@ -459,20 +476,11 @@ TEST(ReportBrowser, TheScrubberShowsTheLinkedFramesOwnPixelsAndTheVideosHaveEver
                         {1, "reference", "ris", "scrub/reference/0001.png", 4}};
   int shots = 0;
   for (const View& v : views) {
-    SCOPED_TRACE(v.png);
     const fs::path shot = dir / ("scrub" + std::to_string(shots++) + ".png");
     const std::string link = url + "#frame=" + std::to_string(v.frame) + "&layer=" + v.layer + "&presets=" + v.preset;
     const Screenshot px = Shoot(chromium, flags, dir / "profile", shot, link);
     ASSERT_FALSE(px.px.empty());
-    const std::vector<unsigned char> want = ReadScrubPng((out / v.png).string(), 64, 36);
-    const auto [x, y] = Find(px, want, 64, 36);
-    ASSERT_GE(x, 0) << "the linked frame's PNG is not in the screenshot " << shot;
-    std::string otherPng = v.png;
-    const std::string from = "000" + std::to_string(v.frame), to = "000" + std::to_string(v.other);
-    otherPng.replace(otherPng.find(from), from.size(), to);
-    const std::vector<unsigned char> other = ReadScrubPng((out / otherPng).string(), 64, 36);
-    ASSERT_NE(other, want) << "the test needs frames that differ";
-    EXPECT_EQ(Find(px, other, 64, 36).first, -1) << otherPng << " is shown too";
+    ExpectShowsFrame(px, out, v.png, v.frame, v.other);
   }
 
   // Without JavaScript: the page a browser shows that runs no script (here: the report with its scripts taken out,
@@ -538,10 +546,7 @@ TEST(ReportBrowser, FirefoxShowsTheLinkedFramesOwnPixels) {
   ASSERT_EQ(::access(firefox.c_str(), X_OK), 0) << firefox << " is missing: scripts/setup.sh installs it";
   const fs::path dir = FreshDir("restir-report-firefox");
   const fs::path out = dir / "run";
-  Result r = Shell(SimBinary() + " run sequences/smoke.json --preset ris,temporal --resolution 64x36 "
-                                 "--reference-spp 32 --no-progress --cache-dir " +
-                   (dir / "cache").string() + " --out " + out.string() + " 2>&1");
-  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_TRUE(RunSmokeForScrubber(dir, out));
   // One CSS pixel a device pixel, no colour management of the PNGs, nothing of its own reaching the network.
   const fs::path profile = dir / "profile";
   fs::create_directories(profile);
@@ -574,17 +579,7 @@ TEST(ReportBrowser, FirefoxShowsTheLinkedFramesOwnPixels) {
                              link + "' 2>&1");
     const Screenshot px = ReadShot(run.status, run.output, shot);
     ASSERT_FALSE(px.px.empty());
-    for (const std::string& png : v.pngs) {
-      SCOPED_TRACE(png);
-      const std::vector<unsigned char> want = ReadScrubPng((out / png).string(), 64, 36);
-      EXPECT_GE(Find(px, want, 64, 36).first, 0) << "the linked frame's PNG is not in the screenshot " << shot;
-      std::string otherPng = png;
-      const std::string from = "000" + std::to_string(v.frame), to = "000" + std::to_string(v.other);
-      otherPng.replace(otherPng.find(from), from.size(), to);
-      const std::vector<unsigned char> other = ReadScrubPng((out / otherPng).string(), 64, 36);
-      ASSERT_NE(other, want) << "the test needs frames that differ";
-      EXPECT_EQ(Find(px, other, 64, 36).first, -1) << otherPng << " is shown too";
-    }
+    for (const std::string& png : v.pngs) ExpectShowsFrame(px, out, png, v.frame, v.other);
   }
 }
 
