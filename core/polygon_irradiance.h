@@ -128,4 +128,57 @@ float HorizonClippedPolygonIrradiance(const Vec3 (&a)[K], const Vec3& n) {
   return 0.5f * std::fabs(sum);
 }
 
+// What a diffuse receiver's unshadowed light from one emitter polygon integrates to, as a number to subtract
+// sampled shadows from (the reference's difference estimator, sim/reference/reference_learning.h): the
+// cosine-weighted solid angle ∫ max(0, n · ω) dω over the directions ω towards the polygon in which the
+// light-sampling integrand (core/shading.h ConnectToLightOnPlane, EvalBsdf) is nonzero, i.e. in front of both the
+// shading normal n and the geometric normal ng, with the receiver on the emitting side of the polygon's plane (taken
+// through p0 as the sampling takes it); 0 otherwise. The unshadowed contribution is then L_e · albedo / π times
+// this. The polygon is convex, p0 then p0 + edges[i] for i < k (k = 2: a triangle; 3: a light group's quad, whose
+// shared diagonal would cancel), and Lambert's formula is applied to it clipped to both half-spaces, all in double
+// (atan2, normalised cross products): this is the answer the estimator's mean rests on, not a sampling weight.
+// Edges that degenerate to a point or pass through the receiver add nothing (directions of measure zero).
+inline double ClippedPolygonProjectedSolidAngle(const Vec3& x, const Vec3& n, const Vec3& ng, const Vec3& p0,
+                                                const Vec3* edges, size_t k, const Vec3& lightNormal) {
+  using D3 = glm::dvec3;
+  constexpr size_t kMax = 6;  // four vertices, plus one per clipping plane
+  const D3 rel0 = D3(p0) - D3(x);
+  if (k < 2 || k > 3 || !(glm::dot(D3(lightNormal), -rel0) > 0.0)) return 0.0;  // behind the emitter, or on its plane
+  D3 poly[kMax];
+  size_t m = 0;
+  poly[m++] = rel0;
+  for (size_t i = 0; i < k; ++i) poly[m++] = rel0 + D3(edges[i]);
+  for (const D3 plane : {D3(n), D3(ng)}) {
+    D3 out[kMax];
+    size_t kept = 0;
+    for (size_t i = 0; i < m; ++i) {
+      const D3& a = poly[i];
+      const D3& b = poly[(i + 1) % m];
+      const double da = glm::dot(plane, a), db = glm::dot(plane, b);
+      if (da >= 0.0 && kept < kMax) out[kept++] = a;
+      if ((da >= 0.0) != (db >= 0.0) && kept < kMax) out[kept++] = a + (b - a) * (da / (da - db));
+    }
+    m = kept;
+    if (m < 3) return 0.0;
+    for (size_t i = 0; i < m; ++i) poly[i] = out[i];
+  }
+  double sum = 0.0;
+  for (size_t i = 0; i < m; ++i) {
+    const D3& a = poly[i];
+    const D3& b = poly[(i + 1) % m];
+    const D3 c = glm::cross(a, b);
+    const double lc = glm::length(c);
+    if (!(lc > 0.0)) continue;
+    sum += std::atan2(lc, glm::dot(a, b)) * glm::dot(D3(n), c) / lc;  // Θ (n · Γ), Θ accurate near 0 and π alike
+  }
+  return 0.5 * std::fabs(sum);
+}
+
+// The same for a triangle p0, p0 + e1, p0 + e2.
+inline double ClippedTriangleProjectedSolidAngle(const Vec3& x, const Vec3& n, const Vec3& ng, const Vec3& p0,
+                                                 const Vec3& e1, const Vec3& e2, const Vec3& lightNormal) {
+  const Vec3 edges[2] = {e1, e2};
+  return ClippedPolygonProjectedSolidAngle(x, n, ng, p0, edges, 2, lightNormal);
+}
+
 }  // namespace restir

@@ -22,6 +22,7 @@
 
 #include "core/light_sampler.h"
 #include "core/light_selection_kernel.h"
+#include "core/polygon_irradiance.h"
 #include "core/qmc_kernel.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -45,6 +46,7 @@ namespace {
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
 // error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes).
+// The difference estimator (ReferenceParams::differenceShadows, off by default) marks its entries in the key instead.
 constexpr uint32_t kReferenceVersion = 12;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
@@ -170,16 +172,28 @@ uint32_t TargetPerReplicate(float relVar, double e2) {
 }
 
 // Budget mode's counts: a uniform share of the mean per-replicate count for every active pixel, the rest in
-// proportion to v, none above kMaxAllocationScale times the mean.
+// proportion to v, none above kMaxAllocationScale times the mean. With `carry` (the difference estimator), one per
+// replicate for every active pixel first, then the rest shared out likewise, each pixel's share rounded with the
+// previous pixels' rounding carried (in pixel order, one thread): the difference estimator makes most shares small
+// (an unoccluded pixel's v is about 0), and rounding each alone then spent 40 of the flagship's 48 samples a pixel.
 std::vector<uint32_t> BudgetPerReplicate(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                         int samplesPerPixel) {
+                                         int samplesPerPixel, bool carry) {
   std::vector<uint32_t> m(relVar.size(), 0);
   const double meanPerReplicate = MeanPerReplicate(samplesPerPixel);
   const double meanV = MeanRelativeVariance(relVar, active);
+  double carried = 0.0;
   for (size_t i = 0; i < relVar.size(); ++i) {
     if (!active[i]) continue;
     const double share = meanV > 0.0 ? kUniformShare + (1.0 - kUniformShare) * std::max(0.0f, relVar[i]) / meanV
                                      : 1.0;
+    if (carry) {
+      const double want = std::min((meanPerReplicate - 1.0) * share, meanPerReplicate * kMaxAllocationScale - 1.0) +
+                          carried;
+      const double extra = std::max(0.0, std::round(want));
+      carried = want - extra;
+      m[i] = static_cast<uint32_t>(1.0 + extra);
+      continue;
+    }
     const double perReplicate = std::min(std::round(meanPerReplicate * share), meanPerReplicate * kMaxAllocationScale);
     m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
   }
@@ -193,7 +207,7 @@ std::vector<uint32_t> BudgetPerReplicate(const std::vector<float>& relVar, const
 // 2.6%), and the capped frame is then the `--reference-spp cap` frame, bit for bit. `scale`: the cap over the
 // target's mean (1 when affordable).
 std::vector<uint32_t> TargetPerReplicateCounts(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                               const ReferenceParams& params, double& scale) {
+                                               const ReferenceParams& params, bool carry, double& scale) {
   const float floor = static_cast<float>(kUniformShare * MeanRelativeVariance(relVar, active));
   const double e2 = params.targetRelativeError * params.targetRelativeError;
   std::vector<uint32_t> m(relVar.size(), 0);
@@ -209,18 +223,18 @@ std::vector<uint32_t> TargetPerReplicateCounts(const std::vector<float>& relVar,
   scale = 1.0;
   if (params.maxMeanSamplesPerPixel > 0 && meanSamples > params.maxMeanSamplesPerPixel) {
     scale = double(params.maxMeanSamplesPerPixel) / meanSamples;
-    return BudgetPerReplicate(relVar, active, params.maxMeanSamplesPerPixel);
+    return BudgetPerReplicate(relVar, active, params.maxMeanSamplesPerPixel, carry);
   }
   return m;
 }
 
 // Per-replicate sample counts from the pilot's relative variances (negative: the pilot saw no light), and in
-// error mode the scale the cap imposed (ReferenceAllocation::scale).
+// error mode the scale the cap imposed (ReferenceAllocation::scale). `carry`: BudgetPerReplicate's.
 std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                      const ReferenceParams& params, double& scale) {
+                                      const ReferenceParams& params, bool carry, double& scale) {
   scale = 1.0;
-  if (params.targetRelativeError > 0.0) return TargetPerReplicateCounts(relVar, active, params, scale);
-  return BudgetPerReplicate(relVar, active, params.samplesPerPixel);
+  if (params.targetRelativeError > 0.0) return TargetPerReplicateCounts(relVar, active, params, carry, scale);
+  return BudgetPerReplicate(relVar, active, params.samplesPerPixel, carry);
 }
 
 // A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
@@ -267,7 +281,8 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   // The error target, when set, replaces the budget: two runs with different spp share its entry.
   const bool target = params.targetRelativeError > 0.0;
   const int32_t fields[4] = {target ? 0 : params.samplesPerPixel, target ? params.maxMeanSamplesPerPixel : 0,
-                             static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30),
+                             static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30) |
+                                 (params.differenceShadows ? 1 << 29 : 0),
                              static_cast<int32_t>(kReferenceSeed)};
   const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
@@ -361,6 +376,12 @@ struct ReferenceFrame {
   std::vector<TileLightLearning> learning;
   // Each pixel's probes of the light groups (PixelProbes), where the frame has few enough groups; else empty.
   std::vector<PixelProbes> probes;
+  // The difference estimator (ReferenceParams::differenceShadows) where it applies: a frame without a sky whose
+  // main pass reshapes its distributions by what the pilot learned; then at its diffuse receivers with per-pixel
+  // distributions.
+  bool difference = false;
+  // Under it, each diffuse receiver's groups its pilot drew and saw unoccluded every time (DifferencedGroups).
+  std::vector<PilotVisibleGroups> eligible;
   size_t TileOf(size_t pixel) const {
     const size_t x = pixel % static_cast<size_t>(w), y = pixel / static_cast<size_t>(w);
     return (y / kLearningTile) * static_cast<size_t>(tilesX) + x / kLearningTile;
@@ -465,6 +486,14 @@ BlockPlan::BlockPlan(const ReferenceFrame& frame)
                               perPixelLights ? selectionLights.size() : 0};
 }
 
+// One pilot draw of a diffuse receiver without a sky: its light group, the luminance of its light term before
+// visibility, and whether its shadow ray was unoccluded.
+struct PilotDraw {
+  uint32_t group = 0;
+  float unshadowed = 0.0f;
+  bool visible = false;
+};
+
 // What one band of learning tiles' pilot carried, accumulated by the thread that runs the band: per tile, per light
 // group and per sky strategy; per pixel, per sky strategy.
 struct BandLearning {
@@ -472,9 +501,17 @@ struct BandLearning {
   std::vector<TileLightSums> tiles;
   std::vector<StrategySums> tileStrategies;
   std::vector<StrategySums> pixelStrategies;  // the band's pixels, row-major from its first row
+  // Under the difference estimator, each differencing receiver's pilot draws (the band's pixels row-major,
+  // kPilotSamples each): its relative variance under differencing needs the band's learning, so it is taken at the
+  // band's end (DifferencedRelativeVariance).
+  std::vector<PilotDraw> draws;
+  std::vector<uint8_t> drawn;  // per band pixel: 1 where draws holds its samples
 
   void Start(const ReferenceFrame& frame, int b) {
     band = b;
+    const bool difference = frame.difference;
+    draws.resize(difference ? static_cast<size_t>(kLearningTile) * frame.w * kPilotSamples : 0);
+    drawn.assign(difference ? static_cast<size_t>(kLearningTile) * frame.w : 0, 0);
     tiles.resize(static_cast<size_t>(frame.tilesX));
     for (TileLightSums& t : tiles) t.Clear();
     tileStrategies.assign(static_cast<size_t>(frame.tilesX), StrategySums{});
@@ -617,6 +654,33 @@ const float* TileCdf(const ReferenceFrame& frame, const BlockPlan& plan, bool pi
   return cdf;
 }
 
+// Whether a receiver takes the difference estimator: a diffuse one, with a per-pixel distribution, in a frame where
+// it applies (ReferenceFrame::difference).
+bool Differences(const ReferenceFrame& frame, const BlockPlan& plan, const ShadingPoint& sp) {
+  return frame.difference && plan.perPixelLights && sp.bsdf.type == BsdfType::kDiffuse;
+}
+
+// Σ U_l over a receiver's differenced groups: each group's radiance times the cosine-weighted solid angle the
+// light-sampling integrand covers (core/polygon_irradiance.h ClippedPolygonProjectedSolidAngle), times albedo / π
+// (core/bsdf.cpp EvalBsdf's diffuse value, which is 0 where the viewer is below the shading normal).
+glm::dvec3 DifferenceConstant(const ReferenceFrame& frame, const BlockPlan& plan, const ShadingPoint& sp,
+                              const DifferencedGroups& d) {
+  if (!(glm::dot(sp.shadingNormal, sp.wo) > 0.0f)) return glm::dvec3(0.0);
+  glm::dvec3 sum(0.0);
+  for (uint32_t j = 0; j < d.count; ++j) {
+    const uint32_t l = d.group[j];
+    const LightTriangle& t = frame.lightList[plan.groups.first[l]];
+    // A quad's two triangles as one polygon p0, p0 + e1, p0 + e2, p0 + e2' (core/light.h FormsQuad: the second
+    // shares p0 and continues the first across its e2), a lone triangle as itself.
+    const bool quad = plan.groups.split[l] < 2.0f;
+    const Vec3 edges[3] = {t.e1, t.e2, quad ? frame.lightList[plan.groups.first[l] + 1].e2 : Vec3(0.0f)};
+    sum += glm::dvec3(t.radiance) * ClippedPolygonProjectedSolidAngle(sp.position, sp.shadingNormal,
+                                                                      sp.geometricNormal, t.p0, edges, quad ? 3 : 2,
+                                                                      t.normal);
+  }
+  return sum * glm::dvec3(sp.bsdf.albedo) * (1.0 / 3.14159265358979323846);
+}
+
 // The light distributions of the block in worker.block, whose first pixel is the row's firstPixel-th: built
 // by the selection kernel (the pilot; the main pass where they are not kept) or read from the pilot's, and,
 // under a sky, each receiver's light mixture (set by the pilot).
@@ -635,12 +699,20 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
   for (size_t r = 0; r < count; ++r) {
     const size_t i = block.index[r];
     PixelLightDistribution& dist = block.dists[r];
+    block.differenced[r].count = 0;
+    block.differenceConstant[r] = glm::dvec3(0.0);
     if (plan.perPixelLights) {
       float* const row = blockCdfs + r * nGroups;
       // The main pass draws from the distribution reshaped by what the pixel's tile learned.
-      if (!pilot)
+      if (!pilot) {
+        const bool difference = Differences(frame, plan, block.points[r]);
+        block.differenced[r].eligible = difference ? &frame.eligible[i] : nullptr;
         ReshapeLightRow(frame.learning[frame.TileOf(i)], plan.groupPowerPmf.data(), nGroups, row,
-                        frame.probes.empty() ? nullptr : &frame.probes[i]);
+                        frame.probes.empty() ? nullptr : &frame.probes[i],
+                        difference ? &block.differenced[r] : nullptr);
+        if (difference)
+          block.differenceConstant[r] = DifferenceConstant(frame, plan, block.points[r], block.differenced[r]);
+      }
       dist = PixelLightDistribution(row, &plan.groups, worker.estimates[r]);
     } else if (frame.hasLocal) {
       dist = PixelLightDistribution(TileCdf(frame, plan, pilot, i, worker), &plan.groups, -1.0f);
@@ -791,6 +863,66 @@ void ProbeBlock(ReferenceFrame& frame, const BlockPlan& plan, const ReceiverBloc
       frame.probes[block.index[batch.rayOf[r] / kMaxProbedGroups]].visible |= 1u << (batch.rayOf[r] % kMaxProbedGroups);
 }
 
+// A differencing receiver's pilot draws into its band's (BandLearning::draws).
+void KeepPilotDraws(ReferenceFrame& frame, const BlockPlan& plan, size_t i, const BlockScratch& scratch,
+                    size_t first, BandLearning& band) {
+  const size_t b = i - static_cast<size_t>(band.band) * kLearningTile * static_cast<size_t>(frame.w);
+  band.drawn[b] = 1;
+  uint32_t seen[kPilotSamples], blocked[kPilotSamples];
+  size_t nSeen = 0, nBlocked = 0;
+  for (size_t k = 0; k < kPilotSamples; ++k) {
+    const size_t e = first + k;
+    const PilotDraw d{plan.groups.groupOf[scratch.recordLight[e]], scratch.recordUnshadowed[e],
+                      scratch.recordVisible[e] != 0};
+    band.draws[b * kPilotSamples + k] = d;
+    if (d.unshadowed > 0.0f) (d.visible ? seen[nSeen++] : blocked[nBlocked++]) = d.group;
+  }
+  // The groups seen and never blocked, ascending, the first kMaxDifferencedGroups of them.
+  std::sort(seen, seen + nSeen);
+  PilotVisibleGroups& eligible = frame.eligible[i] = PilotVisibleGroups{};
+  for (size_t k = 0; k < nSeen && eligible.count < kMaxDifferencedGroups; ++k) {
+    if (k > 0 && seen[k] == seen[k - 1]) continue;
+    if (std::find(blocked, blocked + nBlocked, seen[k]) != blocked + nBlocked) continue;
+    eligible.group[eligible.count++] = static_cast<uint16_t>(seen[k]);
+  }
+}
+
+// The relative variance the main pass will see at the band's differencing receivers, from their pilot draws once
+// the band has learned: a draw of a group whose learned factor passes kDifferenceVisibility counts −(its term) where
+// occluded and 0 where not, any other its term where unoccluded (the pilot's own distribution, not the reshaped
+// one, and without the main pass's cap on differenced groups: it only apportions the samples). Relative to the
+// pilot's mean, whose expectation is the same; negative where the pilot saw no light, as elsewhere.
+void DifferencedRelativeVariances(const ReferenceFrame& frame, const BandLearning& band, std::vector<float>& relVar) {
+  const size_t firstPixel = static_cast<size_t>(band.band) * kLearningTile * static_cast<size_t>(frame.w);
+  for (size_t b = 0; b < band.drawn.size(); ++b) {
+    if (!band.drawn[b]) continue;
+    const size_t i = firstPixel + b;
+    const TileLightLearning& tile = frame.learning[frame.TileOf(i)];
+    const PixelProbes* probes = frame.probes.empty() ? nullptr : &frame.probes[i];
+    const bool learned = tile.reshape || (probes && probes->visible != 0);
+    double plain = 0.0, plainSq = 0.0, sum = 0.0, sumSq = 0.0;
+    for (size_t k = 0; k < kPilotSamples; ++k) {
+      const PilotDraw& d = band.draws[b * kPilotSamples + k];
+      const double term = d.unshadowed;
+      if (d.visible) plain += term, plainSq += term * term;
+      const PilotVisibleGroups& e = frame.eligible[i];
+      const bool differenced = learned && term > 0.0 &&
+                               std::binary_search(e.group, e.group + e.count, static_cast<uint16_t>(d.group)) &&
+                               LearnedFactor(tile, d.group, probes) > kDifferenceVisibility;
+      const double x = differenced ? (d.visible ? 0.0 : -term) : (d.visible ? term : 0.0);
+      sum += x;
+      sumSq += x * x;
+    }
+    const double mean = plain / kPilotSamples;
+    const double var = std::max(0.0, (sumSq - sum * (sum / kPilotSamples)) / (kPilotSamples - 1));
+    const double plainVar = std::max(0.0, (plainSq - plain * mean) / (kPilotSamples - 1));
+    // Floored at the plain estimate's over n + 1: 16 draws that all arrived do not show a shadow that takes less
+    // than about a 17th of the light, whose noise the plain variance bounds.
+    const double v = std::max(var, plainVar / (kPilotSamples + 1));
+    relVar[i] = mean > 0.0 ? static_cast<float>(std::min(v / (mean * mean), 1e30)) : -1.0f;
+  }
+}
+
 // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass). Kept: their
 // relative variance (negative where the pilot saw no light), and what their light draws delivered, learned per tile
 // (sim/reference/reference_learning.h). Bands of kLearningTile rows run in parallel, each band's rows in order by
@@ -800,6 +932,7 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
   std::vector<float> relVar(frame.pixels, -1.0f);
   const bool probe = learn && frame.hasLocal && plan.perPixelLights && plan.nGroups <= kMaxProbedGroups;
   if (probe) frame.probes.assign(frame.pixels, PixelProbes{});
+  if (frame.difference && plan.perPixelLights) frame.eligible.assign(frame.pixels, PilotVisibleGroups{});
   const auto bandOf = [&](const ReceiverBlock& block) {
     return static_cast<int>(block.index[0] / static_cast<size_t>(frame.w)) / kLearningTile;
   };
@@ -836,6 +969,10 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
     LearnFromBlock(frame, plan, block, scratch, first, band);
     sampleCount += block.count * kPilotSamples;
     for (size_t p = 0; p < block.count; ++p) {
+      if (Differences(frame, plan, block.points[p])) {  // its relative variance waits for the band's learning
+        KeepPilotDraws(frame, plan, block.index[p], scratch, first[p], band);
+        continue;
+      }
       double sum = 0.0, sumSq = 0.0;
       for (size_t k = 0; k < kPilotSamples; ++k) {
         const size_t e = first[p] + k;
@@ -850,6 +987,7 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
   }, [&](int band, BandLearning& learned) {
     if (learned.band != band) learned.Start(frame, band);  // a band without an active pixel learns nothing
     if (learn) FinishBand(frame, learned);
+    if (frame.difference) DifferencedRelativeVariances(frame, learned, relVar);
     learned.band = -1;
   });
   return relVar;
@@ -903,9 +1041,11 @@ void ReplicatePoints(const ReferenceFrame& frame, const ReceiverBlock& block, co
 }
 
 // Pixel i's estimate from its m points a replicate (sample k × kReplicates + rep at values[c][first + ...]):
-// the mean of the replicate means, added to what the pixel sees emitted, and the standard errors of its
+// the mean of the replicate means plus `constant` (the difference estimator's exact part, 0 elsewhere), added to
+// what the pixel sees emitted, and the standard errors of its
 // channels and of its luminance from the replicates' spread.
-void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_t i, ReferenceImage& ref) {
+void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_t i, const glm::dvec3& constant,
+                      ReferenceImage& ref) {
   // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
   // sum of glm::dvec3).
   double sums[3][kReplicates] = {};
@@ -927,7 +1067,7 @@ void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_
   double varY = 0.0;
   for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
   varY /= double(kReplicates - 1);
-  ref.mean.pixels[i] += Vec3(mean);
+  ref.mean.pixels[i] += Vec3(mean + constant);
   ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
   ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
 }
@@ -952,7 +1092,7 @@ void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<ui
     BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
     sampleCount += total;
     for (size_t p = 0; p < block.count; ++p)
-      AddPixelEstimate(scratch, first[p], counts[p] / kReplicates, block.index[p], ref);
+      AddPixelEstimate(scratch, first[p], counts[p] / kReplicates, block.index[p], block.differenceConstant[p], ref);
   }, [](int, BandLearning&) {});
 }
 
@@ -967,10 +1107,11 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
     return std::move(*cached);
   }
   ReferenceFrame frame(sequence, state, scene, g);
+  frame.difference = params.differenceShadows && params.learnVisibility && !frame.hasSky && frame.hasLocal;
   ReferenceImage ref = StartImage(frame);
   const BlockPlan plan(frame);
   const std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
-  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, ref.allocation.scale);
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, frame.difference, ref.allocation.scale);
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);
   MainPass(frame, plan, perReplicate, ref);
@@ -1006,13 +1147,17 @@ double ReferenceScratchBytes(double pixels, double lights, double groups, double
   const double bandBytes =
       tilesPerRow * (tileGroups * 64.0 + sizeof(StrategySums)) +
       (sky ? kLearningTile * tilesPerRow * kLearningTile * double(sizeof(StrategySums)) : 0.0) +
-      (lights > double(kMaxPerPixelLights) ? tilesPerRow * groups * sizeof(float) : 0.0);
+      (lights > double(kMaxPerPixelLights) ? tilesPerRow * groups * sizeof(float) : 0.0) +
+      (!sky && lights <= double(kMaxPerPixelLights)
+           ? kLearningTile * tilesPerRow * kLearningTile * (kPilotSamples * double(sizeof(PilotDraw)) + 1.0)
+           : 0.0);
   const double perThread =
       3.0 * groups * kSelectionBlock * sizeof(float) + 2.0 * blockSamples * perSample + bandBytes;
   const double learned = tiles * (sizeof(TileLightLearning) + tileGroups * 8.0);
   // active flag, relative variance, per-replicate count, samples per pixel; under a sky, the light mixture and the
-  // pilot's three estimates; with few enough groups, the probes
-  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) +
+  // pilot's three estimates, without one the difference estimator's blocked groups; with few enough groups, the
+  // probes
+  const double perPixel = 1.0 + sizeof(float) + 2.0 * sizeof(uint32_t) + (sky ? 0.0 : sizeof(PilotVisibleGroups)) +
                           (sky ? sizeof(LightMixture) + 3.0 * sizeof(float) : 0.0) +
                           (groups <= double(kMaxProbedGroups) ? sizeof(PixelProbes) : 0.0);
   return perFrame + threads * perThread + pixels * perPixel + learned;

@@ -48,27 +48,79 @@ uint32_t WeighedGroups(const float* cdf, const float* powerPmf, size_t groups) {
   return weighed;
 }
 
+namespace {
+// A probed group's factor: its probe's answer shrunk towards the tile's v.
+float WithProbe(float v, uint32_t l, const PixelProbes* probes) {
+  if (!probes || l >= kMaxProbedGroups || !(probes->probed >> l & 1u)) return v;
+  const float seen = (probes->visible >> l & 1u) ? 1.0f : 0.0f;
+  return (seen + kLearningPseudoSamples * v) / (1.0f + kLearningPseudoSamples);
+}
+
+// The candidates for differencing seen so far, at most kMaxDifferencedGroups, the one of least weight replaced
+// when a heavier one comes (ties keep the earlier seen, i.e. the higher group: the row is walked from the back).
+struct DifferenceCandidates {
+  size_t count = 0;
+  uint32_t group[kMaxDifferencedGroups];
+  float base[kMaxDifferencedGroups];
+  float factor[kMaxDifferencedGroups];
+  void Offer(uint32_t l, float b, float v) {
+    size_t slot = count;
+    if (count == kMaxDifferencedGroups) {
+      slot = 0;
+      for (size_t j = 1; j < count; ++j)
+        if (base[j] < base[slot]) slot = j;
+      if (!(b > base[slot])) return;
+    } else {
+      ++count;
+    }
+    group[slot] = l;
+    base[slot] = b;
+    factor[slot] = v;
+  }
+};
+}  // namespace
+
+float LearnedFactor(const TileLightLearning& tile, uint32_t l, const PixelProbes* probes) {
+  float v = tile.unsampled;
+  const auto it = std::lower_bound(tile.groups.begin(), tile.groups.end(), l);
+  if (it != tile.groups.end() && *it == l) v = tile.factor[static_cast<size_t>(it - tile.groups.begin())];
+  return WithProbe(v, l, probes);
+}
+
 bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_t groups, float* cdf,
-                     const PixelProbes* probes) {
+                     const PixelProbes* probes, DifferencedGroups* differenced) {
+  if (differenced) differenced->count = 0;
   const bool probedVisible = probes && probes->visible != 0;
   if (!(tile.reshape || probedVisible) || groups == 0) return false;
   // q_l into cdf[] (one pass from the back keeps the cdf's earlier entries for the differences), then Σ q.
   const float scale = 1.0f / cdf[groups - 1];
   size_t next = tile.groups.size();  // the learned entries, walked from the back
   double total = 0.0;
+  DifferenceCandidates candidates;
   for (size_t l = groups; l-- > 0;) {
     float v = tile.unsampled;
     while (next > 0 && tile.groups[next - 1] > l) --next;
     if (next > 0 && tile.groups[next - 1] == l) v = tile.factor[next - 1];
-    if (probes && l < kMaxProbedGroups && (probes->probed >> l & 1u)) {
-      const float seen = (probes->visible >> l & 1u) ? 1.0f : 0.0f;
-      v = (seen + kLearningPseudoSamples * v) / (1.0f + kLearningPseudoSamples);
-    }
+    v = WithProbe(v, static_cast<uint32_t>(l), probes);
     // What is left of P(l) after the power share; below kNoWeight it is the rounding of a light the row gave none.
     float base = (cdf[l] - (l ? cdf[l - 1] : 0.0f)) * scale - kDefensivePowerShare * powerPmf[l];
     if (!(base > kNoWeight)) base = 0.0f;
+    if (differenced && v > kDifferenceVisibility && base >= kDifferenceLeastShare && differenced->eligible &&
+        std::binary_search(differenced->eligible->group, differenced->eligible->group + differenced->eligible->count,
+                           static_cast<uint16_t>(l)))
+      candidates.Offer(static_cast<uint32_t>(l), base, v);
     cdf[l] = base * v;
     total += cdf[l];
+  }
+  if (differenced && candidates.count > 0) {
+    // Re-weigh the chosen ones (Σ q again, in the row's order, so the sum does not depend on the candidates' order).
+    for (size_t j = 0; j < candidates.count; ++j)
+      cdf[candidates.group[j]] = candidates.base[j] * std::max(1.0f - candidates.factor[j], kDifferenceFloor);
+    total = 0.0;
+    for (size_t l = groups; l-- > 0;) total += cdf[l];
+    differenced->count = static_cast<uint32_t>(candidates.count);
+    std::copy(candidates.group, candidates.group + candidates.count, differenced->group);
+    std::sort(differenced->group, differenced->group + differenced->count);
   }
   const bool weighted = total > 0.0 && std::isfinite(total);
   const double share = weighted ? (1.0 - kDefensivePowerShare) / total : 0.0;

@@ -149,7 +149,9 @@ void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const
   for (std::vector<float>& v : s.drawn) v.resize(total);
   s.drawOf.resize(total);
   size_t written = 0;
+  size_t rayFirst[kSelectionBlock + 1];  // receiver p's rays are [rayFirst[p], rayFirst[p + 1])
   for (size_t p = 0; p < block.count; ++p) {
+    rayFirst[p] = written;
     const ShadingPoint& sp = block.points[p];
     const float* u = s.u.data() + uFirst[p];
     const size_t n = counts[p];
@@ -171,6 +173,7 @@ void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const
     written += DrawLightSamples(ReceiverOf(sp, block.materialId[p], sp.bsdf.type != BsdfType::kDiffuse), materials,
                                 lights, block.dists[p].Cdf(), draws, o);
   }
+  rayFirst[block.count] = written;
   ShadowRaysSoa shadowRays;
   for (int c = 0; c < 3; ++c) {
     shadowRays.org[c] = s.drawn[c].data();
@@ -192,10 +195,24 @@ void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const
       }
     for (size_t r = 0; r < written; ++r) s.recordVisible[s.drawOf[r]] = !s.occluded[r];
   }
-  // The light term stays where its ray is unoccluded.
-  for (size_t r = 0; r < written; ++r)
-    if (s.occluded[r])
-      for (int c = 0; c < 3; ++c) out[c][s.drawOf[r]] = 0.0f;
+  // The light term stays where its ray is unoccluded; a differenced group's becomes its negative where the ray is
+  // occluded and 0 where it is not.
+  for (size_t p = 0; p < block.count; ++p) {
+    const DifferencedGroups& d = block.differenced[p];
+    for (size_t r = rayFirst[p]; r < rayFirst[p + 1]; ++r) {
+      const size_t e = s.drawOf[r];
+      bool differenced = false;
+      if (d.count > 0) {
+        const PixelLightDistribution& dist = block.dists[p];
+        const uint32_t group = dist.GroupOf(dist.Sample(s.u[uFirst[p] + (e - first[p])]));
+        differenced = std::binary_search(d.group, d.group + d.count, group);
+      }
+      if (differenced)
+        for (int c = 0; c < 3; ++c) out[c][e] = s.occluded[r] ? -out[c][e] : 0.0f;
+      else if (s.occluded[r])
+        for (int c = 0; c < 3; ++c) out[c][e] = 0.0f;
+    }
+  }
   // Plus the BSDF term (a diffuse receiver has none): a sample from the BSDF-draw kernel whose ray meets an
   // emitter's front, weighted by the power heuristic against the light strategy's density there (pbrt-v4
   // PathIntegrator::SampleLd style, restricted to direct light).

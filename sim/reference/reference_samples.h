@@ -15,6 +15,7 @@
 #include "core/math.h"
 #include "core/sampling.h"
 #include "sim/scene/embree_scene.h"
+#include "sim/reference/reference_learning.h"
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/shading_point.h"
 
@@ -54,6 +55,8 @@ class PixelLightDistribution {
     return CdfPmf(cdf_, groups_->first.size(), groups_->groupOf[l]) * groups_->invArea[l];
   }
   const float* Cdf() const { return cdf_; }
+  // The group light triangle l belongs to.
+  uint32_t GroupOf(uint32_t l) const { return groups_->groupOf[l]; }
   // What the build estimated the lights give the receiver together (the luminance of the reflected radiance,
   // unshadowed; core/light_selection_kernel.h), or -1 where it did not estimate it (above kMaxPerPixelLights).
   // Sets the local lights' share of the light mixture under a sky (sim/reference/reference_sky.h).
@@ -111,6 +114,11 @@ struct ReceiverBlock {
   int32_t materialId[kSelectionBlock] = {};        // its entry in the frame's BsdfSoa
   PixelLightDistribution dists[kSelectionBlock];   // its light distribution
   SkySampling sky[kSelectionBlock];                // its sky and light mixture
+  // Under the difference estimator (sim/reference/reference_learning.h): the groups differenced at each receiver
+  // (none elsewhere), whose samples keep their light term's negative where its shadow ray is occluded and 0 where it
+  // is not; and their exact unshadowed contribution Σ U_l, which the receiver's estimate adds to its samples' mean.
+  DifferencedGroups differenced[kSelectionBlock];
+  glm::dvec3 differenceConstant[kSelectionBlock];
 };
 
 // What the pilot keeps of each sample's light-sampling draw, for the visibility-aware selection
@@ -164,7 +172,9 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
 // heuristic. The light half is the light-draw kernel (a packet of draws per register, its MIS weight included),
 // every receiver's shadow rays then traced as one batch; the BSDF half the BSDF-draw kernel, each of its rays asking
 // EmbreeScene::FirstEmitter. Reads coordinates 0-2 at a diffuse receiver, 0-4 at others; out[c] is the block's
-// samples' channel c. Where s.record is set, every sample's light draw is recorded in s's record arrays.
+// samples' channel c. Where s.record is set, every sample's light draw is recorded in s's record arrays. At a
+// receiver with differenced groups (ReceiverBlock::differenced), a sample of such a group is −(its light term) where
+// its ray is occluded and 0 where not: the estimate of what the shadows take from the group's exact contribution.
 void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const size_t* uFirst, const size_t* first,
                          const EmbreeScene& scene, const BsdfSoa& materials,
                          const std::vector<LightTriangle>& lightList, const LightDrawLights& lights, BlockScratch& s,

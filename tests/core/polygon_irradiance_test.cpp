@@ -56,3 +56,116 @@ TEST(PolygonIrradiance, ClippingKeepsOnlyTheUpperHemisphere) {
 
 }  // namespace
 }  // namespace restir
+
+namespace restir {
+namespace {
+
+// ClippedTriangleProjectedSolidAngle against a quadrature of the integral it stands for, written from the
+// light-sampling integrand itself (cos θx cos θy / d² over the triangle's area, cos θx from the shading normal,
+// zero where either normal's hemisphere or the emitter's front excludes the point), not from Lambert's formula:
+// each triangle cut into n² congruent triangles, one point at each centroid. Over a grid of tilts, horizon clips
+// (by the shading and by the geometric normal), grazing emission, a receiver behind the emitter, sizes from 1 mm to
+// 100 m and offsets up to 10 km from the origin, the relative difference stays below 2e-3 (the rule's own error
+// at n = 400 with the integrand's kink at a horizon; 1e-5 where nothing clips).
+double ProjectedSolidAngleQuadrature(const Vec3& x, const Vec3& n, const Vec3& ng, const Vec3& p0, const Vec3& e1,
+                                     const Vec3& e2, const Vec3& ln, int cells) {
+  using D3 = glm::dvec3;
+  const D3 X(x), P0(p0), E1(e1), E2(e2), N(n), NG(ng), LN(ln);
+  const double cellArea = 0.5 * glm::length(glm::cross(E1, E2)) / (double(cells) * cells);
+  const double front = glm::dot(LN, X - P0);  // the emitter's cosine times d, from its plane
+  if (!(front > 0.0)) return 0.0;
+  double sum = 0.0;
+  for (int a = 0; a < cells; ++a)
+    for (int b = 0; a + b < cells; ++b)
+      for (int flip = 0; flip < (a + b + 1 < cells ? 2 : 1); ++flip) {
+        const double s = (a + (flip ? 2.0 / 3.0 : 1.0 / 3.0)) / cells, t = (b + (flip ? 2.0 / 3.0 : 1.0 / 3.0)) / cells;
+        const D3 w = P0 + s * E1 + t * E2 - X;
+        const double d2 = glm::dot(w, w), d = std::sqrt(d2);
+        const double cosX = glm::dot(N, w) / d;
+        if (!(cosX > 0.0) || !(glm::dot(NG, w) > 0.0)) continue;
+        sum += cosX * (front / d) / d2 * cellArea;
+      }
+  return sum;
+}
+
+struct ClipCase {
+  const char* name;
+  Vec3 x, n, ng;     // receiver, shading and geometric normals (unnormalised here)
+  Vec3 a, b, c;      // the triangle; its emitting side is the one cross(b − a, c − a) points to
+  bool clips;        // a horizon cuts it: the quadrature's kink
+};
+
+TEST(ClippedTriangleProjectedSolidAngle, MatchesAQuadratureOfTheIntegrandOverAGrid) {
+  const std::vector<ClipCase> cases = {
+      {"overhead", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 2), Vec3(-1, 1, 2), Vec3(1, 0, 2), false},
+      {"tilted emitter", Vec3(0.3f, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 1.5f), Vec3(-0.5f, 1, 2.5f),
+       Vec3(1, 0, 1.2f), false},
+      {"tilted receiver", Vec3(0, 0, 0), Vec3(0.5f, 0.2f, 1), Vec3(0.5f, 0.2f, 1), Vec3(-1, -1, 2), Vec3(-1, 1, 2),
+       Vec3(1, 0, 2), false},
+      {"straddles the horizon", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(2, -1, -0.5f), Vec3(2, 0, 1.5f),
+       Vec3(2, 1, -0.5f), true},
+      {"shading normal clips", Vec3(0, 0, 0), Vec3(-0.6f, 0, 0.8f), Vec3(0, 0, 1), Vec3(1, -1, 0.3f),
+       Vec3(0.2f, 0, 2), Vec3(1, 1, 0.3f), true},
+      {"geometric normal clips", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0.7f, 0, 0.7f), Vec3(-1.5f, -1, 1),
+       Vec3(-1.5f, 1, 1), Vec3(0.5f, 0, 1), true},
+      {"grazing emission", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 1), Vec3(-1, 1, 1),
+       Vec3(-0.02f, 0, 3), false},
+      {"grazing reception", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(5, -1, 0.05f), Vec3(5, 0, 0.6f),
+       Vec3(5, 1, 0.05f), false},
+      {"behind the emitter", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 2), Vec3(1, 0, 2),
+       Vec3(-1, 1, 2), false},
+  };
+  for (const ClipCase& cc : cases)
+    for (float scale : {1e-3f, 1.0f, 100.0f})
+      for (const Vec3& offset : {Vec3(0), Vec3(1000.0f, -1000.0f, 1000.0f), Vec3(-1e4f, 0, 1e4f)}) {
+        if (scale < 1.0f && offset.x < -1000.0f) continue;  // a 1 mm triangle is below float's spacing at 10 km
+        // The inputs as the renderer has them: float vertices, edges and unit normals.
+        const Vec3 x = offset + cc.x * scale, p0 = offset + cc.a * scale;
+        const Vec3 e1 = (offset + cc.b * scale) - p0, e2 = (offset + cc.c * scale) - p0;
+        const Vec3 ln = glm::normalize(glm::cross(e1, e2));
+        const Vec3 n = glm::normalize(cc.n), ng = glm::normalize(cc.ng);
+        const double got = ClippedTriangleProjectedSolidAngle(x, n, ng, p0, e1, e2, ln);
+        const double want = ProjectedSolidAngleQuadrature(x, n, ng, p0, e1, e2, ln, 400);
+        const std::string what = std::string(cc.name) + " at scale " + std::to_string(scale) + ", offset " +
+                                 std::to_string(offset.x);
+        if (std::string(cc.name) == "behind the emitter") {
+          EXPECT_EQ(got, 0.0) << what;
+          continue;
+        }
+        ASSERT_GT(want, 0.0) << what;
+        EXPECT_NEAR(got / want, 1.0, cc.clips ? 2e-3 : 1e-5) << what;
+      }
+}
+
+// The clip by both normals is what the integrand sees: a triangle wholly below the geometric plane but above the
+// shading one gives nothing, and the result does not depend on which side's vertex order the triangle has beyond
+// the front test.
+TEST(ClippedTriangleProjectedSolidAngle, ExcludesWhatEitherHemisphereExcludes) {
+  const Vec3 x(0), n(0, 0, 1), ng = glm::normalize(Vec3(1, 0, 1));
+  const Vec3 p0(-2, -1, 0.5f), e1(0, 2, 0), e2(1, 1, 0);  // x < -0.5 everywhere: below ng's plane
+  const Vec3 ln = glm::normalize(glm::cross(e1, e2));
+  ASSERT_LT(ln.z, 0.0f);  // facing the receiver
+  EXPECT_EQ(ClippedTriangleProjectedSolidAngle(x, n, ng, p0, e1, e2, ln), 0.0);
+  EXPECT_GT(ClippedTriangleProjectedSolidAngle(x, n, n, p0, e1, e2, ln), 0.0);
+}
+
+// A light group's quad taken as one polygon (the shared diagonal's two terms cancel) is the sum of its two
+// triangles, where a horizon cuts it too, near the origin and at 1 km.
+TEST(ClippedPolygonProjectedSolidAngle, QuadIsTheSumOfItsTriangles) {
+  for (const Vec3& offset : {Vec3(0), Vec3(1000.0f, 20.0f, -1000.0f)})
+    for (const Vec3& nx : {Vec3(0, 0, 1), glm::normalize(Vec3(0.9f, 0, 0.3f))}) {
+      const Vec3 x = offset, p0 = offset + Vec3(-1, -1, 1.5f);
+      const Vec3 e1(0, 2, 0.2f), e2(2, 2, 0.5f), e2b(2, 0, 0.3f);  // A, A + e1, A + e2, A + e2b: convex
+      const Vec3 ln = glm::normalize(glm::cross(e1, e2));
+      ASSERT_GT(glm::dot(ln, x - p0), 0.0f);  // x is on the emitting side
+      const Vec3 quad[3] = {e1, e2, e2b};
+      const double whole = ClippedPolygonProjectedSolidAngle(x, nx, nx, p0, quad, 3, ln);
+      const double parts = ClippedTriangleProjectedSolidAngle(x, nx, nx, p0, e1, e2, ln) +
+                           ClippedTriangleProjectedSolidAngle(x, nx, nx, p0, e2, e2b, ln);
+      ASSERT_GT(parts, 0.0);
+      EXPECT_NEAR(whole / parts, 1.0, 1e-12) << "offset " << offset.x << ", normal " << nx.x;
+    }
+}
+
+}  // namespace
+}  // namespace restir

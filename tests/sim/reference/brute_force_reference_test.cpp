@@ -225,7 +225,8 @@ struct Outcome {
 // relative variance). The pilot's samples are not in the reference's estimate (the main pass draws fresh ones),
 // so choosing by them does not bias z; choosing by the final standard error would (a large se relative to the
 // mean selects means that came out low).
-Outcome Compare(const char* name, const std::string& file, int gridStep, int hardCount, int strata) {
+Outcome Compare(const char* name, const std::string& file, int gridStep, int hardCount, int strata,
+                bool difference = false) {
   const Sequence seq = LoadSequence(file);
   EXPECT_FALSE(seq.environment.present || seq.sun.present) << name << ": this test handles local lights only";
   const FrameState state = Evaluate(seq, 0, kWidth, kHeight);
@@ -237,6 +238,7 @@ Outcome Compare(const char* name, const std::string& file, int gridStep, int har
   const auto t0 = std::chrono::steady_clock::now();
   ReferenceParams params;
   params.samplesPerPixel = kReferenceSpp;
+  params.differenceShadows = difference;
   const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
   const auto t1 = std::chrono::steady_clock::now();
 
@@ -397,6 +399,22 @@ TEST(BruteForceReference, DoorAjar) {
 TEST(BruteForceReference, SunStreetNight) {
   const Outcome o =
       Compare("sun_street_night", RESTIR_SOURCE_DIR "/sequences/regimes/sun_street_night.json", 6, 100, 8);
+  ExpectAgreement(o, 100, 100);
+}
+
+// The difference estimator (ReferenceParams::differenceShadows, off by default) against the same brute force: its
+// mean rests on core/polygon_irradiance.h's exact integral and its samples on the pilot's choice of groups, neither
+// of which the brute force uses. sun_street_night (street lamps that the scene's walls and poles shadow) and
+// moving_occluder (a light half hidden by a moving box) at frame 0, where it differences most lit pixels' lights.
+TEST(BruteForceReference, SunStreetNightWithTheDifferenceEstimator) {
+  const Outcome o = Compare("sun_street_night, difference", RESTIR_SOURCE_DIR "/sequences/regimes/sun_street_night.json",
+                            6, 100, 8, /*difference=*/true);
+  ExpectAgreement(o, 100, 100);
+}
+
+TEST(BruteForceReference, MovingOccluderWithTheDifferenceEstimator) {
+  const Outcome o = Compare("moving_occluder, difference", RESTIR_SOURCE_DIR "/sequences/moving_occluder.json", 6, 100,
+                            8, /*difference=*/true);
   ExpectAgreement(o, 100, 100);
 }
 

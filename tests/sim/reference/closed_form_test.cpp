@@ -225,6 +225,8 @@ void ExpectAgreement(const Verdict& v, double dof, double meanZ2, int units, dou
   EXPECT_LE(std::fabs(v.relativeError), tMean * v.relativeStdError) << what << ": mean relative error, t-test";
 }
 
+// The reference's sampler against Lambert, the difference estimator off (the default), so that every pixel's value is
+// a sampled estimate (with it, these unoccluded diffuse pixels are exact: the next test).
 TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
   for (const Config& c : Grid()) {
     const Sequence seq = MakeScene(c, 64);
@@ -235,6 +237,7 @@ TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
     TracePrimary(scene, state.camera, g);
     ReferenceParams params;
     params.samplesPerPixel = 1024;
+    params.differenceShadows = false;
     const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
     std::vector<double> value(g.Size()), stdError(g.Size());
     for (size_t i = 0; i < g.Size(); ++i) value[i] = ref.mean.pixels[i].x, stdError[i] = ref.standardError.pixels[i].x;
@@ -242,6 +245,44 @@ TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
     ExpectAgreement(v, 15.0, v.meanZ2, v.pixels, INFINITY, "reference, " + c.name);
     // The 0.1% claim must be a claim: the reference's own noise is well below it (3 standard errors).
     EXPECT_LT(v.relativeStdError, 1e-3 / 3.0) << c.name;
+  }
+}
+
+// With the difference estimator (ReferenceParams::differenceShadows), a diffuse receiver that sees its lights unoccluded is exact: its
+// samples of what the shadows take are all 0, so its replicates agree (standard error 0) and its value is the exact
+// unshadowed contribution. Over the same grid: at every lit pixel with no spread, the value equals Lambert's
+// polygon formula (core/polygon_irradiance.h PolygonIrradiance of the light clipped by ClipPolygonToHemisphere, a
+// separate evaluation of the closed form) to 1e-5 relative, plus 1e-7 of the brightest pixel for a light at the
+// horizon; and most lit pixels are such (the claim has something to hold). Pixels with a spread are sampled, as in
+// the test above, and counted only.
+TEST(ClosedForm, DifferenceEstimatorIsExactAtUnoccludedDiffuseReceivers) {
+  for (const Config& c : Grid()) {
+    const Sequence seq = MakeScene(c, 64);
+    const FrameState state = test::StaticState(seq);
+    EmbreeScene scene(seq);
+    scene.Update(state);
+    GBuffer g;
+    TracePrimary(scene, state.camera, g);
+    ReferenceParams params;
+    params.samplesPerPixel = 1024;
+    params.differenceShadows = true;
+    const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
+    double brightest = 0.0;
+    for (size_t i = 0; i < g.Size(); ++i)
+      if (g.IsSurface(i)) brightest = std::max(brightest, ClosedForm(seq, g.Position(i)));
+    int lit = 0, exactPixels = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < g.Size(); ++i) {
+      if (!g.IsSurface(i)) continue;
+      const double exact = ClosedForm(seq, g.Position(i));
+      if (exact > 0.0) ++lit;
+      if (ref.standardError.pixels[i].x != 0.0f) continue;
+      const double value = ref.mean.pixels[i].x;
+      EXPECT_NEAR(value, exact, 1e-5 * exact + 1e-7 * brightest) << c.name << ", pixel " << i;
+      if (exact > 1e-3 * brightest) worst = std::max(worst, std::fabs(value / exact - 1.0)), ++exactPixels;
+    }
+    std::printf("%-40s lit %5d, exact %5d, worst relative difference %.2e\n", c.name.c_str(), lit, exactPixels, worst);
+    EXPECT_GT(exactPixels, lit * 9 / 10) << c.name;
   }
 }
 

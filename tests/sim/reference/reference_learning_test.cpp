@@ -98,6 +98,46 @@ TEST(ReshapeLightRow, KeepsTheDefensivePowerShareAndScalesTheUnshadowedWeightsBy
   EXPECT_EQ(cdf, before);
 }
 
+// Under the difference estimator: the groups its pilot saw (eligible) whose factor passes kDifferenceVisibility and
+// whose unshadowed share reaches kDifferenceLeastShare are listed, ascending, and weighed by what is left to estimate,
+// max(1 − V, kDifferenceFloor); the others as before; the defensive share stays.
+TEST(ReshapeLightRow, DifferencedGroupsAreTheSeenMostlyVisibleOnesWeighedByWhatTheirShadowsTake) {
+  const std::vector<double> power = {0.1, 0.2, 0.3, 0.15, 0.25};
+  const std::vector<double> unshadowed = {0.5, 0.0, 0.2, 0.3, 0.0};
+  const std::vector<double> p = SelectionPmf(power, unshadowed);
+  std::vector<float> powerPmf(power.begin(), power.end());
+  TileLightLearning tile;
+  tile.reshape = true;
+  tile.groups = {0, 2, 3};
+  tile.factor = {0.02f, 0.8f, 0.95f};
+  tile.unsampled = 0.25f;
+  PilotVisibleGroups seen;
+  seen.count = 3;
+  seen.group[0] = 2, seen.group[1] = 3, seen.group[2] = 4;  // 0 not seen; 4 seen but gives nothing unshadowed
+  std::vector<float> cdf = Cdf(p, 1.0);
+  DifferencedGroups d;
+  d.eligible = &seen;
+  ASSERT_TRUE(ReshapeLightRow(tile, powerPmf.data(), cdf.size(), cdf.data(), nullptr, &d));
+  ASSERT_EQ(d.count, 2u);
+  EXPECT_EQ(d.group[0], 2u);
+  EXPECT_EQ(d.group[1], 3u);
+  const std::vector<double> q = {(1 - kDefensivePowerShare) * 0.5 * 0.02, 0.0,
+                                 (1 - kDefensivePowerShare) * 0.2 * (1.0 - 0.8), (1 - kDefensivePowerShare) * 0.3 * 0.1,
+                                 0.0};
+  double sumQ = 0.0;
+  for (double v : q) sumQ += v;
+  const std::vector<double> got = Pmf(cdf);
+  for (size_t l = 0; l < p.size(); ++l)
+    EXPECT_NEAR(got[l], (1.0 - kDefensivePowerShare) * q[l] / sumQ + kDefensivePowerShare * power[l], 2e-6) << l;
+  // Nothing eligible: nothing differenced, the row as without the estimator.
+  std::vector<float> plain = Cdf(p, 1.0), none = Cdf(p, 1.0);
+  DifferencedGroups empty;
+  ASSERT_TRUE(ReshapeLightRow(tile, powerPmf.data(), plain.size(), plain.data()));
+  ASSERT_TRUE(ReshapeLightRow(tile, powerPmf.data(), none.size(), none.data(), nullptr, &empty));
+  EXPECT_EQ(empty.count, 0u);
+  EXPECT_EQ(plain, none);
+}
+
 // Where every learned factor is 0 (Σ q = 0: the pilot saw every weighted light occluded), the row is power alone;
 // it never loses a light with power.
 TEST(ReshapeLightRow, FallsBackToPowerWhereNoWeightIsLeft) {
