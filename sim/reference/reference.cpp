@@ -45,9 +45,9 @@ namespace {
 // Bump when the renderer changes what it computes: old cache entries then stop matching (8: issue 16's redesign,
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
-// error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes).
-// The difference estimator (ReferenceParams::differenceShadows, off by default) marks its entries in the key instead.
-constexpr uint32_t kReferenceVersion = 12;
+// error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes;
+// 13: the difference estimator at diffuse receivers).
+constexpr uint32_t kReferenceVersion = 13;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -172,31 +172,39 @@ uint32_t TargetPerReplicate(float relVar, double e2) {
 }
 
 // Budget mode's counts: a uniform share of the mean per-replicate count for every active pixel, the rest in
-// proportion to v, none above kMaxAllocationScale times the mean. With `carry` (the difference estimator), one per
-// replicate for every active pixel first, then the rest shared out likewise, each pixel's share rounded with the
-// previous pixels' rounding carried (in pixel order, one thread): the difference estimator makes most shares small
-// (an unoccluded pixel's v is about 0), and rounding each alone then spent 40 of the flagship's 48 samples a pixel.
+// proportion to v, none above kMaxAllocationScale times the mean. What that cap cuts off is shared out among the
+// pixels below it in proportion to their shares (again where that takes more of them to the cap), so that the counts
+// spend the budget: with the difference estimator most pixels' v is about 0 and a few penumbra pixels' large, and
+// the cap alone left 11% of a 256-sample budget unspent beside a thin occluder
+// (tests/sim/reference/independent_visibility_test.cpp). Where nothing reaches the cap the counts are as before.
 std::vector<uint32_t> BudgetPerReplicate(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                         int samplesPerPixel, bool carry) {
+                                         int samplesPerPixel) {
   std::vector<uint32_t> m(relVar.size(), 0);
   const double meanPerReplicate = MeanPerReplicate(samplesPerPixel);
   const double meanV = MeanRelativeVariance(relVar, active);
-  double carried = 0.0;
+  const double cap = meanPerReplicate * kMaxAllocationScale;
+  std::vector<double> want(relVar.size(), 0.0);
+  size_t activeCount = 0;
   for (size_t i = 0; i < relVar.size(); ++i) {
     if (!active[i]) continue;
     const double share = meanV > 0.0 ? kUniformShare + (1.0 - kUniformShare) * std::max(0.0f, relVar[i]) / meanV
                                      : 1.0;
-    if (carry) {
-      const double want = std::min((meanPerReplicate - 1.0) * share, meanPerReplicate * kMaxAllocationScale - 1.0) +
-                          carried;
-      const double extra = std::max(0.0, std::round(want));
-      carried = want - extra;
-      m[i] = static_cast<uint32_t>(1.0 + extra);
-      continue;
-    }
-    const double perReplicate = std::min(std::round(meanPerReplicate * share), meanPerReplicate * kMaxAllocationScale);
-    m[i] = static_cast<uint32_t>(std::max(1.0, perReplicate));
+    want[i] = meanPerReplicate * share;
+    ++activeCount;
   }
+  const double budget = meanPerReplicate * double(activeCount);
+  for (int round = 0; round < 16; ++round) {
+    double atCap = 0.0, below = 0.0;
+    for (size_t i = 0; i < relVar.size(); ++i)
+      if (active[i]) (want[i] >= cap ? atCap : below) += want[i] >= cap ? cap : want[i];
+    const double left = budget - atCap;
+    if (!(below > 0.0) || !(left > below * (1.0 + 1e-9))) break;  // nothing was cut off, or nothing can take it
+    const double scale = left / below;
+    for (size_t i = 0; i < relVar.size(); ++i)
+      if (active[i] && want[i] < cap) want[i] *= scale;
+  }
+  for (size_t i = 0; i < relVar.size(); ++i)
+    if (active[i]) m[i] = static_cast<uint32_t>(std::max(1.0, std::min(std::round(want[i]), cap)));
   return m;
 }
 
@@ -207,7 +215,7 @@ std::vector<uint32_t> BudgetPerReplicate(const std::vector<float>& relVar, const
 // 2.6%), and the capped frame is then the `--reference-spp cap` frame, bit for bit. `scale`: the cap over the
 // target's mean (1 when affordable).
 std::vector<uint32_t> TargetPerReplicateCounts(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                               const ReferenceParams& params, bool carry, double& scale) {
+                                               const ReferenceParams& params, double& scale) {
   const float floor = static_cast<float>(kUniformShare * MeanRelativeVariance(relVar, active));
   const double e2 = params.targetRelativeError * params.targetRelativeError;
   std::vector<uint32_t> m(relVar.size(), 0);
@@ -223,18 +231,18 @@ std::vector<uint32_t> TargetPerReplicateCounts(const std::vector<float>& relVar,
   scale = 1.0;
   if (params.maxMeanSamplesPerPixel > 0 && meanSamples > params.maxMeanSamplesPerPixel) {
     scale = double(params.maxMeanSamplesPerPixel) / meanSamples;
-    return BudgetPerReplicate(relVar, active, params.maxMeanSamplesPerPixel, carry);
+    return BudgetPerReplicate(relVar, active, params.maxMeanSamplesPerPixel);
   }
   return m;
 }
 
 // Per-replicate sample counts from the pilot's relative variances (negative: the pilot saw no light), and in
-// error mode the scale the cap imposed (ReferenceAllocation::scale). `carry`: BudgetPerReplicate's.
+// error mode the scale the cap imposed (ReferenceAllocation::scale).
 std::vector<uint32_t> AllocateSamples(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
-                                      const ReferenceParams& params, bool carry, double& scale) {
+                                      const ReferenceParams& params, double& scale) {
   scale = 1.0;
-  if (params.targetRelativeError > 0.0) return TargetPerReplicateCounts(relVar, active, params, carry, scale);
-  return BudgetPerReplicate(relVar, active, params.samplesPerPixel, carry);
+  if (params.targetRelativeError > 0.0) return TargetPerReplicateCounts(relVar, active, params, scale);
+  return BudgetPerReplicate(relVar, active, params.samplesPerPixel);
 }
 
 // A cached reference, or false when there is none. An entry that exists but is not a valid answer for this key
@@ -282,7 +290,7 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   const bool target = params.targetRelativeError > 0.0;
   const int32_t fields[4] = {target ? 0 : params.samplesPerPixel, target ? params.maxMeanSamplesPerPixel : 0,
                              static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30) |
-                                 (params.differenceShadows ? 1 << 29 : 0),
+                                 (params.differenceShadows ? 0 : 1 << 29),
                              static_cast<int32_t>(kReferenceSeed)};
   const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
@@ -877,12 +885,14 @@ void KeepPilotDraws(ReferenceFrame& frame, const BlockPlan& plan, size_t i, cons
     band.draws[b * kPilotSamples + k] = d;
     if (d.unshadowed > 0.0f) (d.visible ? seen[nSeen++] : blocked[nBlocked++]) = d.group;
   }
-  // The groups seen and never blocked, ascending, the first kMaxDifferencedGroups of them.
+  // The groups drawn at least kDifferenceLeastDraws times and never blocked, ascending, the first
+  // kMaxDifferencedGroups of them.
   std::sort(seen, seen + nSeen);
   PilotVisibleGroups& eligible = frame.eligible[i] = PilotVisibleGroups{};
   for (size_t k = 0; k < nSeen && eligible.count < kMaxDifferencedGroups; ++k) {
     if (k > 0 && seen[k] == seen[k - 1]) continue;
     if (std::find(blocked, blocked + nBlocked, seen[k]) != blocked + nBlocked) continue;
+    if (std::count(seen + k, seen + nSeen, seen[k]) < static_cast<std::ptrdiff_t>(kDifferenceLeastDraws)) continue;
     eligible.group[eligible.count++] = static_cast<uint16_t>(seen[k]);
   }
 }
@@ -1111,7 +1121,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ReferenceImage ref = StartImage(frame);
   const BlockPlan plan(frame);
   const std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
-  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, frame.difference, ref.allocation.scale);
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, ref.allocation.scale);
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);
   MainPass(frame, plan, perReplicate, ref);

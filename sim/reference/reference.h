@@ -45,13 +45,11 @@ struct ReferenceParams {
   // the distributions are then the unshadowed ones.
   bool learnVisibility = true;
   // At diffuse receivers of a frame without a sky, with per-pixel light distributions and the learning on: take
-  // the light groups the pixel's pilot saw unoccluded as their exact unshadowed contribution minus a sampled
-  // estimate of what their shadows take (sim/reference/reference_learning.h, the difference estimator), so that an
-  // unoccluded diffuse receiver is exact. Off by default: it lowers the mean relative standard error on every
-  // sequence it applies to but raised the 99th percentile on window_bars_pan and asset_table and the flagship's
-  // reference time by a third (docs/metrics.md, "How the reference is sampled"); measured by
-  // bench/reference_quality_bench.cpp (RESTIR_BENCH_REFERENCE_DIFFERENCE=1).
-  bool differenceShadows = false;
+  // the light groups the pixel's pilot saw arrive as their exact unshadowed contribution minus a sampled estimate
+  // of what their shadows take (sim/reference/reference_learning.h, the difference estimator), so that an
+  // unoccluded diffuse receiver is exact. Off only to measure what it gains (bench/reference_quality_bench.cpp,
+  // RESTIR_BENCH_REFERENCE_DIFFERENCE=0).
+  bool differenceShadows = true;
 };
 
 struct ReferenceImage {

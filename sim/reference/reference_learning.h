@@ -118,19 +118,25 @@ uint32_t WeighedGroups(const float* cdf, const float* powerPmf, size_t groups);
 // kept at the unshadowed weight times V, a pixel whose groups were part differenced and part not had samples of two
 // kinds, 0 and about the whole light, where the plain estimate had samples all about the whole light
 // (window_bars_pan frame 0: mean relative standard error 5.2% → 9.4%). And only a group that the receiver's own
-// pilot drew, every one of those draws' shadow rays unoccluded, is differenced there: with the tile's factor alone,
-// a pixel in a shadow the tile does not share had its rare samples of the hidden light carry all of U_l
-// (asset_table, 3 frames: mean 1.9% → 4.1%, 99th percentile 24% → 49%).
+// pilot drew at least kDifferenceLeastDraws times, every one of those draws' shadow rays unoccluded, is
+// differenced there: with the tile's factor alone, a pixel in a shadow the tile does not share had its rare samples
+// of the hidden light carry all of U_l (asset_table, 3 frames: mean 1.9% → 4.1%, 99th percentile 24% → 49%); with
+// one draw enough, a light partly hidden in a way one draw did not see did the same to fewer pixels (frame 0, with a
+// since dropped rounding of the allocation: p99 14.6% → 19.0% on asset_table, 13.7% → 15.7% on window_bars_pan;
+// with two draws and without it, 14.6% and 12.6%).
 // A group is differenced where its learned factor is above this.
 inline constexpr float kDifferenceVisibility = 0.5f;
 // At most this many groups a receiver are differenced (the largest unshadowed weights), and only those with at
-// least this share of its unshadowed weight: each costs an exact integral per receiver (a quarter of the flagship's
-// reference time at 16 groups and no least share), and a group that gives little adds little noise either way.
+// least this share of its unshadowed weight: each costs an exact integral per receiver (a fifth of the flagship's
+// reference time at 16 groups and no least share, perf), and a group that gives little adds little noise either way.
 inline constexpr size_t kMaxDifferencedGroups = 8;
 inline constexpr float kDifferenceLeastShare = 0.01f;
 // The least share of its unshadowed weight a differenced group keeps: max(1 − V, this).
 inline constexpr float kDifferenceFloor = 0.1f;
-// A receiver's groups that its pilot drew and whose every draw arrived (the first kMaxDifferencedGroups of them).
+// The fewest of the receiver's pilot draws of a group, all arriving, that let it be differenced.
+inline constexpr size_t kDifferenceLeastDraws = 2;
+// A receiver's groups that its pilot drew at least kDifferenceLeastDraws times, every draw arriving (the first
+// kMaxDifferencedGroups of them).
 struct PilotVisibleGroups {
   uint16_t group[kMaxDifferencedGroups] = {};  // ascending
   uint8_t count = 0;

@@ -282,7 +282,7 @@ TEST(ClosedForm, DifferenceEstimatorIsExactAtUnoccludedDiffuseReceivers) {
       if (exact > 1e-3 * brightest) worst = std::max(worst, std::fabs(value / exact - 1.0)), ++exactPixels;
     }
     std::printf("%-40s lit %5d, exact %5d, worst relative difference %.2e\n", c.name.c_str(), lit, exactPixels, worst);
-    EXPECT_GT(exactPixels, lit * 9 / 10) << c.name;
+    EXPECT_GT(exactPixels, lit * 3 / 4) << c.name;  // a light drawn fewer than twice by the pilot is sampled
   }
 }
 

@@ -87,7 +87,13 @@ struct Outcome {
   int darkPixels = 0;  // the reference saw no light (0 +- 0), the quadrature some
   double darkShare =
       0.0;  // the quadrature's radiance there, as a share of its radiance over all compared pixels
-  int unexplained = 0;  // a nonzero reference with zero standard error
+  int unexplained = 0;  // a nonzero reference with zero standard error that the quadrature does not bear out
+  // Pixels the reference has exactly (standard error 0 and light: every draw of every group it differenced there
+  // arrived, sim/reference/reference_learning.h): each must lie within the quadrature's error bound of it, plus,
+  // with an error target E, 3 E of it: a shadow taking less than about 1 / n of a light that n draws all missed
+  // leaves such a pixel off by that much with no spread to show it (at a 2% target, 2 of 1394 lit pixels beside
+  // the thin occluder, 0.8% and 0.2% off; none at 0.5%).
+  int exactPixels = 0;
   double meanZ2 = 0.0;
   double meanZ2Bound = 0.0;
   double maxAbsZ = 0.0;
@@ -176,10 +182,12 @@ Outcome Compare(const char* name, const Sequence& seq, const FrameState& state, 
       } else if (mean == 0.0) {
         ++o.darkPixels;
         o.darkShare += expected;
+      } else if (std::abs(mean - expected) <= quadErr + (1e-6 + 3.0 * errorTarget) * expected) {
+        ++o.exactPixels;
       } else {
         ++o.unexplained;
-        std::printf("  %s: pixel (%zu, %zu) ref %.6g with zero standard error, quad %.6g\n", name,
-                    i % g.width, i / g.width, mean, expected);
+        std::printf("  %s: pixel (%zu, %zu) ref %.6g with zero standard error, quad %.6g +- %.2g\n", name,
+                    i % g.width, i / g.width, mean, expected, quadErr);
       }
       continue;
     }
@@ -217,8 +225,8 @@ Outcome Compare(const char* name, const Sequence& seq, const FrameState& state, 
       name, o.pixels, o.meanZ2, o.meanZ2Bound, o.maxAbsZ, o.maxAbsZBound, o.beyondBound);
   std::printf(
       "%s: %d pixels exactly 0 in both; %d where the reference saw no light (%.2e of the quadrature's "
-      "radiance); %d unexplained\n",
-      name, o.zeroPixels, o.darkPixels, o.darkShare, o.unexplained);
+      "radiance); %d exact within the quadrature's bound; %d unexplained\n",
+      name, o.zeroPixels, o.darkPixels, o.darkShare, o.exactPixels, o.unexplained);
   std::printf(
       "%s: ref - quad over %d lit pixels: mean relative %+.4f, mean |relative| %.4f, sum ratio %+.4f; mean "
       "relative error of ref %.4f, of quad %.5f\n",
@@ -230,7 +238,7 @@ Outcome Compare(const char* name, const Sequence& seq, const FrameState& state, 
 }
 
 void ExpectAgreement(const Outcome& o, int minPixels) {
-  EXPECT_GE(o.pixels, minPixels);
+  EXPECT_GE(o.pixels + o.exactPixels, minPixels);
   EXPECT_EQ(o.unexplained, 0);
   EXPECT_LT(o.darkShare, kDarkShare) << o.darkPixels << " pixels where the reference saw no light";
   EXPECT_LT(o.meanZ2, o.meanZ2Bound) << "bias spread over many pixels; worst " << o.worst;
