@@ -9,7 +9,10 @@
 // (sim/reference/reference_sky.h), BSDF sampling runs on every surface, and pixels whose primary ray escaped show the
 // sky. A pilot pass estimates each pixel's relative variance and learns, per tile, how much of each light group's
 // and sky strategy's unshadowed contribution its shadow rays let through (sim/reference/reference_learning.h); the
-// main pass draws from the distributions reshaped by it and spends the samples in proportion to the variance.
+// main pass draws from the distributions reshaped by it and spends the samples in proportion to the variance. At a
+// diffuse receiver without a sky, the lights its pilot saw arrive are taken as their exact unshadowed contribution
+// minus a sampled estimate of what their shadows take (the difference estimator, sim/reference/reference_learning.h),
+// so that an unoccluded diffuse receiver is exact.
 // Samples are randomised quasi-Monte Carlo in 16 independent replicates, so the reference also reports an honest
 // per-pixel standard error. Cached on disk.
 #pragma once
