@@ -388,7 +388,8 @@ struct ReferenceFrame {
   // main pass reshapes its distributions by what the pilot learned; then at its diffuse receivers with per-pixel
   // distributions.
   bool difference = false;
-  // Under it, each diffuse receiver's groups its pilot drew and saw unoccluded every time (DifferencedGroups).
+  // Under it, each diffuse receiver's groups its pilot drew at least kDifferenceLeastDraws times, every draw
+  // unoccluded (DifferencedGroups::eligible).
   std::vector<PilotVisibleGroups> eligible;
   size_t TileOf(size_t pixel) const {
     const size_t x = pixel % static_cast<size_t>(w), y = pixel / static_cast<size_t>(w);
@@ -511,7 +512,7 @@ struct BandLearning {
   std::vector<StrategySums> pixelStrategies;  // the band's pixels, row-major from its first row
   // Under the difference estimator, each differencing receiver's pilot draws (the band's pixels row-major,
   // kPilotSamples each): its relative variance under differencing needs the band's learning, so it is taken at the
-  // band's end (DifferencedRelativeVariance).
+  // band's end (DifferencedRelativeVariances).
   std::vector<PilotDraw> draws;
   std::vector<uint8_t> drawn;  // per band pixel: 1 where draws holds its samples
 
@@ -898,8 +899,8 @@ void KeepPilotDraws(ReferenceFrame& frame, const BlockPlan& plan, size_t i, cons
 }
 
 // The relative variance the main pass will see at the band's differencing receivers, from their pilot draws once
-// the band has learned: a draw of a group whose learned factor passes kDifferenceVisibility counts −(its term) where
-// occluded and 0 where not, any other its term where unoccluded (the pilot's own distribution, not the reshaped
+// the band has learned: a draw of an eligible group whose learned factor passes kDifferenceVisibility counts −(its
+// term) where occluded and 0 where not, any other its term where unoccluded (the pilot's own distribution, not the reshaped
 // one, and without the main pass's cap on differenced groups: it only apportions the samples). Relative to the
 // pilot's mean, whose expectation is the same; negative where the pilot saw no light, as elsewhere.
 void DifferencedRelativeVariances(const ReferenceFrame& frame, const BandLearning& band, std::vector<float>& relVar) {
@@ -1052,8 +1053,8 @@ void ReplicatePoints(const ReferenceFrame& frame, const ReceiverBlock& block, co
 
 // Pixel i's estimate from its m points a replicate (sample k × kReplicates + rep at values[c][first + ...]):
 // the mean of the replicate means plus `constant` (the difference estimator's exact part, 0 elsewhere), added to
-// what the pixel sees emitted, and the standard errors of its
-// channels and of its luminance from the replicates' spread.
+// what the pixel sees emitted, and the standard errors of its channels and of its luminance from the replicates'
+// spread.
 void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_t i, const glm::dvec3& constant,
                       ReferenceImage& ref) {
   // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
