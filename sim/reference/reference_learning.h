@@ -123,7 +123,7 @@ uint32_t WeighedGroups(const float* cdf, const float* powerPmf, size_t groups);
 // of the hidden light carry all of U_l (asset_table, 3 frames: mean 1.9% → 4.1%, 99th percentile 24% → 49%); with
 // one draw enough, a light partly hidden in a way one draw did not see did the same to fewer pixels (frame 0, with a
 // since dropped rounding of the allocation: p99 14.6% → 19.0% on asset_table, 13.7% → 15.7% on window_bars_pan;
-// with two draws and without it, 14.6% and 12.6%).
+// with two draws, as kept, 13.6% and 12.5%: docs/metrics.md).
 // A group is differenced where its learned factor is above this.
 inline constexpr float kDifferenceVisibility = 0.5f;
 // At most this many groups a receiver are differenced (the largest unshadowed weights), and only those with at
