@@ -225,20 +225,25 @@ void ExpectAgreement(const Verdict& v, double dof, double meanZ2, int units, dou
   EXPECT_LE(std::fabs(v.relativeError), tMean * v.relativeStdError) << what << ": mean relative error, t-test";
 }
 
-// The reference's sampler against Lambert, the difference estimator off (the default), so that every pixel's value is
-// a sampled estimate (with it, these unoccluded diffuse pixels are exact: the next test).
+// A grid scene's reference at 1024 samples a pixel, with or without the difference estimator, and its G-buffer.
+ReferenceImage GridReference(const Sequence& seq, bool difference, GBuffer& g) {
+  const FrameState state = test::StaticState(seq);
+  EmbreeScene scene(seq);
+  scene.Update(state);
+  TracePrimary(scene, state.camera, g);
+  ReferenceParams params;
+  params.samplesPerPixel = 1024;
+  params.differenceShadows = difference;
+  return RenderReference(seq, state, scene, g, params);
+}
+
+// The reference's sampler against Lambert, the difference estimator off (it is on by default), so that every pixel's
+// value is a sampled estimate (with it, these unoccluded diffuse pixels are exact: the next test).
 TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
   for (const Config& c : Grid()) {
     const Sequence seq = MakeScene(c, 64);
-    const FrameState state = test::StaticState(seq);
-    EmbreeScene scene(seq);
-    scene.Update(state);
     GBuffer g;
-    TracePrimary(scene, state.camera, g);
-    ReferenceParams params;
-    params.samplesPerPixel = 1024;
-    params.differenceShadows = false;
-    const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
+    const ReferenceImage ref = GridReference(seq, /*difference=*/false, g);
     std::vector<double> value(g.Size()), stdError(g.Size());
     for (size_t i = 0; i < g.Size(); ++i) value[i] = ref.mean.pixels[i].x, stdError[i] = ref.standardError.pixels[i].x;
     const Verdict v = Compare(g, seq, value, stdError, 16);
@@ -248,8 +253,8 @@ TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
   }
 }
 
-// With the difference estimator (ReferenceParams::differenceShadows), a diffuse receiver that sees its lights unoccluded is exact: its
-// samples of what the shadows take are all 0, so its replicates agree (standard error 0) and its value is the exact
+// With the difference estimator (ReferenceParams::differenceShadows), a diffuse receiver that sees its lights
+// unoccluded is exact: its samples of what the shadows take are all 0, so its replicates agree (standard error 0) and its value is the exact
 // unshadowed contribution. Over the same grid: at every lit pixel with no spread, the value equals Lambert's
 // polygon formula (core/polygon_irradiance.h PolygonIrradiance of the light clipped by ClipPolygonToHemisphere, a
 // separate evaluation of the closed form) to 1e-5 relative, plus 1e-7 of the brightest pixel for a light at the
@@ -258,15 +263,8 @@ TEST(ClosedForm, ReferenceMatchesLambertOverTheGrid) {
 TEST(ClosedForm, DifferenceEstimatorIsExactAtUnoccludedDiffuseReceivers) {
   for (const Config& c : Grid()) {
     const Sequence seq = MakeScene(c, 64);
-    const FrameState state = test::StaticState(seq);
-    EmbreeScene scene(seq);
-    scene.Update(state);
     GBuffer g;
-    TracePrimary(scene, state.camera, g);
-    ReferenceParams params;
-    params.samplesPerPixel = 1024;
-    params.differenceShadows = true;
-    const ReferenceImage ref = RenderReference(seq, state, scene, g, params);
+    const ReferenceImage ref = GridReference(seq, /*difference=*/true, g);
     double brightest = 0.0;
     for (size_t i = 0; i < g.Size(); ++i)
       if (g.IsSurface(i)) brightest = std::max(brightest, ClosedForm(seq, g.Position(i)));
