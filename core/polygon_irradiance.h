@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/math.h"
+#include "core/portable_math.h"
 
 namespace restir {
 
@@ -128,6 +129,54 @@ float HorizonClippedPolygonIrradiance(const Vec3 (&a)[K], const Vec3& n) {
   return 0.5f * std::fabs(sum);
 }
 
+// The part of a convex emitter polygon that a receiver's light-sampling integrand covers, as
+// ClippedPolygonProjectedSolidAngle (below) defines it: the polygon p0, p0 + edges[i] (i < k, k = 2 or 3) relative
+// to the receiver x, in double, clipped to the half-spaces in front of n and of ng by Sutherland–Hodgman. Writes at
+// most kMaxClippedVertices vertices to `out` and returns their count: 0 where the receiver is behind the emitter or
+// on its plane, or where less than a polygon is left. The projected-solid-angle sampler
+// (core/polygon_light_sampling.h) draws from the same polygon that the exact integral integrates.
+inline constexpr size_t kMaxClippedVertices = 6;  // four vertices, plus one per clipping plane
+inline size_t ClipPolygonToReceiver(const Vec3& x, const Vec3& n, const Vec3& ng, const Vec3& p0, const Vec3* edges,
+                                    size_t k, const Vec3& lightNormal, glm::dvec3 (&out)[kMaxClippedVertices]) {
+  using D3 = glm::dvec3;
+  const D3 rel0 = D3(p0) - D3(x);
+  if (k < 2 || k > 3 || !(glm::dot(D3(lightNormal), -rel0) > 0.0)) return 0;  // behind the emitter, or on its plane
+  D3 poly[kMaxClippedVertices];
+  size_t m = 0;
+  poly[m++] = rel0;
+  for (size_t i = 0; i < k; ++i) poly[m++] = rel0 + D3(edges[i]);
+  for (const D3 plane : {D3(n), D3(ng)}) {
+    size_t kept = 0;
+    for (size_t i = 0; i < m; ++i) {
+      const D3& a = poly[i];
+      const D3& b = poly[(i + 1) % m];
+      const double da = glm::dot(plane, a), db = glm::dot(plane, b);
+      if (da >= 0.0 && kept < kMaxClippedVertices) out[kept++] = a;
+      if ((da >= 0.0) != (db >= 0.0) && kept < kMaxClippedVertices) out[kept++] = a + (b - a) * (da / (da - db));
+    }
+    m = kept;
+    if (m < 3) return 0;
+    for (size_t i = 0; i < m; ++i) poly[i] = out[i];
+  }
+  return m;
+}
+
+// One edge's term of Lambert's sum, Θ (n · Γ), for the edge from a to b (relative to the receiver), in double
+// (atan2 from core/portable_math.h, the same bits on every CPU; Θ accurate near 0 and π alike). An edge that
+// degenerates to a point or passes through the receiver adds nothing (directions of measure zero).
+inline double LambertEdgeTermD(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& n) {
+  const glm::dvec3 c = glm::cross(a, b);
+  const double lc = glm::length(c);
+  return lc > 0.0 ? PortableAtan2(lc, glm::dot(a, b)) * glm::dot(n, c) / lc : 0.0;
+}
+
+// Lambert's sum 1/2 |Σ Θ (n · Γ)| over a convex polygon of m vertices relative to the receiver, all in front of n.
+inline double LambertPolygonSum(const glm::dvec3* poly, size_t m, const glm::dvec3& n) {
+  double sum = 0.0;
+  for (size_t i = 0; i < m; ++i) sum += LambertEdgeTermD(poly[i], poly[(i + 1) % m], n);
+  return 0.5 * std::fabs(sum);
+}
+
 // What a diffuse receiver's unshadowed light from one emitter polygon integrates to, as a number to subtract
 // sampled shadows from (the reference's difference estimator, sim/reference/reference_learning.h): the
 // cosine-weighted solid angle ∫ max(0, n · ω) dω over the directions ω towards the polygon in which the
@@ -135,43 +184,13 @@ float HorizonClippedPolygonIrradiance(const Vec3 (&a)[K], const Vec3& n) {
 // shading normal n and the geometric normal ng, with the receiver on the emitting side of the polygon's plane (taken
 // through p0 as the sampling takes it); 0 otherwise. The unshadowed contribution is then L_e · albedo / π times
 // this. The polygon is convex, p0 then p0 + edges[i] for i < k (k = 2: a triangle; 3: a light group's quad, whose
-// shared diagonal would cancel), and Lambert's formula is applied to it clipped to both half-spaces, all in double
-// (atan2, normalised cross products): this is the answer the estimator's mean rests on, not a sampling weight.
-// Edges that degenerate to a point or pass through the receiver add nothing (directions of measure zero).
+// shared diagonal would cancel), and Lambert's formula is applied to it clipped to both half-spaces
+// (ClipPolygonToReceiver), all in double: this is the answer the estimator's mean rests on, not a sampling weight.
 inline double ClippedPolygonProjectedSolidAngle(const Vec3& x, const Vec3& n, const Vec3& ng, const Vec3& p0,
                                                 const Vec3* edges, size_t k, const Vec3& lightNormal) {
-  using D3 = glm::dvec3;
-  constexpr size_t kMax = 6;  // four vertices, plus one per clipping plane
-  const D3 rel0 = D3(p0) - D3(x);
-  if (k < 2 || k > 3 || !(glm::dot(D3(lightNormal), -rel0) > 0.0)) return 0.0;  // behind the emitter, or on its plane
-  D3 poly[kMax];
-  size_t m = 0;
-  poly[m++] = rel0;
-  for (size_t i = 0; i < k; ++i) poly[m++] = rel0 + D3(edges[i]);
-  for (const D3 plane : {D3(n), D3(ng)}) {
-    D3 out[kMax];
-    size_t kept = 0;
-    for (size_t i = 0; i < m; ++i) {
-      const D3& a = poly[i];
-      const D3& b = poly[(i + 1) % m];
-      const double da = glm::dot(plane, a), db = glm::dot(plane, b);
-      if (da >= 0.0 && kept < kMax) out[kept++] = a;
-      if ((da >= 0.0) != (db >= 0.0) && kept < kMax) out[kept++] = a + (b - a) * (da / (da - db));
-    }
-    m = kept;
-    if (m < 3) return 0.0;
-    for (size_t i = 0; i < m; ++i) poly[i] = out[i];
-  }
-  double sum = 0.0;
-  for (size_t i = 0; i < m; ++i) {
-    const D3& a = poly[i];
-    const D3& b = poly[(i + 1) % m];
-    const D3 c = glm::cross(a, b);
-    const double lc = glm::length(c);
-    if (!(lc > 0.0)) continue;
-    sum += std::atan2(lc, glm::dot(a, b)) * glm::dot(D3(n), c) / lc;  // Θ (n · Γ), Θ accurate near 0 and π alike
-  }
-  return 0.5 * std::fabs(sum);
+  glm::dvec3 poly[kMaxClippedVertices];
+  const size_t m = ClipPolygonToReceiver(x, n, ng, p0, edges, k, lightNormal, poly);
+  return m < 3 ? 0.0 : LambertPolygonSum(poly, m, glm::dvec3(n));
 }
 
 // The same for a triangle p0, p0 + e1, p0 + e2.

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/clip_cases.h"
+
 namespace restir {
 namespace {
 
@@ -88,42 +90,13 @@ double ProjectedSolidAngleQuadrature(const Vec3& x, const Vec3& n, const Vec3& n
   return sum;
 }
 
-struct ClipCase {
-  const char* name;
-  Vec3 x, n, ng;     // receiver, shading and geometric normals (unnormalised here)
-  Vec3 a, b, c;      // the triangle; its emitting side is the one cross(b − a, c − a) points to
-  bool clips;        // a horizon cuts it: the quadrature's kink
-};
-
 TEST(ClippedTriangleProjectedSolidAngle, MatchesAQuadratureOfTheIntegrandOverAGrid) {
-  const std::vector<ClipCase> cases = {
-      {"overhead", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 2), Vec3(-1, 1, 2), Vec3(1, 0, 2), false},
-      {"tilted emitter", Vec3(0.3f, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 1.5f), Vec3(-0.5f, 1, 2.5f),
-       Vec3(1, 0, 1.2f), false},
-      {"tilted receiver", Vec3(0, 0, 0), Vec3(0.5f, 0.2f, 1), Vec3(0.5f, 0.2f, 1), Vec3(-1, -1, 2), Vec3(-1, 1, 2),
-       Vec3(1, 0, 2), false},
-      {"straddles the horizon", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(2, -1, -0.5f), Vec3(2, 0, 1.5f),
-       Vec3(2, 1, -0.5f), true},
-      {"shading normal clips", Vec3(0, 0, 0), Vec3(-0.6f, 0, 0.8f), Vec3(0, 0, 1), Vec3(1, -1, 0.3f),
-       Vec3(0.2f, 0, 2), Vec3(1, 1, 0.3f), true},
-      {"geometric normal clips", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0.7f, 0, 0.7f), Vec3(-1.5f, -1, 1),
-       Vec3(-1.5f, 1, 1), Vec3(0.5f, 0, 1), true},
-      {"grazing emission", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 1), Vec3(-1, 1, 1),
-       Vec3(-0.02f, 0, 3), false},
-      {"grazing reception", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(5, -1, 0.05f), Vec3(5, 0, 0.6f),
-       Vec3(5, 1, 0.05f), false},
-      {"behind the emitter", Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(-1, -1, 2), Vec3(1, 0, 2),
-       Vec3(-1, 1, 2), false},
-  };
-  for (const ClipCase& cc : cases)
+  for (const ClipCase& cc : ClipCases())
     for (float scale : {1e-3f, 1.0f, 100.0f})
       for (const Vec3& offset : {Vec3(0), Vec3(1000.0f, -1000.0f, 1000.0f), Vec3(-1e4f, 0, 1e4f)}) {
         if (scale < 1.0f && offset.x < -1000.0f) continue;  // a 1 mm triangle is below float's spacing at 10 km
-        // The inputs as the renderer has them: float vertices, edges and unit normals.
-        const Vec3 x = offset + cc.x * scale, p0 = offset + cc.a * scale;
-        const Vec3 e1 = (offset + cc.b * scale) - p0, e2 = (offset + cc.c * scale) - p0;
-        const Vec3 ln = glm::normalize(glm::cross(e1, e2));
-        const Vec3 n = glm::normalize(cc.n), ng = glm::normalize(cc.ng);
+        const PlacedCase pc = Place(cc, scale, offset);
+        const Vec3 &x = pc.x, &n = pc.n, &ng = pc.ng, &p0 = pc.p0, &e1 = pc.e1, &e2 = pc.e2, &ln = pc.ln;
         const double got = ClippedTriangleProjectedSolidAngle(x, n, ng, p0, e1, e2, ln);
         const double want = ProjectedSolidAngleQuadrature(x, n, ng, p0, e1, e2, ln, 400);
         const std::string what = std::string(cc.name) + " at scale " + std::to_string(scale) + ", offset " +
