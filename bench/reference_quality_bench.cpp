@@ -64,6 +64,7 @@ void BM_ReferenceQuality(benchmark::State& state) {
     params.maxMeanSamplesPerPixel = EnvInt("RESTIR_BENCH_REFERENCE_CAP", seq.defaults.referenceSppCap);
   params.learnVisibility = EnvInt("RESTIR_BENCH_REFERENCE_LEARN", 1) != 0;
   params.differenceShadows = EnvInt("RESTIR_BENCH_REFERENCE_DIFFERENCE", 1) != 0;
+  params.projectedSolidAngleDraws = EnvInt("RESTIR_BENCH_REFERENCE_PSA", 0) != 0;
   FrameLoop loop(seq, w, h);
   double meanRel = 0.0, p99 = 0.0, dark = 0.0, rays = 0.0, ms = 0.0, capped = 0.0, spp = 0.0;
   for (auto _ : state) {

@@ -129,9 +129,12 @@ Vec3 Sky::ToWorld(const Vec3& m) const {
   return Vec3(cosRotation * m.x + sinRotation * m.z, m.y, -sinRotation * m.x + cosRotation * m.z);
 }
 
+Vec3 Sky::EnvironmentRadiance(const Vec3& w) const {
+  return environment != nullptr ? environmentScale * environment->Radiance(ToMap(w)) : Vec3(0.0f);
+}
+
 Vec3 Sky::Radiance(const Vec3& w) const {
-  Vec3 l(0.0f);
-  if (environment != nullptr) l = environmentScale * environment->Radiance(ToMap(w));
+  Vec3 l = EnvironmentRadiance(w);
   if (hasSun && InSunDisc(sun, w)) l += sun.radiance;
   return l;
 }

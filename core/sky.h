@@ -105,6 +105,9 @@ struct Sky {
   Vec3 ToWorld(const Vec3& map) const;
   // Total radiance towards ω: environment plus sun (L_e(ω) of DESIGN §4 for a sky sample).
   Vec3 Radiance(const Vec3& w) const;
+  // Its two parts: the environment's (0 without one), and the sun's (its radiance inside the disc, else 0).
+  Vec3 EnvironmentRadiance(const Vec3& w) const;
+  Vec3 SunRadiance(const Vec3& w) const { return hasSun && InSunDisc(sun, w) ? sun.radiance : Vec3(0.0f); }
   // The environment strategy: a world direction and its solid-angle density.
   Vec3 SampleEnvironment(float uSelect, float uCoin, float uPhi, float uLatitude, float& pdf) const;
   float EnvironmentPdf(const Vec3& w) const;

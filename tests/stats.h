@@ -107,6 +107,21 @@ inline ChiSquareResult ChiSquare(const std::vector<double>& observed, const std:
   return r;
 }
 
+// The band for the mean of z² over k independent pixels, z = (a − b) / sqrt(se_a² + se_b²), each side's standard
+// error from 16 replicates (15 dof). Were one side exact, z would be Student t with 15 dof and z² F(1, 15): mean
+// 15/13, variance 3.389. With both estimated, z is a Welch statistic whose square has mean between 30/28 (equal
+// variances; about t with 30 dof) and 15/13 (one side dominating), and variance at most F(1, 15)'s. So the band is
+// [30/28 − c s, 15/13 + c s], s = sqrt(3.389 / k), c = 3.719 (the normal's one-sided 1e-4 quantile): false-failure
+// rate at most 1e-4 on each side, 2e-4 in all, by the normal approximation of the mean (k >= 100; F(1, 15) is
+// skewed, so the upper tail's true rate is somewhat above nominal).
+struct Band {
+  double lo = 0.0, hi = 0.0;
+};
+inline Band WelchZ2Band(int k) {
+  const double c = NormalQuantileUpper(1e-4), s = std::sqrt(3.389 / k);
+  return {30.0 / 28.0 - c * s, 15.0 / 13.0 + c * s};
+}
+
 // Running mean and variance (Welford), for t-tests of sample means.
 struct RunningStats {
   double n = 0, mean = 0, m2 = 0;

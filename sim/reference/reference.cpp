@@ -46,8 +46,9 @@ namespace {
 // light groups, the selection and BSDF-draw kernels, fixed-point points; 9: a BSDF draw's emitter distance from
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
 // error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes;
-// 13: the difference estimator at diffuse receivers).
-constexpr uint32_t kReferenceVersion = 13;
+// 13: the difference estimator at diffuse receivers; 14: the sun under it, Lambert's arctangents from
+// core/portable_math.h).
+constexpr uint32_t kReferenceVersion = 14;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -290,8 +291,9 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   const bool target = params.targetRelativeError > 0.0;
   const int32_t fields[4] = {target ? 0 : params.samplesPerPixel, target ? params.maxMeanSamplesPerPixel : 0,
                              static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30) |
-                                 (params.differenceShadows ? 0 : 1 << 29),
-                             static_cast<int32_t>(kReferenceSeed)};
+                                 (params.differenceShadows ? 0 : 1 << 29) |
+                                 (params.projectedSolidAngleDraws ? 1 << 28 : 0),
+                             static_cast<int32_t>(kReferenceSeed + params.seed)};
   const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
   h = Fnv1a(fields, sizeof(fields), h);
@@ -372,6 +374,7 @@ struct ReferenceFrame {
   const int dims;
   const bool hasLocal;
   const uint32_t stateKey;
+  uint32_t seed = kReferenceSeed;  // kReferenceSeed + ReferenceParams::seed
   std::vector<uint8_t> active;  // the pixels that take samples: surfaces, where the frame has light to sample
   // Under a sky, each pixel's light mixture: the pilot's from its unshadowed estimates (kept in skyEstimates:
   // local, sun, environment), then reshaped by what the pilot's samples delivered (sim/reference/reference_learning.h)
@@ -388,6 +391,14 @@ struct ReferenceFrame {
   // main pass reshapes its distributions by what the pilot learned; then at its diffuse receivers with per-pixel
   // distributions.
   bool difference = false;
+  // Under it, whether differenced groups draw their points by projected solid angle
+  // (ReferenceParams::projectedSolidAngleDraws).
+  bool projectedSolidAngleDraws = false;
+  // The same for the sun under a sky (ReferenceParams::differenceShadows; SkySampling::differenceSun), and the
+  // pixels whose sun it differences: diffuse ones whose whole disc is in front of both normals and whose pilot drew
+  // the sun at least kDifferenceLeastDraws times, every draw arriving.
+  bool sunDifference = false;
+  std::vector<uint8_t> sunDifferenced;
   // Under it, each diffuse receiver's groups its pilot drew at least kDifferenceLeastDraws times, every draw
   // unoccluded (DifferencedGroups::eligible).
   std::vector<PilotVisibleGroups> eligible;
@@ -671,10 +682,11 @@ bool Differences(const ReferenceFrame& frame, const BlockPlan& plan, const Shadi
 
 // Σ U_l over a receiver's differenced groups: each group's radiance times the cosine-weighted solid angle the
 // light-sampling integrand covers (core/polygon_irradiance.h ClippedPolygonProjectedSolidAngle), times albedo / π
-// (core/bsdf.cpp EvalBsdf's diffuse value, which is 0 where the viewer is below the shading normal).
+// (core/bsdf.cpp EvalBsdf's diffuse value, which is 0 where the viewer is below the shading normal). With samplers
+// (ReferenceParams::projectedSolidAngleDraws), builds each group's projected-solid-angle sampler on the way, in
+// samplers[j] for the j-th differenced group, and takes U_l from it (the same polygon and the same bits).
 glm::dvec3 DifferenceConstant(const ReferenceFrame& frame, const BlockPlan& plan, const ShadingPoint& sp,
-                              const DifferencedGroups& d) {
-  if (!(glm::dot(sp.shadingNormal, sp.wo) > 0.0f)) return glm::dvec3(0.0);
+                              const DifferencedGroups& d, ProjectedSolidAngleSampler* samplers) {
   glm::dvec3 sum(0.0);
   for (uint32_t j = 0; j < d.count; ++j) {
     const uint32_t l = d.group[j];
@@ -683,10 +695,17 @@ glm::dvec3 DifferenceConstant(const ReferenceFrame& frame, const BlockPlan& plan
     // shares p0 and continues the first across its e2), a lone triangle as itself.
     const bool quad = plan.groups.split[l] < 2.0f;
     const Vec3 edges[3] = {t.e1, t.e2, quad ? frame.lightList[plan.groups.first[l] + 1].e2 : Vec3(0.0f)};
-    sum += glm::dvec3(t.radiance) * ClippedPolygonProjectedSolidAngle(sp.position, sp.shadingNormal,
-                                                                      sp.geometricNormal, t.p0, edges, quad ? 3 : 2,
-                                                                      t.normal);
+    const size_t k = quad ? 3 : 2;
+    if (samplers) {
+      samplers[j] = MakeProjectedSolidAngleSampler(sp.position, sp.shadingNormal, sp.geometricNormal, t.p0, edges, k,
+                                                   t.normal);
+      sum += glm::dvec3(t.radiance) * samplers[j].projectedSolidAngle;
+    } else {
+      sum += glm::dvec3(t.radiance) * ClippedPolygonProjectedSolidAngle(sp.position, sp.shadingNormal,
+                                                                        sp.geometricNormal, t.p0, edges, k, t.normal);
+    }
   }
+  if (!(glm::dot(sp.shadingNormal, sp.wo) > 0.0f)) return glm::dvec3(0.0);
   return sum * glm::dvec3(sp.bsdf.albedo) * (1.0 / 3.14159265358979323846);
 }
 
@@ -705,6 +724,7 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
     BuildLightSelection(worker.receivers, frame.bsdfs, plan.selection, worker.work.data(), blockColumns,
                         worker.estimates);
   if (plan.perPixelLights) SelectionRows(blockColumns, nGroups, count, blockCdfs);
+  block.projectedSolidAngleDraws = frame.projectedSolidAngleDraws;
   for (size_t r = 0; r < count; ++r) {
     const size_t i = block.index[r];
     PixelLightDistribution& dist = block.dists[r];
@@ -720,7 +740,9 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
                         frame.probes.empty() ? nullptr : &frame.probes[i],
                         difference ? &block.differenced[r] : nullptr);
         if (difference)
-          block.differenceConstant[r] = DifferenceConstant(frame, plan, block.points[r], block.differenced[r]);
+          block.differenceConstant[r] =
+              DifferenceConstant(frame, plan, block.points[r], block.differenced[r],
+                                 frame.projectedSolidAngleDraws ? block.DifferencedSamplers(r) : nullptr);
       }
       dist = PixelLightDistribution(row, &plan.groups, worker.estimates[r]);
     } else if (frame.hasLocal) {
@@ -734,6 +756,8 @@ void SetBlockLights(ReferenceFrame& frame, const BlockPlan& plan, bool pilot, in
         frame.mixtures[i] = MixLightStrategies(e[0], e[1], e[2]);
       }
       skySampling.mixture = frame.mixtures[i];
+      skySampling.differenceSun = !pilot && frame.sunDifference && frame.sunDifferenced[i] &&
+                                  SunDifferenceConstant(block.points[r], frame.sky, block.differenceConstant[r]);
     }
   }
 }
@@ -828,7 +852,10 @@ void FinishBand(ReferenceFrame& frame, const BandLearning& band) {
     for (int x = 0; x < frame.w; ++x) {
       const size_t i = static_cast<size_t>(y) * frame.w + x;
       if (!frame.active[i]) continue;
-      const float e[3] = {frame.skyEstimates[i][0], frame.skyEstimates[i][1], frame.skyEstimates[i][2]};
+      // A differenced sun is drawn by what is left to estimate, as a differenced light group is (kDifferenceFloor of
+      // it: the pilot saw it arrive at every draw).
+      const float sunShare = frame.sunDifference && frame.sunDifferenced[i] ? kDifferenceFloor : 1.0f;
+      const float e[3] = {frame.skyEstimates[i][0], frame.skyEstimates[i][1] * sunShare, frame.skyEstimates[i][2]};
       frame.mixtures[i] = ReshapeMixture(e, band.pixelStrategies[static_cast<size_t>(y % kLearningTile) * frame.w + x],
                                          band.tileStrategies[static_cast<size_t>(x / kLearningTile)]);
     }
@@ -846,7 +873,7 @@ void ProbeBlock(ReferenceFrame& frame, const BlockPlan& plan, const ReceiverBloc
     PixelProbes& probe = frame.probes[i] = PixelProbes{};
     const ShadingPoint& sp = block.points[p];
     const uint32_t weighed = WeighedGroups(block.dists[p].Cdf(), plan.groupPowerPmf.data(), plan.nGroups);
-    const RngKey key{kReferenceSeed, frame.stateKey, static_cast<uint32_t>(i),
+    const RngKey key{frame.seed, frame.stateKey, static_cast<uint32_t>(i),
                      static_cast<uint32_t>(RngPass::kReferenceProbe)};
     for (uint32_t l = 0; l < plan.nGroups; ++l) {
       if (!(weighed >> l & 1u)) continue;
@@ -934,6 +961,43 @@ void DifferencedRelativeVariances(const ReferenceFrame& frame, const BandLearnin
   }
 }
 
+// Whether a receiver's sun is differenced (ReferenceFrame::sunDifferenced): a diffuse receiver whose sun disc lies
+// wholly in front of both normals (SunDifferenceConstant), whose pilot drew the sun at least kDifferenceLeastDraws
+// times and saw every such draw arrive.
+bool SunDifferencedByPilot(const ReferenceFrame& frame, const ShadingPoint& sp, const BlockScratch& scratch,
+                           size_t first) {
+  glm::dvec3 unused;
+  if (!SunDifferenceConstant(sp, frame.sky, unused)) return false;
+  size_t draws = 0;
+  for (size_t k = 0; k < kPilotSamples; ++k) {
+    const size_t e = first + k;
+    if (scratch.recordStrategy[e] != static_cast<uint8_t>(LightStrategy::kSun)) continue;
+    if (!scratch.recordVisible[e]) return false;
+    ++draws;
+  }
+  return draws >= kDifferenceLeastDraws;
+}
+
+// The relative variance the main pass will see at a receiver whose sun it differences, from its pilot samples: each
+// less the sun's part (the differenced estimate of a sun that arrived at every draw is its exact contribution, a
+// constant), relative to the pilot's mean, and floored as DifferencedRelativeVariances floors it (at the plain
+// estimate's over n + 1).
+float SunDifferencedRelativeVariance(const BlockScratch& scratch, size_t first) {
+  double plain = 0.0, plainSq = 0.0, sum = 0.0, sumSq = 0.0;
+  for (size_t k = 0; k < kPilotSamples; ++k) {
+    const size_t e = first + k;
+    const double yv = Luminance(Vec3(scratch.values[0][e], scratch.values[1][e], scratch.values[2][e]));
+    const double x = yv - scratch.recordSunPart[e];
+    plain += yv, plainSq += yv * yv;
+    sum += x, sumSq += x * x;
+  }
+  const double mean = plain / kPilotSamples;
+  const double var = std::max(0.0, (sumSq - sum * (sum / kPilotSamples)) / (kPilotSamples - 1));
+  const double plainVar = std::max(0.0, (plainSq - plain * mean) / (kPilotSamples - 1));
+  const double v = std::max(var, plainVar / (kPilotSamples + 1));
+  return mean > 0.0 ? static_cast<float>(std::min(v / (mean * mean), 1e30)) : -1.0f;
+}
+
 // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass). Kept: their
 // relative variance (negative where the pilot saw no light), and what their light draws delivered, learned per tile
 // (sim/reference/reference_learning.h). Bands of kLearningTile rows run in parallel, each band's rows in order by
@@ -944,13 +1008,14 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
   const bool probe = learn && frame.hasLocal && plan.perPixelLights && plan.nGroups <= kMaxProbedGroups;
   if (probe) frame.probes.assign(frame.pixels, PixelProbes{});
   if (frame.difference && plan.perPixelLights) frame.eligible.assign(frame.pixels, PilotVisibleGroups{});
+  if (frame.sunDifference) frame.sunDifferenced.assign(frame.pixels, 0);
   const auto bandOf = [&](const ReceiverBlock& block) {
     return static_cast<int>(block.index[0] / static_cast<size_t>(frame.w)) / kLearningTile;
   };
   ForEachBlock(frame, plan, /*pilot=*/true, kLearningTile, [&](const ReceiverBlock& block, BlockScratch& scratch,
                                                                uint64_t& rayCount, uint64_t& sampleCount,
                                                                BandLearning& band) {
-    const RngKey key{kReferenceSeed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
+    const RngKey key{frame.seed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReferencePilot)};
     uint32_t ids[kSelectionBlock];
     size_t counts[kSelectionBlock], uFirst[kSelectionBlock], first[kSelectionBlock];
     for (size_t p = 0; p < block.count; ++p) {
@@ -973,6 +1038,7 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
     scratch.recordVisible.resize(block.count * kPilotSamples);
     scratch.recordLight.resize(block.count * kPilotSamples);
     scratch.recordStrategy.resize(block.count * kPilotSamples);
+    if (frame.sunDifference) scratch.recordSunPart.resize(block.count * kPilotSamples);
     BlockSamples(frame, plan, block, counts, uFirst, first, scratch, rayCount);
     scratch.record = false;
     if (probe) ProbeBlock(frame, plan, block, scratch.batch, rayCount);
@@ -982,6 +1048,11 @@ std::vector<float> Pilot(ReferenceFrame& frame, const BlockPlan& plan, bool lear
     for (size_t p = 0; p < block.count; ++p) {
       if (Differences(frame, plan, block.points[p])) {  // its relative variance waits for the band's learning
         KeepPilotDraws(frame, plan, block.index[p], scratch, first[p], band);
+        continue;
+      }
+      if (frame.sunDifference && SunDifferencedByPilot(frame, block.points[p], scratch, first[p])) {
+        frame.sunDifferenced[block.index[p]] = 1;
+        relVar[block.index[p]] = SunDifferencedRelativeVariance(scratch, first[p]);
         continue;
       }
       double sum = 0.0, sumSq = 0.0;
@@ -1025,7 +1096,7 @@ std::vector<uint32_t> PixelSamples(const std::vector<uint8_t>& active,
 // The main pass's points of a block in scratch.u, receiver p's counts[p] from uFirst[p] on (uTotal in all).
 void ReplicatePoints(const ReferenceFrame& frame, const ReceiverBlock& block, const size_t* counts,
                      const size_t* uFirst, size_t uTotal, BlockScratch& scratch) {
-  const RngKey key{kReferenceSeed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
+  const RngKey key{frame.seed, frame.stateKey, 0, static_cast<uint32_t>(RngPass::kReference)};
   uint32_t ids[kSelectionBlock];
   for (size_t p = 0; p < block.count; ++p) ids[p] = static_cast<uint32_t>(block.index[p]);
   // Replicate rep's shift of coordinate j is the pixel's word j × kReplicates + rep (core/rng.h RandomWords4's
@@ -1119,6 +1190,9 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   }
   ReferenceFrame frame(sequence, state, scene, g);
   frame.difference = params.differenceShadows && params.learnVisibility && !frame.hasSky && frame.hasLocal;
+  frame.projectedSolidAngleDraws = params.projectedSolidAngleDraws;
+  frame.seed = kReferenceSeed + params.seed;
+  frame.sunDifference = params.differenceShadows && params.learnVisibility && frame.hasSky && frame.sky.hasSun;
   ReferenceImage ref = StartImage(frame);
   const BlockPlan plan(frame);
   const std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);

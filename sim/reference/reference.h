@@ -53,6 +53,14 @@ struct ReferenceParams {
   // unoccluded diffuse receiver is exact. Off only to measure what it gains (bench/reference_quality_bench.cpp,
   // RESTIR_BENCH_REFERENCE_DIFFERENCE=0).
   bool differenceShadows = true;
+  // Under the difference estimator: draw a differenced group's points by (nearly) their projected solid angle
+  // (core/polygon_light_sampling.h) instead of uniformly by area. Off: measured, it hardly lowers the variance (a
+  // differenced draw's noise is whether its ray arrives, not how f / p varies over the light) and costs a third more
+  // time (docs/metrics.md "The difference estimator"). On only to measure that (RESTIR_BENCH_REFERENCE_PSA=1).
+  bool projectedSolidAngleDraws = false;
+  // Added to the reference's seed: another value renders the same frame from independent random numbers (a test
+  // comparing two estimators needs them independent). In the cache key.
+  uint32_t seed = 0;
 };
 
 struct ReferenceImage {

@@ -26,9 +26,12 @@ LightDrawReceiver ReceiverOf(const ShadingPoint& sp, int32_t materialId, bool bs
 }
 
 // The BSDF-sampling term of one sample (a direction from the BSDF at (u0, u1), weighted by the power heuristic
-// against the light strategies' density where its ray lands), 0 where the ray finds no light; counts the ray.
+// against the light strategies' density where its ray lands), 0 where the ray finds no light; counts the ray. With
+// sky.differenceSun the sun's radiance is left out (the difference estimator takes the sun by light sampling
+// alone); sunPart, where set, gets the luminance of the part of the term the sun's radiance gave.
 Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
-              const PixelLightDistribution& dist, const SkySampling& sky, float u0, float u1, uint64_t& rays) {
+              const PixelLightDistribution& dist, const SkySampling& sky, float u0, float u1, uint64_t& rays,
+              float* sunPart) {
   const LightMixture& mix = sky.mixture;
   const BsdfSample bs = SampleBsdf(sp.bsdf, sp.shadingNormal, sp.wo, u0, u1);
   if (!(bs.pdf > 0.0f && glm::dot(sp.geometricNormal, bs.wi) > 0.0f)) return Vec3(0.0f);
@@ -47,9 +50,77 @@ Vec3 BsdfTerm(const ShadingPoint& sp, const EmbreeScene& scene, const std::vecto
     // Escaped: the sky, at the density with which the light mixture draws this direction.
     const float pLight = SkyLightPdf(mix, *sky.sky, bs.wi);
     const Vec3 fr = EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, bs.wi);
-    return sky.sky->Radiance(bs.wi) * fr * (cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf);
+    const float weight = cosX * PowerHeuristic(bs.pdf, pLight) / bs.pdf;
+    if (sunPart) *sunPart = Luminance(sky.sky->SunRadiance(bs.wi) * fr * weight);
+    const Vec3 radiance = sky.differenceSun ? sky.sky->EnvironmentRadiance(bs.wi) : sky.sky->Radiance(bs.wi);
+    return radiance * fr * weight;
   }
   return Vec3(0.0f);
+}
+
+// Redraws the points of receiver p's draws of its differenced groups (ReceiverBlock::differenced) from each group's
+// projected-solid-angle sampler instead of uniformly by area, after the light-draw kernel has drawn every sample: the
+// group stays the one the kernel's u selected (probability P(g) from the receiver's cdf), the fraction of the group's
+// step of the cdf that u fell on picks the sampler's fan triangle, and the two area coordinates the direction in it.
+// The sample's light term becomes L_e f_r cos θ / (P(g) pdf), in solid angle; its shadow ray replaces the kernel's.
+// The kernel's rays of the receiver are [rayBegin, rayEnd); returns the new end, the rays of the draws of other
+// groups kept in order and the redrawn ones after them.
+size_t RedrawDifferencedDraws(const ReceiverBlock& block, size_t p, const float* u, size_t n, size_t firstSample,
+                              const std::vector<LightTriangle>& lightList, const LightDrawLights& lights,
+                              BlockScratch& s, float* const (&out)[3], size_t rayBegin, size_t rayEnd) {
+  const DifferencedGroups& d = block.differenced[p];
+  const ShadingPoint& sp = block.points[p];
+  const float* cdf = block.dists[p].Cdf();
+  const size_t groups = lights.groups;
+  const auto differencedIndex = [&](uint32_t g) -> int {
+    const uint32_t* at = std::lower_bound(d.group, d.group + d.count, g);
+    return at != d.group + d.count && *at == g ? static_cast<int>(at - d.group) : -1;
+  };
+  // The kernel's rays of the other groups' draws, compacted.
+  size_t end = rayBegin;
+  for (size_t r = rayBegin; r < rayEnd; ++r) {
+    const size_t k = s.drawOf[r] - firstSample;
+    if (differencedIndex(SampleCdf(cdf, groups, u[k])) >= 0) continue;
+    for (std::vector<float>& v : s.drawn) v[end] = v[r];
+    s.drawOf[end++] = s.drawOf[r];
+  }
+  const ProjectedSolidAngleSampler* samplers = block.DifferencedSamplers(p);
+  const glm::dvec3 x(sp.position);
+  const float total = cdf[groups - 1];
+  for (size_t k = 0; k < n; ++k) {
+    const uint32_t g = SampleCdf(cdf, groups, u[k]);
+    const int j = differencedIndex(g);
+    if (j < 0) continue;
+    const size_t e = firstSample + k;
+    for (int c = 0; c < 3; ++c) out[c][e] = 0.0f;
+    const float before = g ? cdf[g - 1] : 0.0f;
+    const float step = cdf[g] - before;
+    const float pmf = CdfPmf(cdf, groups, g);
+    if (!(step > 0.0f) || !(pmf > 0.0f)) continue;
+    const double within = std::clamp(static_cast<double>((u[k] * total - before) / step), 0.0, 1.0);
+    const PolygonDirection dir = SampleProjectedSolidAngle(samplers[j], within, u[n + k], u[2 * n + k]);
+    if (!(dir.pdf > 0.0)) continue;
+    const Vec3 wi(dir.w);
+    const float cosX = glm::dot(sp.shadingNormal, wi);
+    if (!(cosX > 0.0f) || !(glm::dot(sp.geometricNormal, wi) > 0.0f)) continue;
+    const uint32_t first = lights.groupFirst[g];
+    const LightTriangle& t = lightList[first];
+    const Vec3 f = t.radiance * EvalBsdf(sp.bsdf, sp.shadingNormal, sp.wo, wi) * cosX;
+    if (!(f.x > 0.0f || f.y > 0.0f || f.z > 0.0f)) continue;
+    const Vec3 term = f * static_cast<float>(1.0 / (static_cast<double>(pmf) * dir.pdf));
+    for (int c = 0; c < 3; ++c) out[c][e] = term[c];
+    const bool quad = lights.groupSplit[g] < 2.0f;
+    const float errorScale = quad ? std::max(t.errorScale, lightList[first + 1].errorScale) : t.errorScale;
+    const Vec3 y(x + dir.w * dir.distance);
+    const ShadowRaySegment ray = ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y, t.normal, errorScale);
+    for (int c = 0; c < 3; ++c) {
+      s.drawn[c][end] = ray.org[c];
+      s.drawn[3 + c][end] = ray.dir[c];
+    }
+    s.drawn[6][end] = ray.tmax;
+    s.drawOf[end++] = static_cast<uint32_t>(e);
+  }
+  return end;
 }
 
 }  // namespace
@@ -65,9 +136,14 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
                 SampleBatch& b, float* const (&out)[3], uint64_t& rays, const LightTermRecord& record) {
   const LightMixture& mix = sky.mixture;
   b.lightTerm.assign(count, Vec3(0.0f));
+  b.occludedTerm.assign(count, Vec3(0.0f));
   b.bsdfTerm.assign(count, Vec3(0.0f));
   b.rays.clear();
   b.rayOf.clear();
+  // While recording: the sun's part of each sample's light term where its ray arrives (luminance).
+  const bool sunParts = record.sunPart != nullptr;
+  std::vector<float>& lightSunPart = b.lightSunPart;
+  if (sunParts) lightSunPart.assign(count, 0.0f);
   for (size_t k = 0; k < count; ++k) {
     const auto uk = [&](int j) { return u[static_cast<size_t>(j) * count + k]; };
     const LightStrategy strategy = ChooseLightStrategy(mix, uk(kStrategyDim));
@@ -98,14 +174,23 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
     } else if (strategy != LightStrategy::kLocal) {
       // A sky direction: the integrand is Sky::Radiance(ω) f_r cos θ, evaluated through the far point that stands
       // for ω (core/sky.h SkyPointFor), its density the mixture's over every sky strategy
-      // (sim/reference/reference_sky.h).
+      // (sim/reference/reference_sky.h). Under the sun's difference estimator (SkySampling::differenceSun) the sun's
+      // part is taken apart: its term, −(sun's part) / p with no MIS weight, counts where the ray is occluded.
       const Vec3 w = SampleSkyStrategy(*sky.sky, strategy, uk(0), uk(kCoinDim), uk(1), uk(2));
       const float pLight = SkyLightPdf(mix, *sky.sky, w);
-      const LightSample y = SkyPointFor(sp.position, w, sky.sky->Radiance(w));
+      const Vec3 radiance = sky.differenceSun ? sky.sky->EnvironmentRadiance(w) : sky.sky->Radiance(w);
+      const LightSample y = SkyPointFor(sp.position, w, radiance);
       const Vec3 f = UnshadowedContribution(sp, y);
-      if ((f.x > 0.0f || f.y > 0.0f || f.z > 0.0f) && pLight > 0.0f) {
+      Vec3 fSun(0.0f);
+      if (sky.differenceSun || sunParts)
+        fSun = UnshadowedContribution(sp, SkyPointFor(sp.position, w, sky.sky->SunRadiance(w)));
+      const bool light = f.x > 0.0f || f.y > 0.0f || f.z > 0.0f;
+      const bool sun = sky.differenceSun && (fSun.x > 0.0f || fSun.y > 0.0f || fSun.z > 0.0f);
+      if ((light || sun) && pLight > 0.0f) {
         const float weight = PowerHeuristic(pLight, PdfBsdf(sp.bsdf, sp.shadingNormal, sp.wo, w));
         b.lightTerm[k] = f * (weight / pLight);
+        if (sun) b.occludedTerm[k] = fSun * (-1.0f / pLight);
+        if (sunParts) lightSunPart[k] = Luminance(fSun * (weight / pLight));
         // The far point's own error scale is its distance, which ShadowRaySetup adds already.
         const ShadowRaySegment s =
             ShadowRaySetup(sp.position, sp.geometricNormal, sp.errorScale, y.position, y.normal, 0.0f);
@@ -113,7 +198,9 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
         b.rayOf.push_back(static_cast<uint32_t>(k));
       }
     }
-    b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays);
+    float bsdfSunPart = 0.0f;
+    b.bsdfTerm[k] = BsdfTerm(sp, scene, lights, dist, sky, uk(3), uk(4), rays, sunParts ? &bsdfSunPart : nullptr);
+    if (sunParts) record.sunPart[k] = bsdfSunPart;
   }
   b.occluded.resize(b.rays.size());
   scene.OccludedBatch(b.rays.data(), b.occluded.data(), b.rays.size());
@@ -127,11 +214,13 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
     }
     for (size_t r = 0; r < b.rays.size(); ++r) record.visible[b.rayOf[r]] = !b.occluded[r];
   }
-  for (size_t r = 0; r < b.rays.size(); ++r)
-    if (!b.occluded[r]) {
-      const Vec3 v = b.lightTerm[b.rayOf[r]] + b.bsdfTerm[b.rayOf[r]];
-      for (int c = 0; c < 3; ++c) out[c][b.rayOf[r]] = v[c];
-    }
+  for (size_t r = 0; r < b.rays.size(); ++r) {
+    const uint32_t k = b.rayOf[r];
+    if (b.occluded[r] && !sky.differenceSun) continue;
+    const Vec3 v = (b.occluded[r] ? b.occludedTerm[k] : b.lightTerm[k]) + b.bsdfTerm[k];
+    for (int c = 0; c < 3; ++c) out[c][k] = v[c];
+    if (sunParts && !b.occluded[r]) record.sunPart[k] += lightSunPart[k];
+  }
 }
 
 // The direct-lighting samples of a block of receivers in a frame without a sky: receiver p's counts[p] samples
@@ -170,8 +259,13 @@ void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const
     o.draw = s.drawOf.data() + written;
     o.firstDraw = static_cast<uint32_t>(first[p]);  // the block's sample index
     // The kernel writes every draw's term, and packs the rays of the draws that can count.
-    written += DrawLightSamples(ReceiverOf(sp, block.materialId[p], sp.bsdf.type != BsdfType::kDiffuse), materials,
-                                lights, block.dists[p].Cdf(), draws, o);
+    const size_t kernelEnd =
+        written + DrawLightSamples(ReceiverOf(sp, block.materialId[p], sp.bsdf.type != BsdfType::kDiffuse),
+                                   materials, lights, block.dists[p].Cdf(), draws, o);
+    written = block.differenced[p].count > 0 && block.projectedSolidAngleDraws
+                  ? RedrawDifferencedDraws(block, p, u, n, first[p], lightList, lights, s,
+                                           out, written, kernelEnd)
+                  : kernelEnd;
   }
   rayFirst[block.count] = written;
   ShadowRaysSoa shadowRays;

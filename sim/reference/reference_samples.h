@@ -13,6 +13,7 @@
 #include "core/light_draw_kernel.h"
 #include "core/light_selection_kernel.h"  // kSelectionBlock
 #include "core/math.h"
+#include "core/polygon_light_sampling.h"
 #include "core/sampling.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/reference/reference_learning.h"
@@ -94,12 +95,19 @@ struct LightDrawSoa {
 struct SkySampling {
   const Sky* sky = nullptr;  // null: a skyless frame, sampled exactly as before the sky existed
   LightMixture mixture;      // the receiver's strategy probabilities ({1, 0, 0} in a skyless frame)
+  // The sun under the difference estimator (SkySamples): its exact unshadowed contribution (reference_sky.h
+  // SunDifferenceConstant) is the receiver's ReceiverBlock::differenceConstant, and its samples estimate only what
+  // shadows take from it.
+  bool differenceSun = false;
 };
 
 // Per-thread scratch of one pixel's samples: the light-sampling terms wait for their shadow rays, which go to
 // Embree as one batch (packets, EmbreeScene::OccludedBatch) instead of one rtcOccluded1 per sample.
 struct SampleBatch {
   std::vector<Vec3> lightTerm;   // per sample: the light-sampling term if its shadow ray is unoccluded
+  std::vector<Vec3> occludedTerm;  // per sample: what its light term is where its shadow ray is occluded (0 but
+                                  // under the sun's difference estimator)
+  std::vector<float> lightSunPart;  // per sample, while recording: the sun's part of its light term (luminance)
   std::vector<Vec3> bsdfTerm;    // per sample: the BSDF-sampling term, visibility already resolved
   std::vector<ShadowRay> rays;   // the shadow rays of the samples whose light term is nonzero
   std::vector<uint32_t> rayOf;   // the sample each ray belongs to
@@ -119,6 +127,17 @@ struct ReceiverBlock {
   // is not; and their exact unshadowed contribution Σ U_l, which the receiver's estimate adds to its samples' mean.
   DifferencedGroups differenced[kSelectionBlock];
   glm::dvec3 differenceConstant[kSelectionBlock];
+  // Receiver r's differenced groups' projected-solid-angle samplers, the j-th group's at [r × kMaxDifferencedGroups
+  // + j]: a differenced group's draws take their points from it instead of uniformly by area.
+  std::vector<ProjectedSolidAngleSampler> differencedSamplers;
+  bool projectedSolidAngleDraws = false;  // false: they keep the kernel's (ReferenceParams::projectedSolidAngleDraws)
+  ProjectedSolidAngleSampler* DifferencedSamplers(size_t r) {
+    if (differencedSamplers.empty()) differencedSamplers.resize(kSelectionBlock * kMaxDifferencedGroups);
+    return differencedSamplers.data() + r * kMaxDifferencedGroups;
+  }
+  const ProjectedSolidAngleSampler* DifferencedSamplers(size_t r) const {
+    return differencedSamplers.data() + r * kMaxDifferencedGroups;
+  }
 };
 
 // What the pilot keeps of each sample's light-sampling draw, for the visibility-aware selection
@@ -128,6 +147,9 @@ struct LightTermRecord {
   uint8_t* visible = nullptr;   // 1 where its shadow ray was unoccluded
   uint32_t* light = nullptr;    // the light triangle drawn (a local-light draw), else kNoRecordedLight
   uint8_t* strategy = nullptr;  // the LightStrategy drawn (kLocal in a skyless frame)
+  // Under a sky: the luminance of the part of the sample's value the sun's radiance gave (light and BSDF terms, as
+  // they arrived), for the relative variance the sun's difference estimator will leave (null: not recorded).
+  float* sunPart = nullptr;
 };
 inline constexpr uint32_t kNoRecordedLight = 0xFFFFFFFFu;
 
@@ -148,10 +170,11 @@ struct BlockScratch {
   std::vector<uint8_t> recordVisible;
   std::vector<uint32_t> recordLight;
   std::vector<uint8_t> recordStrategy;
+  std::vector<float> recordSunPart;  // under a sky only
   LightTermRecord RecordAt(size_t first) {
     if (!record) return {};
     return {recordUnshadowed.data() + first, recordVisible.data() + first, recordLight.data() + first,
-            recordStrategy.data() + first};
+            recordStrategy.data() + first, recordSunPart.empty() ? nullptr : recordSunPart.data() + first};
   }
 };
 
@@ -161,7 +184,10 @@ struct BlockScratch {
 // PathIntegrator::SampleLd style, restricted to direct light); BSDF sampling on every surface, as a BSDF ray that
 // escapes is the only way to reach the sky's directions the light mixture samples rarely. Sample k's value is
 // (out[0][k], out[1][k], out[2][k]). Frames without a sky take SkylessBlockSamples.
-// With record.unshadowed set, each sample's light-sampling draw is recorded there too.
+// With record.unshadowed set, each sample's light-sampling draw is recorded there too (and with record.sunPart, the
+// sun's part of its value). With sky.differenceSun, the sun's part of a sample is −(its light term's sun part) where
+// the ray is occluded and 0 where not, and the BSDF term leaves the sun out: the receiver's estimate adds the sun's
+// exact unshadowed contribution (the difference estimator, as SkylessBlockSamples' for local lights).
 void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vector<LightTriangle>& lights,
                 const PixelLightDistribution& dist, const SkySampling& sky, const float* u, size_t count,
                 SampleBatch& b, float* const (&out)[3], uint64_t& rays, const LightTermRecord& record = {});
@@ -174,7 +200,9 @@ void SkySamples(const ShadingPoint& sp, const EmbreeScene& scene, const std::vec
 // EmbreeScene::FirstEmitter. Reads coordinates 0-2 at a diffuse receiver, 0-4 at others; out[c] is the block's
 // samples' channel c. Where s.record is set, every sample's light draw is recorded in s's record arrays. At a
 // receiver with differenced groups (ReceiverBlock::differenced), a sample of such a group is −(its light term) where
-// its ray is occluded and 0 where not: the estimate of what the shadows take from the group's exact contribution.
+// its ray is occluded and 0 where not: the estimate of what the shadows take from the group's exact contribution;
+// with ReceiverBlock::projectedSolidAngleDraws, its point is drawn by the group's projected-solid-angle sampler
+// (ReceiverBlock::differencedSamplers), so that the term is nearly the same at every draw.
 void SkylessBlockSamples(const ReceiverBlock& block, const size_t* counts, const size_t* uFirst, const size_t* first,
                          const EmbreeScene& scene, const BsdfSoa& materials,
                          const std::vector<LightTriangle>& lightList, const LightDrawLights& lights, BlockScratch& s,

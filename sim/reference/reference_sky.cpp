@@ -55,6 +55,23 @@ float SunEstimate(const ShadingPoint& sp, const Sky& sky, const SkySummary& summ
   return std::isfinite(e) ? std::max(0.0f, e) : 0.0f;
 }
 
+bool SunDifferenceConstant(const ShadingPoint& sp, const Sky& sky, glm::dvec3& out) {
+  if (!sky.hasSun || sp.bsdf.type != BsdfType::kDiffuse) return false;
+  const double oneMinusCos = sky.sun.oneMinusCos;
+  const double sin2 = oneMinusCos * (2.0 - oneMinusCos);  // sin²α = (1 − cos α)(1 + cos α)
+  const double sinAlpha = std::sqrt(sin2);
+  const glm::dvec3 d(sky.sun.direction);
+  const double cosS = glm::dot(glm::dvec3(sp.shadingNormal), d), cosG = glm::dot(glm::dvec3(sp.geometricNormal), d);
+  // The disc's edge is at cos θ − sin α ... cos θ + sin α from the horizon; the margin covers float rounding of a
+  // direction in it (1e-7) with room to spare.
+  const double limit = sinAlpha + 1e-4;
+  if (!(cosS > limit) || !(cosG > limit)) return false;
+  out = glm::dot(sp.shadingNormal, sp.wo) > 0.0f
+            ? glm::dvec3(sky.sun.radiance) * glm::dvec3(sp.bsdf.albedo) * (sin2 * cosS)
+            : glm::dvec3(0.0);
+  return true;
+}
+
 float EnvironmentEstimate(const ShadingPoint& sp, const Sky& sky, const SkySummary& summary) {
   if (!sky.HasEnvironment()) return -1.0f;
   const float e = ReflectanceProxy(sp.bsdf) * summary.environmentMeanLuminance;

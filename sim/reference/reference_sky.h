@@ -69,6 +69,14 @@ inline float SkyLightPdf(const LightMixture& m, const Sky& sky, const Vec3& w) {
   return sun + environment;
 }
 
+// The sun's exact unshadowed contribution at a diffuse receiver, for the difference estimator under a sky
+// (sim/reference/reference_samples.h SkySamples): L_sun (albedo / π) ∫ over the disc of n · ω dω =
+// L_sun albedo sin²α (n · d), exact where the whole disc is in front of both the shading and the geometric normal
+// (the cap's cosine-weighted solid angle is π sin²α cos θ there; Snyder 1996, "Area light sources for real-time
+// graphics"), and 0 where the viewer is below the shading normal (EvalBsdf's diffuse value is). False, leaving out
+// alone, where the disc is not wholly in front of both normals by a margin, or there is no sun.
+bool SunDifferenceConstant(const ShadingPoint& sp, const Sky& sky, glm::dvec3& out);
+
 // A direction from the sun (u0, u1: its cone) or the environment (uSelect, uCoin: the texel; u0, u1: the
 // direction within it) strategy.
 Vec3 SampleSkyStrategy(const Sky& sky, LightStrategy s, float uSelect, float uCoin, float u0, float u1);

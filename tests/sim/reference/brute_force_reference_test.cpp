@@ -175,22 +175,11 @@ Brute BruteForcePixel(const EmbreeScene& scene, const std::vector<Emitter>& emit
   return out;
 }
 
-// The band for the mean of z² over k pixels, z = (ref − brute) / sqrt(se_ref² + se_brute²) on luminance.
-// Were the brute force exact, z would be Student t with 15 dof (16 replicates) and z² F(1, 15): mean 15/13,
-// variance 3.389. The brute force has its own error, estimated from 16 batches (15 dof) too: z is then a
-// Welch statistic whose square has mean between 30/28 (equal variances; about t with 30 dof) and 15/13 (one
-// side dominating), and variance at most F(1, 15)'s. So the band is [30/28 − c s, 15/13 + c s],
-// s = sqrt(3.389 / k), c = 3.719 (the normal's one-sided 1e-4 quantile): false-failure rate at most 1e-4 on
-// each side, 2e-4 in all, by the normal approximation of the mean (k >= 100 here; F(1, 15) is skewed, so the
-// upper tail's true rate is somewhat above nominal, as in every test of this kind in the suite).
-// Above the band: a bias, or a reference error that is too small; below it: a reference error too large.
-struct Band {
-  double lo = 0.0, hi = 0.0;
-};
-Band MeanZ2Band(int k) {
-  const double c = test::NormalQuantileUpper(1e-4), s = std::sqrt(3.389 / k);
-  return {30.0 / 28.0 - c * s, 15.0 / 13.0 + c * s};
-}
+// The band for the mean of z² over k pixels, z = (ref − brute) / sqrt(se_ref² + se_brute²) on luminance, both
+// from 16 replicates or batches: tests/stats.h WelchZ2Band. Above the band: a bias, or a reference error that is too
+// small; below it: a reference error too large.
+using test::Band;
+Band MeanZ2Band(int k) { return test::WelchZ2Band(k); }
 
 // "Dark lit": the reference exactly black (every replicate 0) where the brute force is confidently lit
 // (luminance above 5 of its standard errors and above 1e-4). Whether that is a fault depends on how likely a

@@ -48,7 +48,7 @@ const Case kCases[] = {
     {"flagship", "sequences/window_bars_pan.json", 96, 54, 8, 48, 0.0, 0x428d659a92d71f99ull},
     {"flagship_error", "sequences/window_bars_pan.json", 64, 36, 3, 0, 0.05, 0x0d6e1aacdac03e11ull},
     {"glossy_floor", "sequences/hard/glossy_floor.json", 64, 36, 0, 48, 0.0, 0x4e7dd8b5935aaf98ull},
-    {"sky_smoke", "tests/data/sky_smoke.json", 48, 27, 1, 64, 0.0, 0x03a228f16380c35eull},
+    {"sky_smoke", "tests/data/sky_smoke.json", 48, 27, 1, 64, 0.0, 0xf09abd645de9ba3cull},
     {"asset_table", "sequences/asset_table.json", 64, 36, 0, 32, 0.0, 0x1b783f206c6e99fcull},
     {"many_rooms", "sequences/regimes/many_rooms.json", 48, 27, 0, 16, 0.0, 0x26760969c8b2ea4full},
     {"static_room", "sequences/static_room.json", 64, 36, 0, 64, 0.0, 0x9293eb63cf7bf98aull},

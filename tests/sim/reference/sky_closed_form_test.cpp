@@ -204,9 +204,11 @@ Verdict Compare(const Rendered& r, const std::function<double(size_t)>& truth,
       ++lit;
     }
     if (se == 0.0) {
+      // No spread: no light reaches the pixel, or the difference estimator took its sun as exact (every draw
+      // arrived, ReferenceParams::differenceShadows) and nothing else lights it; either way its value is the closed
+      // form's, to the rounding floor (the float geometry: a plane 1000 m out is tilted by its vertices' rounding).
       ++v.exactPixels;
-      EXPECT_EQ(exact[i], 0.0) << "pixel " << i << ": no spread, value " << value;
-      EXPECT_EQ(value, 0.0) << "pixel " << i;
+      EXPECT_NEAR(value, exact[i], kRoundingFloor * exact[i]) << "pixel " << i << ": no spread";
       continue;
     }
     const double z = (value - exact[i]) / std::hypot(se, kRoundingFloor * exact[i]);
@@ -245,9 +247,10 @@ void ExpectAgreement(const Verdict& v, const std::string& what, int minPixels = 
               what.c_str(), v.pixels, v.exactPixels, std::sqrt(v.meanZ2), lower, std::sqrt(mean + band), v.maxAbsZ,
               tail, 100.0 * v.relativeError, 100.0 * v.relativeStdError,
               twoSided ? "" : "  [noise below single precision: RMS bounded above only]");
-  EXPECT_GE(v.pixels, minPixels) << what;
+  // Exact pixels count: each was held to the closed form above.
+  EXPECT_GE(v.pixels + v.exactPixels, minPixels) << what;
   EXPECT_LE(v.meanZ2, mean + band) << what << ": RMS z " << std::sqrt(v.meanZ2);
-  if (twoSided) {
+  if (twoSided && v.pixels > 0) {
     EXPECT_GE(v.meanZ2, mean - band) << what << ": RMS z " << std::sqrt(v.meanZ2);
   }
   EXPECT_LE(v.maxAbsZ, tail) << what << ": worst " << v.worst;
@@ -412,10 +415,13 @@ TEST(SkyClosedForm, SunDiscAboveTheHorizonGivesPiLSin2AlphaCosTheta) {
       sky.sunDirection = Vec3(d);
       sky.sunIntensity = 1.0f;
       const Rendered r = Render(seq, sky);
-      // E = π L sin²α cos θ; reflected albedo/π E.
-      const double cosTheta = glm::dot(glm::normalize(D3(Vec3(d))), plane.Normal());
-      const double truth = Y(albedo) * double(radiance) * std::sin(alpha) * std::sin(alpha) * cosTheta;
-      ExpectAgreement(Compare(r, [&](size_t) { return truth; }), std::string("c. ") + name);
+      // E = π L sin²α cos θ; reflected albedo/π E. cos θ from the pixel's own normal, as the renderer holds it: a
+      // plane 1000 m out is tilted by its float vertices' rounding by about 1e-6, which moves cos θ by 1e-6 tan θ,
+      // 8e-6 relative with the sun 11° up, and the difference estimator's exact pixels show every digit of it.
+      const D3 sunDirection = glm::normalize(D3(Vec3(d)));
+      const double scale = Y(albedo) * double(radiance) * std::sin(alpha) * std::sin(alpha);
+      ExpectAgreement(Compare(r, [&](size_t i) { return scale * glm::dot(sunDirection, D3(r.g.ShadingNormal(i))); }),
+                      std::string("c. ") + name);
     }
   }
 }
