@@ -210,9 +210,10 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
       }
     }
   }
-  // The trials must reach both outcomes in quantity, or the comparison proves little.
-  EXPECT_GT(traced, 1000u);
-  EXPECT_GT(compared, 10000u);
+  // The trials must reach both outcomes in quantity, or the comparison proves little: every target compares every
+  // traced draw (how many targets depends on the machine: three without AVX-512).
+  EXPECT_GT(traced, 2500u);
+  EXPECT_EQ(compared, traced * SupportedSimdTargets().size());
 }
 
 // A receiver under a quad light (two triangles, one group split by area) that the cdf selects with probability
