@@ -925,6 +925,18 @@ void KeepPilotDraws(ReferenceFrame& frame, const BlockPlan& plan, size_t i, cons
   }
 }
 
+// A differencing receiver's relative variance from the sums over its kPilotSamples pilot samples, plain (as drawn)
+// and differenced: the differenced samples' variance over the square of the plain mean (the same expectation),
+// floored at the plain estimate's over n + 1, since 16 draws that all arrived do not show a shadow that takes less
+// than about a 17th of the light, whose noise the plain variance bounds. Negative where the pilot saw no light.
+float DifferencedRelativeVariance(double plain, double plainSq, double sum, double sumSq) {
+  const double mean = plain / kPilotSamples;
+  const double var = std::max(0.0, (sumSq - sum * (sum / kPilotSamples)) / (kPilotSamples - 1));
+  const double plainVar = std::max(0.0, (plainSq - plain * mean) / (kPilotSamples - 1));
+  const double v = std::max(var, plainVar / (kPilotSamples + 1));
+  return mean > 0.0 ? static_cast<float>(std::min(v / (mean * mean), 1e30)) : -1.0f;
+}
+
 // The relative variance the main pass will see at the band's differencing receivers, from their pilot draws once
 // the band has learned: a draw of an eligible group whose learned factor passes kDifferenceVisibility counts −(its
 // term) where occluded and 0 where not, any other its term where unoccluded (the pilot's own distribution, not the reshaped
@@ -951,13 +963,7 @@ void DifferencedRelativeVariances(const ReferenceFrame& frame, const BandLearnin
       sum += x;
       sumSq += x * x;
     }
-    const double mean = plain / kPilotSamples;
-    const double var = std::max(0.0, (sumSq - sum * (sum / kPilotSamples)) / (kPilotSamples - 1));
-    const double plainVar = std::max(0.0, (plainSq - plain * mean) / (kPilotSamples - 1));
-    // Floored at the plain estimate's over n + 1: 16 draws that all arrived do not show a shadow that takes less
-    // than about a 17th of the light, whose noise the plain variance bounds.
-    const double v = std::max(var, plainVar / (kPilotSamples + 1));
-    relVar[i] = mean > 0.0 ? static_cast<float>(std::min(v / (mean * mean), 1e30)) : -1.0f;
+    relVar[i] = DifferencedRelativeVariance(plain, plainSq, sum, sumSq);
   }
 }
 
@@ -980,8 +986,7 @@ bool SunDifferencedByPilot(const ReferenceFrame& frame, const ShadingPoint& sp, 
 
 // The relative variance the main pass will see at a receiver whose sun it differences, from its pilot samples: each
 // less the sun's part (the differenced estimate of a sun that arrived at every draw is its exact contribution, a
-// constant), relative to the pilot's mean, and floored as DifferencedRelativeVariances floors it (at the plain
-// estimate's over n + 1).
+// constant).
 float SunDifferencedRelativeVariance(const BlockScratch& scratch, size_t first) {
   double plain = 0.0, plainSq = 0.0, sum = 0.0, sumSq = 0.0;
   for (size_t k = 0; k < kPilotSamples; ++k) {
@@ -991,11 +996,7 @@ float SunDifferencedRelativeVariance(const BlockScratch& scratch, size_t first) 
     plain += yv, plainSq += yv * yv;
     sum += x, sumSq += x * x;
   }
-  const double mean = plain / kPilotSamples;
-  const double var = std::max(0.0, (sumSq - sum * (sum / kPilotSamples)) / (kPilotSamples - 1));
-  const double plainVar = std::max(0.0, (plainSq - plain * mean) / (kPilotSamples - 1));
-  const double v = std::max(var, plainVar / (kPilotSamples + 1));
-  return mean > 0.0 ? static_cast<float>(std::min(v / (mean * mean), 1e30)) : -1.0f;
+  return DifferencedRelativeVariance(plain, plainSq, sum, sumSq);
 }
 
 // Pilot: kPilotSamples points of one randomly shifted Roberts sequence per pixel (their own RNG pass). Kept: their
