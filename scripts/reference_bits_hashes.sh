@@ -19,6 +19,7 @@ cfg asset_table sequences/asset_table.json 64x36 0 32
 cfg many_rooms sequences/regimes/many_rooms.json 48x27 0 16
 cfg static_room sequences/static_room.json 64x36 0 64
 cfg door_ajar sequences/regimes/door_ajar.json 48x27 0 32
+cfg tile_lights tests/data/tile_lights.json 48x27 0 16
 python3 - "$OUT" <<'PY'
 import sys, os, struct, glob
 def fnv(b, h=0xcbf29ce484222325):
