@@ -16,7 +16,8 @@
 // referenceSpp) unless RESTIR_BENCH_REFERENCE_SPP (a fixed budget), RESTIR_BENCH_REFERENCE_ERROR (the error target)
 // or RESTIR_BENCH_REFERENCE_CAP (its cap) say otherwise; RESTIR_BENCH_REFERENCE_LEARN=0 (the
 // unshadowed selection, without the pilot's visibility learning: the before of issue 40);
-// RESTIR_BENCH_REFERENCE_DIFFERENCE=0 (without the difference estimator at diffuse receivers).
+// RESTIR_BENCH_REFERENCE_DIFFERENCE=0 (without the difference estimator at diffuse receivers);
+// RESTIR_BENCH_REFERENCE_SPREAD=0 (the pilot's relative variances as they came, not spread to their neighbours).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -65,6 +66,7 @@ void BM_ReferenceQuality(benchmark::State& state) {
   params.learnVisibility = EnvInt("RESTIR_BENCH_REFERENCE_LEARN", 1) != 0;
   params.differenceShadows = EnvInt("RESTIR_BENCH_REFERENCE_DIFFERENCE", 1) != 0;
   params.projectedSolidAngleDraws = EnvInt("RESTIR_BENCH_REFERENCE_PSA", 0) != 0;
+  params.spreadRelativeVariance = EnvInt("RESTIR_BENCH_REFERENCE_SPREAD", 1) != 0;
   FrameLoop loop(seq, w, h);
   double meanRel = 0.0, p99 = 0.0, dark = 0.0, rays = 0.0, ms = 0.0, capped = 0.0, spp = 0.0;
   for (auto _ : state) {

@@ -47,8 +47,9 @@ namespace {
 // the triangle in double, not Embree's vendor-dependent reciprocal; 10: issue 40's visibility-aware selection; 11: the
 // error target's floor at a quarter of the mean variance and its sample cap, five tile anchors; 12: per-pixel probes;
 // 13: the difference estimator at diffuse receivers; 14: the sun under it, Lambert's arctangents from
-// core/portable_math.h; 15: per-pixel distributions up to 32768 light triangles, many_rooms' and many_lights').
-constexpr uint32_t kReferenceVersion = 15;
+// core/portable_math.h; 15: per-pixel distributions up to 32768 light triangles, many_rooms' and many_lights'; 16:
+// the pilot's relative variances spread to their neighbourhood before the allocation).
+constexpr uint32_t kReferenceVersion = 16;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -298,7 +299,8 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   const int32_t fields[4] = {target ? 0 : params.samplesPerPixel, target ? params.maxMeanSamplesPerPixel : 0,
                              static_cast<int32_t>(kReferenceVersion) | (params.learnVisibility ? 0 : 1 << 30) |
                                  (params.differenceShadows ? 0 : 1 << 29) |
-                                 (params.projectedSolidAngleDraws ? 1 << 28 : 0),
+                                 (params.projectedSolidAngleDraws ? 1 << 28 : 0) |
+                                 (params.spreadRelativeVariance ? 0 : 1 << 27),
                              static_cast<int32_t>(kReferenceSeed + params.seed)};
   const double error = target ? params.targetRelativeError : 0.0;
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
@@ -1202,7 +1204,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   frame.sunDifference = params.differenceShadows && params.learnVisibility && frame.hasSky && frame.sky.hasSun;
   ReferenceImage ref = StartImage(frame);
   const BlockPlan plan(frame);
-  const std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
+  std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
+  if (params.spreadRelativeVariance) relVar = SpreadRelativeVariance(relVar, frame.active, frame.w, frame.h);
   const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, ref.allocation.scale);
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);

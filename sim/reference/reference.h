@@ -58,6 +58,10 @@ struct ReferenceParams {
   // differenced draw's noise is whether its ray arrives, not how f / p varies over the light) and costs a third more
   // time (docs/metrics.md "The difference estimator"). On only to measure that (RESTIR_BENCH_REFERENCE_PSA=1).
   bool projectedSolidAngleDraws = false;
+  // Raise each pixel's pilot relative variance to its neighbourhood's mean where that is larger, before the
+  // allocation (sim/reference/reference_learning.h SpreadRelativeVariance). Off only to measure what it gains
+  // (bench/reference_quality_bench.cpp, RESTIR_BENCH_REFERENCE_SPREAD=0). In the cache key.
+  bool spreadRelativeVariance = true;
   // Added to the reference's seed: another value renders the same frame from independent random numbers (a test
   // comparing two estimators needs them independent). In the cache key.
   uint32_t seed = 0;

@@ -133,6 +133,28 @@ bool ReshapeLightRow(const TileLightLearning& tile, const float* powerPmf, size_
   return true;
 }
 
+std::vector<float> SpreadRelativeVariance(const std::vector<float>& relVar, const std::vector<uint8_t>& active,
+                                          int width, int height) {
+  std::vector<float> out = relVar;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const size_t i = static_cast<size_t>(y) * width + x;
+      if (!active[i]) continue;
+      double sum = 0.0;
+      int count = 0;
+      for (int yy = std::max(0, y - kSpreadRadius); yy <= std::min(height - 1, y + kSpreadRadius); ++yy)
+        for (int xx = std::max(0, x - kSpreadRadius); xx <= std::min(width - 1, x + kSpreadRadius); ++xx) {
+          const size_t j = static_cast<size_t>(yy) * width + xx;
+          if (!active[j]) continue;
+          sum += std::max(0.0f, relVar[j]);
+          ++count;
+        }
+      const float neighbourhood = static_cast<float>(sum / count);  // count ≥ 1: i itself
+      if (neighbourhood > 0.0f && neighbourhood > relVar[i]) out[i] = neighbourhood;
+    }
+  return out;
+}
+
 LightMixture ReshapeMixture(const float (&estimates)[3], const StrategySums& pixel, const StrategySums& tile) {
   float e[3];
   for (int s = 0; s < 3; ++s) {

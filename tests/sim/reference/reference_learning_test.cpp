@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <utility>
 #include <vector>
 
 #include "core/light_selection_kernel.h"  // kDefensivePowerShare
@@ -222,6 +225,75 @@ TEST(ReshapeMixture, MovesDrawsFromAnOccludedSunAndKeepsEveryDefensiveShare) {
   const LightMixture unlearned = ReshapeMixture(estimates, StrategySums{}, StrategySums{});
   EXPECT_EQ(unlearned.sun, before.sun);
   EXPECT_EQ(unlearned.environment, before.environment);
+}
+
+}  // namespace
+}  // namespace restir
+
+namespace restir {
+namespace {
+
+// The neighbourhood's mean, computed here by its definition: the active pixels within kSpreadRadius in x and y.
+float NeighbourhoodMean(const std::vector<float>& v, const std::vector<uint8_t>& active, int w, int h, int x, int y) {
+  double sum = 0.0;
+  int n = 0;
+  for (int dy = -kSpreadRadius; dy <= kSpreadRadius; ++dy)
+    for (int dx = -kSpreadRadius; dx <= kSpreadRadius; ++dx) {
+      const int xx = x + dx, yy = y + dy;
+      if (xx < 0 || yy < 0 || xx >= w || yy >= h || !active[size_t(yy) * w + xx]) continue;
+      sum += std::max(0.0f, v[size_t(yy) * w + xx]);
+      ++n;
+    }
+  return static_cast<float>(sum / n);
+}
+
+TEST(SpreadRelativeVariance, APixelWhosePilotSawNothingAmidLitNeighboursTakesTheirMean) {
+  const int w = 7, h = 6;
+  std::vector<float> v(size_t(w) * h, 4.0f);
+  std::vector<uint8_t> active(v.size(), 1);
+  v[3 * w + 3] = -1.0f;  // its pilot saw no light
+  const std::vector<float> out = SpreadRelativeVariance(v, active, w, h);
+  // 24 neighbours at 4 and itself at 0, over 25.
+  EXPECT_FLOAT_EQ(out[3 * w + 3], 24.0f * 4.0f / 25.0f);
+  // Its neighbours keep their own v: the mean around them is below it.
+  EXPECT_EQ(out[3 * w + 4], 4.0f);
+}
+
+TEST(SpreadRelativeVariance, NeverLowersAPixelAndIgnoresInactivePixels) {
+  // A grid of tilted cases: random v with pixels that saw nothing, inactive pixels holding large values that must
+  // not leak, borders where the window is clipped.
+  std::mt19937 rng(40);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {1, 9}, {9, 1}, {5, 5}, {17, 11}, {64, 36}}) {
+    std::vector<float> v(size_t(w) * h);
+    std::vector<uint8_t> active(v.size());
+    for (size_t i = 0; i < v.size(); ++i) {
+      active[i] = u(rng) < 0.8f;
+      const float r = u(rng);
+      v[i] = !active[i] ? 1e6f : r < 0.3f ? -1.0f : std::pow(10.0f, 4.0f * u(rng) - 2.0f);
+    }
+    const std::vector<float> out = SpreadRelativeVariance(v, active, w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = size_t(y) * w + x;
+        if (!active[i]) {
+          EXPECT_EQ(out[i], v[i]);
+          continue;
+        }
+        EXPECT_GE(out[i], v[i]) << w << "x" << h << " at " << x << "," << y;
+        const float mean = NeighbourhoodMean(v, active, w, h, x, y);
+        EXPECT_FLOAT_EQ(out[i], mean > 0.0f && mean > v[i] ? mean : v[i]) << w << "x" << h << " at " << x << "," << y;
+        EXPECT_LT(out[i], 1e5f) << "an inactive pixel's value leaked";
+      }
+  }
+}
+
+TEST(SpreadRelativeVariance, LeavesAPixelDarkWhereNoNeighbourSawLightAndAConstantFieldAlone) {
+  const int w = 12, h = 8;
+  std::vector<float> dark(size_t(w) * h, -1.0f), constant(size_t(w) * h, 0.25f);
+  const std::vector<uint8_t> active(dark.size(), 1);
+  EXPECT_EQ(SpreadRelativeVariance(dark, active, w, h), dark);
+  EXPECT_EQ(SpreadRelativeVariance(constant, active, w, h), constant);
 }
 
 }  // namespace
