@@ -157,11 +157,12 @@ TEST_F(LightDrawKernel, EveryTargetMatchesScalarTwinBitForBit) {
   const std::vector<Bsdf> bsdfs = test::KernelMaterials();
   const BsdfSoa materials = MakeBsdfSoa(bsdfs);
   // Around the cdf search's window (8 entries) and its coarse strides (16 entries of 8 up to 128 lights, then
-  // doubling), and past 4096 (many_rooms has 5280 light triangles, 2640 groups).
-  const std::vector<size_t> lightCounts{1, 2, 3, 5, 7, 8, 9, 16, 17, 72, 127, 128, 129, 300, 1000, 5000};
+  // doubling), past 4096 (many_rooms has 5280 light triangles, 2640 groups) and at the reference's per-pixel limit
+  // of 32768.
+  const std::vector<size_t> lightCounts{1, 2, 3, 5, 7, 8, 9, 16, 17, 72, 127, 128, 129, 300, 1000, 5000, 32768};
   const std::vector<size_t> drawCounts{0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 48, 64, 65, 100};
   size_t compared = 0, traced = 0;
-  for (int trial = 0; trial < 320; ++trial) {
+  for (int trial = 0; trial < 360; ++trial) {
     LightDrawReceiver r;
     const float far = trial % 4 == 0 ? 1000.0f : 1.0f;  // far from the origin: large error scales
     r.position = far * Vec3(u(rng) * 10 - 5, u(rng) * 4 - 2, u(rng) * 10 - 5);

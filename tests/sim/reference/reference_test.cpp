@@ -194,6 +194,11 @@ TEST(Reference, CacheRoundTripsBitExactly) {
   FrameState later = r.state;
   later.frame = 7;
   EXPECT_EQ(key(r.state, 16), key(later, 16));
+  // Each switch that changes what the reference computes is in the key.
+  ReferenceParams unspread;
+  unspread.samplesPerPixel = 16;
+  unspread.spreadRelativeVariance = false;
+  EXPECT_NE(key(r.state, 16), ReferenceCacheKey(r.seq, r.state, unspread));
 }
 
 // An error target the frame cannot afford stops at the cap: the frame is then the fixed-budget frame at the cap, to
