@@ -36,38 +36,25 @@
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/scene/sequence.h"
+#include "tests/sim/reference/emitters_in_double.h"
 
 namespace restir {
 namespace {
 
-// One emitter triangle in double.
-struct Emitter {
-  glm::dvec3 p0, e1, e2, normal;  // normal: unit, the lit side
-  double area = 0.0;
+// The frame's emitters as the brute-force check reads them, with what the oracle weighs them by.
+struct Emitter : test::EmitterInDouble {
   double luminance = 0.0;  // of its radiance
   double power = 0.0;      // luminance × area (the defensive share's weight; π is common to all)
-  double scale = 0.0;      // largest coordinate magnitude, for the spawn offset at its end
 };
 
 std::vector<Emitter> Emitters(const Sequence& seq, const FrameState& state) {
   std::vector<Emitter> out;
-  for (size_t l = 0; l < seq.lights.size(); ++l) {
-    if (l < state.lightOn.size() && !state.lightOn[l]) continue;
-    const Light& light = seq.lights[l];
-    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
-      Emitter e;
-      const glm::dvec3 a(light.vertices[v]), b(light.vertices[v + 1]), c(light.vertices[v + 2]);
-      e.p0 = a, e.e1 = b - a, e.e2 = c - a;
-      const glm::dvec3 n = glm::cross(e.e1, e.e2);
-      e.area = 0.5 * glm::length(n);
-      const Vec3 r = light.triangleRadiance.empty() ? light.radiance : light.triangleRadiance[v / 3];
-      e.luminance = Luminance(glm::dvec3(r));
-      if (!(e.area > 0.0) || !(e.luminance > 0.0)) continue;
-      e.normal = n / (2.0 * e.area);
-      e.power = e.luminance * e.area;
-      for (const glm::dvec3& p : {a, b, c}) e.scale = std::max({e.scale, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-      out.push_back(e);
-    }
+  for (const test::EmitterInDouble& d : test::CollectEmitters(seq, state)) {
+    Emitter e;
+    static_cast<test::EmitterInDouble&>(e) = d;
+    e.luminance = Luminance(d.radiance);
+    e.power = e.luminance * e.area;
+    if (e.luminance > 0.0) out.push_back(e);
   }
   return out;
 }

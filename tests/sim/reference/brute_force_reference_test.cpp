@@ -48,6 +48,7 @@
 #include "sim/scene/gbuffer.h"
 #include "sim/scene/sequence.h"
 #include "stats.h"
+#include "tests/sim/reference/emitters_in_double.h"
 
 namespace restir {
 namespace {
@@ -63,40 +64,8 @@ constexpr int kBatches = 16;
 // gap in the scenes (the door crack is 3 cm).
 constexpr double kSpawnRelative = 4e-6;
 
-// One emitter triangle in double, lit side along `normal` (cross(e1, e2), the vertices counter-clockwise seen
-// from the lit side).
-struct Emitter {
-  glm::dvec3 p0, e1, e2, normal;  // normal: unit
-  double area = 0.0;
-  glm::dvec3 radiance{0.0};
-  double scale = 0.0;  // largest vertex coordinate magnitude, for the spawn offset at the light's end
-};
-
-// Every switched-on emitter triangle of the frame, straight from the sequence.
-std::vector<Emitter> CollectEmitters(const Sequence& seq, const FrameState& state) {
-  std::vector<Emitter> out;
-  for (size_t l = 0; l < seq.lights.size(); ++l) {
-    if (l < state.lightOn.size() && !state.lightOn[l]) continue;
-    const Light& light = seq.lights[l];
-    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
-      Emitter e;
-      const glm::dvec3 a(light.vertices[v]), b(light.vertices[v + 1]), c(light.vertices[v + 2]);
-      e.p0 = a;
-      e.e1 = b - a;
-      e.e2 = c - a;
-      const glm::dvec3 n = glm::cross(e.e1, e.e2);
-      e.area = 0.5 * glm::length(n);
-      if (!(e.area > 0.0)) continue;
-      e.normal = n / (2.0 * e.area);
-      e.radiance = glm::dvec3(light.triangleRadiance.empty() ? light.radiance : light.triangleRadiance[v / 3]);
-      if (e.radiance == glm::dvec3(0.0)) continue;
-      for (const glm::dvec3& p : {a, b, c})
-        e.scale = std::max({e.scale, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-      out.push_back(e);
-    }
-  }
-  return out;
-}
+using Emitter = test::EmitterInDouble;
+using test::CollectEmitters;
 
 // The brute force's answer at one pixel: outgoing radiance (ρ/π times irradiance), its luminance's standard
 // error from the batches, and the unshadowed radiance from the same samples (how much the occluders take).
