@@ -443,7 +443,11 @@ def sun_street_night():
         "the interior lamps (the cafe's 48 emissive triangles and 7 quads) reaching the street through the bars. "
         "The facade and most of the street see no light at all, and the lamps' candidates on the street are "
         "mostly occluded.")
-    seq["render"] = {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 256}
+    # The lamps reach the street through the bars in slivers, so its reference needs five times the other regime
+    # sequences' cap to reach issue 40's goals (frames 0, 32 and 63 at 640x360, reference_quality_bench: mean / 99th
+    # percentile relative standard error 2.17% / 15.5% at 256, 1.10% / 9.67% at 1024, 1.00% / 8.90% at 1280; about
+    # 15 s a frame on 2 cores).
+    seq["render"] = {"presets": ["ris", "restir-unbiased", "restir-spmis"], "referenceError": 0.02, "referenceSppCap": 1280}
     return seq
 
 
