@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/reference/reference.h"  // NearestRankIndex
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/scene/sequence.h"
@@ -248,8 +249,7 @@ int main(int argc, char** argv) {
     std::sort(v.begin(), v.end());
     double mean = 0.0, meanSe = 0.0;
     for (double x : v) mean += x, meanSe += std::sqrt(std::max(0.0, x) / 256.0);
-    // The 99th percentile by nearest rank, as MeasureReferenceConvergence takes it.
-    const size_t rank = std::min(v.size() - 1, static_cast<size_t>(std::ceil(0.99 * double(v.size()))) - 1);
+    const size_t rank = NearestRankIndex(v.size(), 0.99);  // as MeasureReferenceConvergence takes the 99th
     std::printf("  %-17s relative variance of one sample: mean %.4g, median %.4g, p99 %.4g; mean rel. se at 256: %.2f%%\n",
                 kSchemeNames[s], mean / v.size(), v[v.size() / 2], v[rank], 100.0 * meanSe / v.size());
   }

@@ -1293,7 +1293,7 @@ ReferenceConvergence MeasureReferenceConvergence(const ReferenceImage& ref) {
   double sum = 0.0;
   for (double r : relative) sum += r;
   n.meanRelative = sum / double(relative.size());
-  const size_t rank = std::min(relative.size() - 1, static_cast<size_t>(std::ceil(0.99 * double(relative.size()))) - 1);
+  const size_t rank = NearestRankIndex(relative.size(), 0.99);
   std::nth_element(relative.begin(), relative.begin() + static_cast<std::ptrdiff_t>(rank), relative.end());
   n.p99Relative = relative[rank];
   return n;

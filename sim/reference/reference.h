@@ -17,6 +17,9 @@
 // per-pixel standard error. Cached on disk.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -128,5 +131,12 @@ struct ReferenceConvergence {
   size_t darkSampled = 0;     // pixels with samples (pixelSamples > 0) whose estimate and standard error are 0
 };
 ReferenceConvergence MeasureReferenceConvergence(const ReferenceImage& ref);
+
+// The index of the q-quantile of `count` sorted values by nearest rank (ceil(q · count) − 1, within [0, count − 1]),
+// as p99Relative takes it, so that a study or a benchmark quoting a reference's percentile takes the same one.
+inline size_t NearestRankIndex(size_t count, double q) {
+  const double rank = std::ceil(q * double(count));
+  return rank < 1.0 ? 0 : std::min(count - 1, static_cast<size_t>(rank) - 1);
+}
 
 }  // namespace restir

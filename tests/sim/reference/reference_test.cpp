@@ -258,5 +258,22 @@ TEST(Reference, ErrorTargetStopsAtTheFramesSampleCapAndSaysSo) {
   EXPECT_EQ(key(16, 0.0, 64), key(16, 0.0, 0));
 }
 
+// The nearest-rank quantile that MeasureReferenceConvergence and the oracle bench quote, against NumPy's
+// np.percentile(np.arange(n), 100 q, method='inverted_cdf') (the nearest-rank definition), computed outside the
+// project for these counts.
+TEST(NearestRankIndex, MatchesNumpysInvertedCdfPercentile) {
+  struct Case {
+    size_t count;
+    size_t p99, p50;
+  };
+  for (const Case& c : {Case{1, 0, 0}, Case{2, 1, 0}, Case{100, 98, 49}, Case{101, 99, 50}, Case{200, 197, 99},
+                        Case{1000, 989, 499}, Case{166310, 164646, 83154}}) {
+    EXPECT_EQ(NearestRankIndex(c.count, 0.99), c.p99) << c.count;
+    EXPECT_EQ(NearestRankIndex(c.count, 0.5), c.p50) << c.count;
+    EXPECT_EQ(NearestRankIndex(c.count, 0.0), 0u) << c.count;
+    EXPECT_EQ(NearestRankIndex(c.count, 1.0), c.count - 1) << c.count;
+  }
+}
+
 }  // namespace
 }  // namespace restir
