@@ -17,7 +17,8 @@
 #include "core/simd.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace bsdf_draw_kernel_test {
 
 class BsdfDrawKernel : public test::SimdTargetTest {};
 
@@ -186,5 +187,5 @@ TEST(SinCos2Pi, MatchesTheLibraryToFloatPrecision) {
   RecordProperty("worst_absolute_error", std::to_string(worst));
 }
 
-}  // namespace
+}  // namespace bsdf_draw_kernel_test
 }  // namespace restir

@@ -23,7 +23,8 @@
 #include "core/kernel_test_support.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace gris_kernel_test {
 
 using test::Bits;
 using test::Canonical;
@@ -412,5 +413,5 @@ TEST_F(GrisKernel, AllZeroWeightsSelectNothing) {
     }
 }
 
-}  // namespace
+}  // namespace gris_kernel_test
 }  // namespace restir

@@ -26,7 +26,8 @@
 #include "core/simd.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace light_draw_kernel_test {
 
 class LightDrawKernel : public test::SimdTargetTest {};
 
@@ -460,5 +461,5 @@ TEST_F(LightDrawKernel, ReceiversBesideAFarEmittersPlaneGetLightOnlyInFrontOfIt)
   EXPECT_GE(inFront, 10);
 }
 
-}  // namespace
+}  // namespace light_draw_kernel_test
 }  // namespace restir

@@ -28,7 +28,8 @@
 #include "core/simd.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace light_selection_kernel_test {
 
 class LightSelectionKernel : public test::SimdTargetTest {};
 
@@ -414,5 +415,5 @@ TEST(ThetaOverSinTheta, MatchesAcosOverSine) {
   EXPECT_TRUE(std::isfinite(ThetaOverSinTheta(-1.0f, 0.0f)));
 }
 
-}  // namespace
+}  // namespace light_selection_kernel_test
 }  // namespace restir

@@ -27,7 +27,8 @@
 #include "core/kernel_test_support.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace shadow_ray_kernel_test {
 
 class ShadowRayKernel : public test::SimdTargetTest {};
 
@@ -291,5 +292,5 @@ TEST_F(ShadowRayKernel, TailsTouchOnlyTheirQueriesOnEveryTarget) {
   }
 }
 
-}  // namespace
+}  // namespace shadow_ray_kernel_test
 }  // namespace restir

@@ -22,7 +22,8 @@
 #include "stats.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace sky_test {
 
 constexpr double kPiD = 3.14159265358979323846;
 
@@ -918,5 +919,5 @@ TEST(SkyPointFor, ShadingEvaluatesTheDirection) {
     }
 }
 
-}  // namespace
+}  // namespace sky_test
 }  // namespace restir

@@ -26,7 +26,8 @@
 #include "core/kernel_test_support.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace spmis_kernel_test {
 
 using test::Bits;
 using test::Canonical;
@@ -476,5 +477,5 @@ TEST_F(StochasticPairwiseKernel, FeedsGrisResampleBatchWithoutCopying) {
   }
 }
 
-}  // namespace
+}  // namespace spmis_kernel_test
 }  // namespace restir

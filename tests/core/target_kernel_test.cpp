@@ -27,7 +27,8 @@
 #include "core/kernel_test_support.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace target_kernel_test {
 
 class TargetKernel : public test::SimdTargetTest {};
 
@@ -332,5 +333,5 @@ TEST_F(TargetKernel, TailsTouchOnlyTheirPairsOnEveryTarget) {
   }
 }
 
-}  // namespace
+}  // namespace target_kernel_test
 }  // namespace restir

@@ -2,15 +2,43 @@
 // the order given), materials with an emissive factor and optionally KHR_materials_emissive_strength.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/math.h"
 
 namespace restir::test {
+
+// Debian's assimp-testmodels, the third-party assets the importer's tests read.
+inline const std::string kModels = "/usr/share/assimp/models/";
+
+// Fails (never skips) when a model (a file) or a folder of models of assimp-testmodels is not there.
+inline ::testing::AssertionResult HaveModel(const std::string& path) {
+  if (std::filesystem::exists(path)) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure()
+         << path << " is missing: the asset tests need Debian's assimp-testmodels "
+         << "package (apt-get install assimp-testmodels; scripts/setup.sh installs it)";
+}
+
+inline std::string ReadBytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  EXPECT_TRUE(f.good()) << "cannot open " << path;
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+inline void WriteBytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
 
 inline std::string EncodeBase64(const std::string& bytes) {
   static const char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

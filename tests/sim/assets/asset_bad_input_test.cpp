@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "sim/scene/sequence.h"
+#include "tests/sim/asset_fixtures.h"
 #include "tests/sim/sim_binary.h"
 
 namespace restir {
@@ -32,25 +33,10 @@ namespace fs = std::filesystem;
 using test::RunSim;
 using test::ShellResult;
 
-const std::string kModels = "/usr/share/assimp/models/";
-
-::testing::AssertionResult HaveModel(const std::string& path) {
-  if (fs::exists(path)) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure()
-         << path << " is missing: the asset tests need Debian's assimp-testmodels "
-         << "package (apt-get install assimp-testmodels; scripts/setup.sh installs it)";
-}
-
-std::string ReadBytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::ostringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-void WriteBytes(const fs::path& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-}
+using test::HaveModel;
+using test::kModels;
+using test::ReadBytes;
+using test::WriteBytes;
 
 // Under the sanitizers (the asan preset) an allocation Assimp cannot make in the importer's child
 // (OutOfMemory.off as .gltf) is a sanitizer report on the child's stderr before the child dies, which the
@@ -81,15 +67,15 @@ std::string MessageLine(const std::string& output) {
 }
 
 // A scratch directory per test, removed afterwards.
-class Scratch {
+class ScratchDir {
  public:
-  Scratch() {
+  ScratchDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     path_ = fs::path(::testing::TempDir()) / (std::string("restir_asset_bad_") + info->name());
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
-  ~Scratch() { fs::remove_all(path_); }
+  ~ScratchDir() { fs::remove_all(path_); }
   const fs::path& Path() const { return path_; }
 
  private:
@@ -212,7 +198,7 @@ size_t ImportedTriangles(const fs::path& scratch, const std::string& asset) {
 // Assimp's wrongTypes models: each refused by the schema check before Assimp reads it, naming the JSON path of the
 // value of the wrong type (Assimp's own message named only the member: "Member "name" was not of type ...").
 TEST(AssetBadInput, GltfWithWrongJsonTypesIsRefusedNamingTheJsonPath) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string dir = kModels + "glTF2/wrongTypes/";
   ASSERT_TRUE(HaveModel(dir));
   const std::pair<const char*, const char*> cases[] = {
@@ -234,7 +220,7 @@ TEST(AssetBadInput, GltfWithWrongJsonTypesIsRefusedNamingTheJsonPath) {
 }
 
 TEST(AssetBadInput, GltfWhoseIndicesAreAllOutOfRangeIsRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string f = kModels + "glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf";
   ASSERT_TRUE(HaveModel(f));
   ExpectRefused(scratch.Path(), f, Where::kInAsset);
@@ -244,7 +230,7 @@ TEST(AssetBadInput, GltfWhoseIndicesAreAllOutOfRangeIsRefused) {
 // the file's index buffer). glTF 2.0 §3.7.2.1 forbids it; Assimp 5.2 drops that triangle and imported the rest, so
 // the asset rendered with a hole. Refused, naming the primitive, the index and the vertex count.
 TEST(AssetBadInput, GltfWithOneIndexOutOfRangeIsRefusedNamingTheIndex) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string f = kModels + "glTF2/IndexOutOfRange/IndexOutOfRange.gltf";
   ASSERT_TRUE(HaveModel(f));
   const nlohmann::json doc = nlohmann::json::parse(ReadBytes(f));
@@ -281,7 +267,7 @@ TEST(AssetBadInput, GltfWithOneIndexOutOfRangeIsRefusedNamingTheIndex) {
 // running past its buffer view, a view past its buffer, and a buffer shorter than its byteLength are each refused
 // naming the JSON path; the untouched file still renders.
 TEST(AssetBadInput, GltfBinaryDataOutsideItsBoundsIsRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string dir = kModels + "glTF2/BoxTextured-glTF/";
   ASSERT_TRUE(HaveModel(dir + "BoxTextured.gltf"));
   fs::copy_file(dir + "CesiumLogoFlat.png", scratch.Path() / "CesiumLogoFlat.png");
@@ -346,7 +332,7 @@ TEST(AssetBadInput, GltfBinaryDataOutsideItsBoundsIsRefused) {
 // exist (and has an empty 'f' line): Assimp gives its faces the default material, and so it is accepted and
 // renders.
 TEST(AssetBadInput, AssimpInvalidModelsAreRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string dir = kModels + "invalid";
   ASSERT_TRUE(HaveModel(dir));
   std::vector<fs::path> files;
@@ -374,7 +360,7 @@ TEST(AssetBadInput, AssimpInvalidModelsAreRefused) {
 // reader takes it by content and fails its allocation (std::bad_alloc, in well under a second); as .obj and
 // .ply the parsers refuse it.
 void ExpectRenamedInvalidModelsRefused(const char* extension) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string dir = kModels + "invalid";
   ASSERT_TRUE(HaveModel(dir));
   std::vector<fs::path> files;
@@ -406,7 +392,7 @@ TEST(AssetBadInput, AssimpInvalidModelsRenamedToGltfAreRefused) {
 // A .glb cut short: empty, inside the 12-byte header, inside the JSON chunk header, half-way and one byte
 // short.
 TEST(AssetBadInput, TruncatedGlbIsRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   for (const char* model : {"glTF2/BoxTextured-glTF-Binary/BoxTextured.glb",
                             "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"}) {
     ASSERT_TRUE(HaveModel(kModels + model));
@@ -421,7 +407,7 @@ TEST(AssetBadInput, TruncatedGlbIsRefused) {
 }
 
 TEST(AssetBadInput, GltfWithoutItsBufferOrItsTextureIsRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string src = kModels + "glTF2/BoxTextured-glTF/";
   for (const char* f : {"BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"})
     ASSERT_TRUE(HaveModel(src + f));
@@ -439,7 +425,7 @@ TEST(AssetBadInput, GltfWithoutItsBufferOrItsTextureIsRefused) {
 // A texture that is not a whole image: the message names the texture and the asset, on one line (the image
 // library's own complaints must not reach stderr).
 TEST(AssetBadInput, GltfWithATruncatedTextureIsRefusedWithOneLine) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string src = kModels + "glTF2/BoxTextured-glTF/";
   for (const char* f : {"BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"})
     ASSERT_TRUE(HaveModel(src + f));
@@ -456,7 +442,7 @@ TEST(AssetBadInput, GltfWithATruncatedTextureIsRefusedWithOneLine) {
 }
 
 TEST(AssetBadInput, ObjWithNonFiniteOrHugeVertexIsRefused) {
-  Scratch scratch;
+  ScratchDir scratch;
   const fs::path nan = scratch.Path() / "nan.obj", huge = scratch.Path() / "huge.obj";
   WriteBytes(nan, "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
   WriteBytes(huge, "v 0 0 0\nv 1 0 0\nv 1e30 1 0\nf 1 2 3\n");
@@ -468,7 +454,7 @@ TEST(AssetBadInput, ObjWithNonFiniteOrHugeVertexIsRefused) {
 
 // What is wrong with the file as a file is found before any import, and located in the sequence.
 TEST(AssetBadInput, DirectoryDeviceAndUnsupportedExtensionAreRefusedAtTheSequence) {
-  Scratch scratch;
+  ScratchDir scratch;
   const fs::path dir = scratch.Path() / "a_directory.obj", fbx = scratch.Path() / "model.fbx";
   fs::create_directories(dir);
   WriteBytes(fbx, "Kaydara FBX Binary  \n");
@@ -484,7 +470,7 @@ TEST(AssetBadInput, DirectoryDeviceAndUnsupportedExtensionAreRefusedAtTheSequenc
 // file, the first chunk's type, a JSON chunk running past the end (each was "the first chunk is not its JSON" or
 // was ignored), a chunk length that is not a multiple of 4, an empty JSON chunk, a BIN chunk twice or not second.
 TEST(AssetBadInput, GlbFramingFaultsAreNamedOneByOne) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string model = kModels + "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
   ASSERT_TRUE(HaveModel(model));
   const std::string good = ReadBytes(model);
@@ -527,7 +513,7 @@ TEST(AssetBadInput, GlbFramingFaultsAreNamedOneByOne) {
 // belongs, a factor outside [0, 1], a negative emissiveStrength are refused naming the JSON path inside the asset
 // (Assimp read "nan" as 0, "50" as 1, and clamped 5 to 1). A factor inside its range still renders.
 TEST(AssetBadInput, GltfNumbersOutsideTheSchemaAreRefusedNamingTheirPath) {
-  Scratch scratch;
+  ScratchDir scratch;
   const std::string dir = kModels + "glTF2/BoxTextured-glTF/";
   ASSERT_TRUE(HaveModel(dir + "BoxTextured.gltf"));
   for (const char* f : {"BoxTextured0.bin", "CesiumLogoFlat.png"})

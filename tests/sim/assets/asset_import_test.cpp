@@ -35,23 +35,9 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-const std::string kModels = "/usr/share/assimp/models/";
-
-// Fails (never skips) when a model of assimp-testmodels is not there.
-::testing::AssertionResult HaveModel(const std::string& path) {
-  if (fs::is_regular_file(path)) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure()
-         << path << " is missing: the asset tests need Debian's assimp-testmodels "
-         << "package (apt-get install assimp-testmodels; scripts/setup.sh installs it)";
-}
-
-std::string ReadBytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  EXPECT_TRUE(f.good()) << "cannot open " << path;
-  std::ostringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using test::HaveModel;
+using test::kModels;
+using test::ReadBytes;
 
 // RFC 4648 base64, as glTF data: URIs carry their buffers and images.
 std::string DecodeBase64(const std::string& text) {

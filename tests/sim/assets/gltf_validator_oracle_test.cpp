@@ -30,6 +30,7 @@
 
 #include "sim/assets/asset_import.h"
 #include "sim/scene/sequence.h"
+#include "tests/sim/asset_fixtures.h"
 #include "tests/sim/sim_binary.h"
 
 namespace restir {
@@ -38,7 +39,9 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-const std::string kModels = "/usr/share/assimp/models/";
+using test::kModels;
+using test::ReadBytes;
+using test::WriteBytes;
 const std::string kValidatorDir = "tests/tools/gltf_validator";
 
 // Validator error codes the importer tolerates, with the reason (docs/sequence-format.md, "Assets").
@@ -119,16 +122,6 @@ const std::vector<std::pair<std::string, std::string>> kOurRefusals = {
     {"the asset holds more than", "more triangles than the asset limit (2^22)"},
     {"which Assimp 5.2 reads past its data", "a sparse accessor over an interleaved view: Assimp 5.2 misreads it"},
 };
-
-std::string ReadBytes(const fs::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::ostringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-void WriteBytes(const fs::path& path, const std::string& bytes) {
-  std::ofstream(path, std::ios::binary) << bytes;
-}
 
 void Put16(std::string& b, size_t at, uint16_t v) {
   std::memcpy(&b[at], &v, 2);

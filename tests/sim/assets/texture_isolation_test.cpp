@@ -15,16 +15,14 @@
 
 #include "sim/scene/sequence.h"  // InputError
 #include "sim/assets/texture.h"
+#include "tests/sim/asset_fixtures.h"
 
 namespace restir {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
+using test::ReadBytes;
 
 // This process's own decoding of the file, by OpenImageIO's default (C++ OpenEXR) reader on this thread's pools.
 std::vector<float> DecodeHere(const std::string& path) {

@@ -51,7 +51,8 @@
 #include "tests/sim/reference/emitters_in_double.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace brute_force_reference_test {
 
 constexpr int kWidth = 96;
 constexpr int kHeight = 54;
@@ -371,5 +372,5 @@ TEST(BruteForceReference, SunStreetNightWithoutTheDifferenceEstimator) {
   ExpectAgreement(o, 100, 100);
 }
 
-}  // namespace
+}  // namespace brute_force_reference_test
 }  // namespace restir

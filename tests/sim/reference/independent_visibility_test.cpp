@@ -48,7 +48,8 @@
 #include "visibility_quadrature.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace independent_visibility_test {
 
 constexpr double kMeanTail = 1e-4;  // one-sided false-failure rate of the mean-z² test
 constexpr double kMaxTail = 1e-4;   // false-failure rate of the largest-|z| test (Bonferroni over pixels)
@@ -393,5 +394,5 @@ TEST(IndependentVisibility, ReferenceMatchesQuadratureInWindowBars) {
   ExpectAgreement(o, 1000);
 }
 
-}  // namespace
+}  // namespace independent_visibility_test
 }  // namespace restir

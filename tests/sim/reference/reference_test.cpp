@@ -12,7 +12,8 @@
 #include "stats.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace reference_test {
 
 // Closed form for the floor fixture: Lambertian outgoing radiance albedo/π · E(x), E from Lambert's polygon
 // formula.
@@ -275,5 +276,5 @@ TEST(NearestRankIndex, MatchesNumpysInvertedCdfPercentile) {
   }
 }
 
-}  // namespace
+}  // namespace reference_test
 }  // namespace restir

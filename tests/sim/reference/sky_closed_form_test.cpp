@@ -59,7 +59,8 @@
 #include "stats.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace sky_closed_form_test {
 
 using D3 = glm::dvec3;
 
@@ -833,5 +834,5 @@ TEST(SkyClosedForm, LocalLightSunAndEnvironmentTogether) {
   }
 }
 
-}  // namespace
+}  // namespace sky_closed_form_test
 }  // namespace restir

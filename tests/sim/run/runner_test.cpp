@@ -16,7 +16,8 @@
 #include "sim/scene/sequence.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace runner_test {
 
 std::string TempOut(const std::string& name) {
   const auto dir = std::filesystem::path(::testing::TempDir()) / name;
@@ -521,5 +522,5 @@ TEST(Run, BadInputThrowsInputError) {
   EXPECT_THROW(restir::Run(o), InputError);
 }
 
-}  // namespace
+}  // namespace runner_test
 }  // namespace restir

@@ -23,7 +23,8 @@
 #include "tests/sim/sim_binary.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace simd_determinism_test {
 
 RunOptions SmokeAllPresets(const std::string& name, int threads, int width = 64, int height = 36,
                            const std::string& sequence = "sequences/smoke.json") {
@@ -279,5 +280,5 @@ TEST_F(SimdDeterminism, CliSimdOption) {
   EXPECT_EQ(RunCliStatus(common + " --simd auto", text), 0) << text;
 }
 
-}  // namespace
+}  // namespace simd_determinism_test
 }  // namespace restir

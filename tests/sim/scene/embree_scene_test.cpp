@@ -12,7 +12,8 @@
 #include "tests/sim/mesh_fixtures.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace embree_scene_test {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -339,5 +340,5 @@ TEST(EmbreeScene, IntersectEmitterAgreesWithIntersectOnMissesAndEmitters) {
   EXPECT_GT(misses, 1000u);
 }
 
-}  // namespace
+}  // namespace embree_scene_test
 }  // namespace restir

@@ -16,7 +16,8 @@
 #include "tests/sim/mesh_fixtures.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace gbuffer_test {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -452,5 +453,5 @@ TEST(TracePrimary, OutputIdenticalWithOneAndTwoThreads) {
   EXPECT_GT(lightPixels, 0u);
 }
 
-}  // namespace
+}  // namespace gbuffer_test
 }  // namespace restir

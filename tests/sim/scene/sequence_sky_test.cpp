@@ -18,7 +18,8 @@
 #include "sim/scene/sky_frame.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace sequence_sky_test {
 
 namespace fs = std::filesystem;
 
@@ -564,5 +565,5 @@ TEST(SequenceSky, LoadSequenceResolvesTheMapAgainstTheFilesDirectory) {
   }
 }
 
-}  // namespace
+}  // namespace sequence_sky_test
 }  // namespace restir

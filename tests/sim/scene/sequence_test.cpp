@@ -10,7 +10,8 @@
 #include <string>
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace sequence_test {
 
 // Small valid sequence; tests edit it with Replace. Column numbers in the tests refer to this layout.
 const char* const kBase = R"({
@@ -679,5 +680,5 @@ TEST(SequenceSummary, ListsCountsAndPathLength) {
   EXPECT_NE(s.find("o                      m"), std::string::npos) << s;  // object and its material
 }
 
-}  // namespace
+}  // namespace sequence_test
 }  // namespace restir

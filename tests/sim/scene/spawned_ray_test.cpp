@@ -23,7 +23,8 @@
 #include "sim/scene/sequence.h"
 
 namespace restir {
-namespace {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace spawned_ray_test {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -278,5 +279,5 @@ TEST_F(SpawnedRays, NeverJumpAnOccluderAFewOffsetsAway) {
   EXPECT_GE(tested, 25);
 }
 
-}  // namespace
+}  // namespace spawned_ray_test
 }  // namespace restir
