@@ -269,12 +269,13 @@ TEST_F(LightDrawKernel, TermIsAnUnbiasedEstimateOfLambertsReflectedRadiance) {
                      : MakeLightTriangle(q[0], q[1], q[2], radiance, lights.triangles[0]));
     ASSERT_TRUE(flip ? MakeLightTriangle(q[0], q[2], q[1], second, lights.triangles[1])
                      : MakeLightTriangle(q[0], q[2], q[3], second, lights.triangles[1]));
-    if (grouped)  // behind the receiver, facing away
+    if (grouped) {  // behind the receiver, facing away
       ASSERT_TRUE(MakeLightTriangle(c.x - c.n, c.x - c.n + c.u, c.x - c.n + c.v, radiance, lights.triangles[2]));
+    }
     lights.Finish({c.split, 1.0 - c.split});
     ASSERT_EQ(lights.groups.first.size(), 2u) << c.name;
     // A trapezoid's halves differ: a split taken the wrong way round would bias it.
-    if (grouped && c.taper != 1.0f) EXPECT_GT(std::fabs(lights.groups.split[0] - 0.5f), 0.1f) << c.name;
+    if (grouped && c.taper != 1.0f) { EXPECT_GT(std::fabs(lights.groups.split[0] - 0.5f), 0.1f) << c.name; }
     LightDrawReceiver r;
     r.position = c.x;
     r.geometricNormal = r.shadingNormal = c.n;
@@ -426,14 +427,14 @@ TEST_F(LightDrawKernel, ReceiversBesideAFarEmittersPlaneGetLightOnlyInFrontOfIt)
       std::vector<SimdTarget> targets = SupportedSimdTargets();
       for (size_t pass = 0; pass <= targets.size(); ++pass) {
         const bool twin = pass == targets.size();
-        if (!twin) ASSERT_TRUE(SetSimdTarget(targets[pass]));
+        if (!twin) { ASSERT_TRUE(SetSimdTarget(targets[pass])); }
         const char* name = twin ? "twin" : SimdTargetName(targets[pass]);
         Outputs o(kDraws);
         const LightDraws draws{u0.data(), u1.data(), u2.data(), kDraws};
         const size_t counted =
             twin ? DrawLightSamplesScalar(r, materials, lights.View(), lights.cdf.data(), draws, o.View())
                  : DrawLightSamples(r, materials, lights.View(), lights.cdf.data(), draws, o.View());
-        if (h < 0.0) EXPECT_EQ(counted, 0u) << name << " at " << distance << " m, " << h << " m behind";
+        if (h < 0.0) { EXPECT_EQ(counted, 0u) << name << " at " << distance << " m, " << h << " m behind"; }
         for (size_t k = 0; k < kDraws; ++k) {
           // The integrand over its density in double at the draw's barycentric point.
           const double su = std::sqrt(double(u1[k]));

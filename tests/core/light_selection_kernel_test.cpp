@@ -158,7 +158,7 @@ TEST_F(LightSelectionKernel, EveryTargetMatchesTheScalarTwinAndTheTwinIsTheMixtu
         const double step = mixed ? (1.0 - kDefensivePowerShare) * w[l] / total + kDefensivePowerShare * power : power;
         running += step;
         ASSERT_NEAR(cdf[l], running, 1e-5 * running + 1e-30) << "trial " << trial << " receiver " << r << " light " << l;
-        if (l > 0) ASSERT_GE(cdf[l], cdf[l - 1]);
+        if (l > 0) { ASSERT_GE(cdf[l], cdf[l - 1]); }
         // A light whose share float can hold (a step above a millionth of the running total, 16 ulps) keeps it.
         if (step > 1e-6 * running) {
           ASSERT_GT(cdf[l], l > 0 ? cdf[l - 1] : 0.0f) << "a light lost its share: trial " << trial << " light " << l;

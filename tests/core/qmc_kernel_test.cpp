@@ -67,7 +67,10 @@ TEST_F(QmcKernel, EveryTargetMatchesScalarTwinBitForBit) {
 TEST_F(QmcKernel, PixelWordsMatchRandomWords4OnEveryTarget) {
   std::mt19937 rng(5);
   std::vector<RngKey> keys{{0, 0, 0, 0}, {~0u, ~0u, ~0u, 0xFFFu}, {0x5EFE12ECu, 17, 0, 6}};
-  for (int i = 0; i < 5; ++i) keys.push_back(RngKey{rng(), rng(), 0, rng() & 0xFFFu});
+  for (int i = 0; i < 5; ++i) {
+    const uint32_t a = static_cast<uint32_t>(rng()), b = static_cast<uint32_t>(rng());
+    keys.push_back(RngKey{a, b, 0, static_cast<uint32_t>(rng() & 0xFFFu)});
+  }
   size_t compared = 0;
   for (const RngKey& key : keys)
     for (uint32_t first : {0u, 3u, 0xFFFFEu, 0xFFFFFFF0u})

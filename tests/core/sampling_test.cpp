@@ -73,7 +73,7 @@ TEST(CdfPmf, IsTheMeasureOfTheUniformsMappedToEachIndex) {
       sum += p;
       // Each step of the grid is 2^-20; rounding of u * total moves a boundary by at most one float.
       EXPECT_NEAR(hits[l] / kGrid, p, 2.0 / kGrid + 1e-6) << "n " << n << " index " << l;
-      if (p == 0.0f) EXPECT_EQ(hits[l], 0.0) << "a zero step is never chosen";
+      if (p == 0.0f) { EXPECT_EQ(hits[l], 0.0) << "a zero step is never chosen"; }
     }
     EXPECT_NEAR(sum, 1.0, 1e-5);
   }
@@ -105,7 +105,7 @@ TEST(SampleSplitCdf, ChoosesEachEntryWithItsShareOfItsGroupsStep) {
       const bool pair = split[g] <= 1.0f;
       // Two float boundaries per entry, each within a grid step of 2^-20.
       EXPECT_NEAR(hits[first[g]] / kGrid, pair ? p * split[g] : p, 3.0 / kGrid + 1e-6) << "group " << g;
-      if (pair) EXPECT_NEAR(hits[first[g] + 1] / kGrid, p * (1.0 - split[g]), 3.0 / kGrid + 1e-6) << "group " << g;
+      if (pair) { EXPECT_NEAR(hits[first[g] + 1] / kGrid, p * (1.0 - split[g]), 3.0 / kGrid + 1e-6) << "group " << g; }
     }
   }
 }
@@ -124,7 +124,7 @@ TEST(RobertsCoordinate, IsTheFractionalPartOfTheFixedPointSumTruncatedTo24Bits) 
     ASSERT_EQ(got, expected) << "shift " << shift << " k " << k << " alpha " << alpha;
     ASSERT_GE(got, 0.0f);
     ASSERT_LT(got, 1.0f);
-    if (i % 10 < 5) ASSERT_EQ(got, r5.Coordinate(shift, k, i % 5));
+    if (i % 10 < 5) { ASSERT_EQ(got, r5.Coordinate(shift, k, i % 5)); }
   }
 }
 

@@ -202,8 +202,9 @@ TEST(Settings, CellPassSettingsHaveTheirUnitsAndBounds) {
       ApplySettingAssignment(s, assignment);
       ADD_FAILURE() << assignment << ": no error";
     } catch (const InputError& e) {
-      if (!reason.empty())
+      if (!reason.empty()) {
         EXPECT_EQ(e.what(), "--set: error at " + assignment.substr(0, assignment.find('=')) + ": " + reason);
+      }
     }
   }
   PipelineSettings s;

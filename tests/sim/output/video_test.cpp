@@ -79,7 +79,7 @@ TEST(Video, FfprobeReadsItsFramesAndSizeAndTheDecodedColoursAreTheFramesOwn) {
                            "stream=codec_name,width,height,pix_fmt,nb_read_frames -of default=noprint_wrappers=1 " +
                            (dir / "a.mp4").string() + " 2>&1");
   ASSERT_EQ(probe.status, 0) << probe.output;
-  for (const std::string& want : {"codec_name=h264", "width=64", "height=36", "pix_fmt=yuv420p", "nb_read_frames=5"})
+  for (const char* want : {"codec_name=h264", "width=64", "height=36", "pix_fmt=yuv420p", "nb_read_frames=5"})
     EXPECT_NE(probe.output.find(want), std::string::npos) << want << " in " << probe.output;
 
   // Decoded back to RGB: the flat part of each frame within a few codes of its colour (4:2:0 and CRF 18 lose

@@ -151,7 +151,7 @@ TEST(ReferenceSky, SkyDensityIsTheMixtureOfTheStrategiesDensities) {
       const float p = SkyLightPdf(m, sky, w);
       EXPECT_GT(p, 0.0f);
       EXPECT_FLOAT_EQ(p, m.sun * sky.SunPdf(w) + m.environment * sky.EnvironmentPdf(w));
-      if (s == LightStrategy::kSun) EXPECT_GT(sky.SunPdf(w), 0.0f);
+      if (s == LightStrategy::kSun) { EXPECT_GT(sky.SunPdf(w), 0.0f); }
     }
   }
   // A strategy of probability 0 contributes nothing to the density, whatever its own.

@@ -59,8 +59,8 @@ TEST(SweepProcesses, BadJobAndPlanArgumentsExitTwoWithOneLine) {
   std::ofstream(sweep) << R"({"sequence": ")" << fs::absolute("sequences/smoke.json").string()
                        << R"(", "resolution": [8, 8], "frames": [0, 1], "presets": ["ris"]})";
   const std::string s = sweep.string();
-  for (const std::string& args : {"--job 7", "--job smoke/ris/seed-8", "--job -1", "--plan --job 0",
-                                  "--merge --plan", "--missing", "--plan --format xml"}) {
+  for (const char* args : {"--job 7", "--job smoke/ris/seed-8", "--job -1", "--plan --job 0",
+                           "--merge --plan", "--missing", "--plan --format xml"}) {
     const test::ShellResult r = test::RunSim("sweep " + s + " --out " + (dir / "o").string() + " " + args);
     EXPECT_EQ(r.status, 2) << args << ": " << r.output;
   }

@@ -33,7 +33,7 @@ TEST(BoilingFilter, EmptiesOnlyTheOutliersAboveTheTilesThreshold) {
     EXPECT_EQ(BoilingFilter(0.2f, 16, 16, r), expect) << heavy;
     EXPECT_EQ(r[37].W, expect ? 0.0f : heavy) << heavy;
     for (size_t i = 0; i < r.size(); ++i)
-      if (i != 37) EXPECT_EQ(r[i].W, 1.0f) << i;
+      if (i != 37) { EXPECT_EQ(r[i].W, 1.0f) << i; }
   }
   // Just below and just above the threshold at strength 0.5 (multiplier 11): 255 ones and one h, h vs 11 (255
   // + h) / 256, equal at h = 2805 / 245 = 11.449.
