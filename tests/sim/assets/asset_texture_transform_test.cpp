@@ -45,7 +45,7 @@ namespace {
 
 using namespace test;  // asset_scene_writer.h
 
-const std::string kModel = "/usr/share/assimp/models/glTF2/textureTransform/TextureTransformTest.gltf";
+const std::string kModel = kModels + "glTF2/textureTransform/TextureTransformTest.gltf";
 
 // The meshes of material `name` (Assimp merges a material's meshes into one), as world triangles with UVs.
 struct UvTriangle {
@@ -95,8 +95,7 @@ std::vector<Sample> SampleQuad(const std::vector<UvTriangle>& tris, const Textur
 }
 
 TEST(AssetTextureTransform, KhronosTextureTransformTestReadsAsItsAuthorsMarkedIt) {
-  ASSERT_TRUE(std::filesystem::is_regular_file(kModel))
-      << kModel << " is missing: the asset tests need Debian's assimp-testmodels package";
+  ASSERT_TRUE(HaveModel(kModel));
   const ImportedAsset a = ImportAssetInProcess(kModel);
 
   // Top row: the colour at each quad's centre (the UV texture's check-mark quadrants are saturated primaries).
@@ -246,7 +245,7 @@ TEST(AssetTextureTransform, UvSetsAndTransformsFollowTheTextureInfo) {
 // A sampler written by someone else with a different mode per axis: assimp-testmodels' BoxTextured-glTF has wrapS
 // MIRRORED_REPEAT (33648), wrapT CLAMP_TO_EDGE (33071); its .glb and embedded variants the default REPEAT.
 TEST(AssetTextureTransform, SamplerWrapModesReachTheTexturePerAxis) {
-  const std::string dir = "/usr/share/assimp/models/glTF2/";
+  const std::string dir = kModels + "glTF2/";
   struct Case {
     const char* file;
     TextureWrap u, v;
@@ -256,7 +255,7 @@ TEST(AssetTextureTransform, SamplerWrapModesReachTheTexturePerAxis) {
       {"BoxTextured-glTF-Binary/BoxTextured.glb", TextureWrap::kRepeat, TextureWrap::kRepeat}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
-    ASSERT_TRUE(std::filesystem::is_regular_file(dir + c.file));
+    ASSERT_TRUE(HaveModel(dir + c.file));
     const ImportedAsset a = ImportAssetInProcess(dir + c.file);
     ASSERT_EQ(a.textures.size(), 1u);
     EXPECT_EQ(a.textures[0].wrapU, c.u);
