@@ -18,6 +18,9 @@ enum class RngPass : uint32_t {
   kInitialSources = 7,
   // the reference pilot's per-pixel light probes (sim/reference/reference_learning.h PixelProbes)
   kReferenceProbe = 8,
+  // the reference's indirect paths, and the pilot paths that set their counts (sim/reference/reference_paths.h)
+  kReferencePaths = 9,
+  kReferencePathsPilot = 10,
   kTest = 100,
 };
 

@@ -33,6 +33,7 @@
 #include "sim/util/input_file.h"
 #include "sim/reference/reference_cache.h"
 #include "sim/reference/reference_learning.h"
+#include "sim/reference/reference_paths.h"
 #include "sim/reference/reference_samples.h"
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/shading_point.h"
@@ -50,6 +51,8 @@ namespace {
 // core/portable_math.h; 15: per-pixel distributions up to 32768 light triangles, many_rooms' and many_lights'; 16:
 // the pilot's relative variances spread to their neighbourhood before the allocation).
 constexpr uint32_t kReferenceVersion = 16;
+// The version of the indirect paths (sim/reference/reference_paths.h), in the key of references that have them.
+constexpr uint32_t kPathsVersion = 1;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -306,6 +309,11 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   uint64_t h = Fnv1a(sequence.contentHash.data(), sequence.contentHash.size());
   h = Fnv1a(fields, sizeof(fields), h);
   h = Fnv1a(&error, sizeof(error), h);
+  // Hashed only where there is indirect light, so that direct-light entries keep their keys.
+  if (params.indirectBounces > 0) {
+    const int32_t bounces[2] = {params.indirectBounces, static_cast<int32_t>(kPathsVersion)};
+    h = Fnv1a(bounces, sizeof(bounces), h);
+  }
   const uint64_t s = HashFrameState(state);
   return HexHash(Fnv1a(&s, sizeof(s), h));
 }
@@ -365,6 +373,7 @@ struct ReferenceFrame {
   ReferenceFrame(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                  const GBuffer& g);
 
+  const Sequence* sequence;
   const FrameState& state;
   const EmbreeScene& scene;
   const GBuffer& g;
@@ -420,7 +429,8 @@ struct ReferenceFrame {
 
 ReferenceFrame::ReferenceFrame(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                                const GBuffer& g)
-    : state(state),
+    : sequence(&sequence),
+      state(state),
       scene(scene),
       g(g),
       w(g.width),
@@ -1187,6 +1197,82 @@ void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<ui
   }, [](int, BandLearning&) {});
 }
 
+// The indirect light (ReferenceParams::indirectBounces; sim/reference/reference_paths.h), added to the direct
+// light's estimate: a pilot of kPilotSamples paths a pixel (not part of the estimate) gives each pixel its relative
+// variance per path against its whole light (direct, as the main pass found it, plus the pilot's indirect mean), and
+// the direct light's allocation (AllocateSamples: the budget, or the target and its cap) turns it into paths, in
+// kReplicates independent replicates. The two parts' random numbers are independent, so their variances add.
+void AddIndirectLight(ReferenceFrame& frame, const BlockPlan& plan, const ReferenceParams& params,
+                      ReferenceImage& ref) {
+  const int bounces = std::clamp(params.indirectBounces, 0, kMaxIndirectBounces);
+  const PathScene paths(*frame.sequence, frame.scene, plan.groups, plan.groupPowerPmf, frame.sky, frame.skySummary);
+  const Vec3 eye = frame.state.camera.position;
+  tbb::combinable<uint64_t> pathCount{[] { return uint64_t{0}; }};
+  // Runs fn(pixel, sp, u, scratch, rays) over the active pixels, rows in parallel.
+  const auto forEachPixel = [&](auto&& fn) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, frame.h), [&](const tbb::blocked_range<int>& rows) {
+      SampleBatch scratch;
+      std::vector<float> u(static_cast<size_t>(bounces) * kBounceDims);
+      uint64_t& rays = frame.rays.local();
+      for (int y = rows.begin(); y < rows.end(); ++y)
+        for (int x = 0; x < frame.w; ++x) {
+          const size_t i = static_cast<size_t>(y) * frame.w + x;
+          if (!frame.active[i]) continue;
+          fn(i, ShadingPointAt(frame.g, i, eye, frame.bsdfs), u.data(), scratch, rays);
+        }
+    });
+  };
+  std::vector<float> relVar(frame.pixels, 0.0f);
+  forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
+    double sum = 0.0, sumSq = 0.0;
+    for (uint32_t k = 0; k < static_cast<uint32_t>(kPilotSamples); ++k) {
+      PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), k, RngPass::kReferencePathsPilot,
+                        bounces, u);
+      const double v = Luminance(paths.IndirectSample(sp, bounces, u, scratch, rays));
+      sum += v;
+      sumSq += v * v;
+    }
+    pathCount.local() += kPilotSamples;
+    const double mean = sum / kPilotSamples;
+    const double var = std::max(0.0, sumSq / kPilotSamples - mean * mean) * kPilotSamples / (kPilotSamples - 1);
+    const double total = double(Luminance(ref.mean.pixels[i])) + mean;
+    relVar[i] = total > 0.0 ? static_cast<float>(var / (total * total)) : 0.0f;
+  });
+  ReferenceParams half = params;
+  half.targetRelativeError = params.targetRelativeError / std::sqrt(2.0);
+  double scale = 1.0;
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, half, scale);
+  forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
+    const uint32_t m = perReplicate[i];
+    glm::dvec3 replicateMean[kReplicates];
+    for (uint32_t rep = 0; rep < kReplicates; ++rep) {
+      glm::dvec3 sum(0.0);
+      for (uint32_t k = 0; k < m; ++k) {
+        PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), rep * m + k,
+                          RngPass::kReferencePaths, bounces, u);
+        sum += glm::dvec3(paths.IndirectSample(sp, bounces, u, scratch, rays));
+      }
+      replicateMean[rep] = sum / double(m);
+    }
+    pathCount.local() += uint64_t(m) * kReplicates;
+    glm::dvec3 mean(0.0), var(0.0);
+    for (const glm::dvec3& r : replicateMean) mean += r;
+    mean /= double(kReplicates);
+    for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
+    var /= double(kReplicates - 1);
+    const double meanY = Luminance(mean);
+    double varY = 0.0;
+    for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
+    varY /= double(kReplicates - 1);
+    ref.mean.pixels[i] += Vec3(mean);
+    const glm::dvec3 se(ref.standardError.pixels[i]);
+    ref.standardError.pixels[i] = Vec3(glm::sqrt(se * se + var / double(kReplicates)));
+    const double seY = ref.lumaStandardError[i];
+    ref.lumaStandardError[i] = static_cast<float>(std::sqrt(seY * seY + varY / double(kReplicates)));
+  });
+  ref.paths = pathCount.combine(std::plus<uint64_t>());
+}
+
 }  // namespace
 
 ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
@@ -1210,6 +1296,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);
   MainPass(frame, plan, perReplicate, ref);
+  if (params.indirectBounces > 0) AddIndirectLight(frame, plan, params, ref);
   ref.rays = frame.rays.combine(std::plus<uint64_t>());
   ref.samples = frame.samples.combine(std::plus<uint64_t>());
   WriteCache(cache, ref);

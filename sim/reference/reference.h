@@ -68,6 +68,11 @@ struct ReferenceParams {
   // Added to the reference's seed: another value renders the same frame from independent random numbers (a test
   // comparing two estimators needs them independent). In the cache key.
   uint32_t seed = 0;
+  // Indirect light (issue 41): the most surfaces after the primary hit that a path's light may reflect at before
+  // it reaches the pixel, 0 to kMaxIndirectBounces (sim/reference/reference_paths.h); 0: direct light only, the
+  // reference as it was. Paths are counted like the direct samples (samplesPerPixel, or the error target and its
+  // cap), each part held to the target / √2 so that together they reach it. In the cache key where it is not 0.
+  int indirectBounces = 0;
 };
 
 struct ReferenceImage {
@@ -80,6 +85,7 @@ struct ReferenceImage {
   double ms = 0.0;          // wall time (render or cache read)
   uint64_t rays = 0;        // rays traced (0 when cached)
   uint64_t samples = 0;     // direct-lighting samples taken, the pilot's included (0 when cached)
+  uint64_t paths = 0;       // indirect paths traced (ReferenceParams::indirectBounces), the pilot's included
   std::vector<uint32_t> pixelSamples;  // per pixel, the samples it took, pilot included (empty when cached)
   ReferenceAllocation allocation;      // how the samples were spent (cached with the images)
 };

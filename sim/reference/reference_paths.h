@@ -1,0 +1,66 @@
+// The reference's indirect light (issue 41; DESIGN §7): light that reaches a pixel's primary hit x₁ after
+// reflecting at one or more further surfaces, estimated by paths traced from x₁ (pbrt-v4's PathIntegrator, less its
+// first vertex's direct light, which the direct-light reference already takes). A path draws a direction by the
+// BSDF at x₁, finds the surface x₂ it hits, and takes x₂'s direct light there by next-event estimation, with the
+// reference's own samplers (sim/reference/reference_samples.h SkySamples: a light strategy, a point on a light or a
+// sky direction, combined with BSDF sampling by the power heuristic, so an emitter or the sky a BSDF ray meets is
+// counted once); then from x₂ onwards the same, up to `bounces` surfaces after x₁. An emitter does not reflect and
+// a ray that escapes has no surface: either ends the path (what they send along it is x₁'s direct light or the
+// previous vertex's, taken there). Pure functions of their arguments and random numbers.
+// Internal to sim/reference/reference.cpp.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/light.h"
+#include "core/rng.h"
+#include "core/sky.h"
+#include "sim/reference/reference_samples.h"
+#include "sim/reference/reference_sky.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/scene/sequence.h"
+
+namespace restir {
+
+// The most surfaces after the primary hit a path may reflect at (ReferenceParams::indirectBounces).
+inline constexpr int kMaxIndirectBounces = 8;
+// Random numbers one bounce reads: two for the direction from the BSDF, kSkySampleDims for the next-event sample.
+inline constexpr int kBounceDims = 2 + kSkySampleDims;
+
+// What a path's vertices need of a frame, built once for it. At a secondary vertex the light distribution is the
+// frame's by power (the per-pixel distributions are the primary hits'), and the sky's strategies are mixed by the
+// vertex's own estimates (reference_sky.h), the local lights weighed as much as the sky.
+class PathScene {
+ public:
+  PathScene(const Sequence& sequence, const EmbreeScene& scene, const LightGroups& groups,
+            const std::vector<float>& groupPowerPmf, const Sky& sky, const SkySummary& summary);
+
+  // The surface a path's ray hit, as a receiver seen from along -dir: its material's BSDF, times the texel at the
+  // hit where the material is textured. Only for a hit on an object (materialId >= 0).
+  ShadingPoint Vertex(const SurfaceHit& hit, const Vec3& dir) const;
+
+  // The radiance reflected at x₁ towards x₁.wo by light that reflected at 1 to `bounces` further surfaces first,
+  // estimated by one path from the random numbers `u` (kBounceDims × bounces of them, bounce k's at
+  // u[k × kBounceDims ...]). Counts its rays.
+  Vec3 IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
+                      uint64_t& rays) const;
+
+ private:
+  const Sequence& sequence_;
+  const EmbreeScene& scene_;
+  const std::vector<LightTriangle>& lights_;
+  const Sky& sky_;
+  const SkySummary summary_;
+  std::vector<Bsdf> materialBsdfs_;
+  std::vector<float> powerCdf_;  // per light group, the cumulative of its share of the power
+  PixelLightDistribution powerDistribution_;
+};
+
+// The random numbers of path `path` of a pixel (RngPass::kReferencePaths, or kReferencePathsPilot for the
+// allocation's pilot paths): kBounceDims × bounces of them into u. Each path has its own key, so a pixel's paths
+// are independent whatever their count.
+void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass, int bounces,
+                       float* u);
+
+}  // namespace restir

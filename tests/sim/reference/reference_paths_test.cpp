@@ -1,0 +1,304 @@
+// The reference's indirect light (issue 41; sim/reference/reference_paths.h) against closed forms that share none of
+// its code: every truth here is computed in double from the scene's description (Lambert's polygon formula written
+// out below, the sun disc's irradiance π L sin²α cos θ, the integrating sphere's uniform interreflection).
+//
+// a. A floor that a low sun cannot see, facing a wall that the sun lights whole: with one bounce the floor reflects
+//    ρ_f/π · L_w · ∫_wall cos θ dω, L_w = ρ_w/π · π L_sun sin²α cos θ_w the wall's radiance (Lambert's formula for
+//    the wall's polygon from the floor point; every floor pixel sees the wall under at least 6% of π, so 496 paths
+//    all miss it with probability e^-31). Two bounces add nothing (a path floor → wall → floor ends on a floor
+//    the sun does not reach; the wall cannot see itself), so bounces = 2 must give the same; 0 gives a black floor.
+// b. The integrating sphere: inside a closed diffuse sphere (albedo ρ, area A) a small one-sided emitter of area a
+//    and radiance L_e sends its whole flux Φ = π a L_e onto the wall; the form factor between two points of a
+//    sphere is dA / A whatever their positions, so the light reflected once gives every point the same irradiance
+//    ρ Φ / A, and each further reflection multiplies it by ρ. With b bounces a wall point reflects
+//    ρ/π (E_direct + ρ Φ / A (1 + ρ + … + ρ^(b−1))), E_direct = L_e ∫_emitter cos θ dω. The sphere is a polyhedron
+//    of 128 × 64 segments, whose interreflection differs from a sphere's by about the squared facet angle (3e-4
+//    relative); the emitter hides about a / A of the wall (5e-5). Configurations: at the origin and 1000 m out,
+//    the emitter level and tilted, ρ 0.5 and 0.8, bounces 1 to 3.
+//
+// Statistics (ExpectAgreement): over the surface pixels compared (pixels independent), the mean relative error is 0
+// by a z-test, and at most kMaxRelativeError with its own standard error below a third of that; the squared errors
+// match the reference's standard errors (the mean of e² − se² / t² is 0) by a z-test; each z-test at false-failure
+// rate kClaimRate = 1e-4. 10 configurations × 2 z-tests: family rate at most 0.2%. Seeds are fixed, so the outcome
+// is deterministic.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tests/sim/scene_fixtures.h"
+#include "sim/reference/reference.h"
+#include "sim/scene/embree_scene.h"
+#include "sim/scene/gbuffer.h"
+#include "sim/scene/shapes.h"
+#include "stats.h"
+
+namespace restir {
+// Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
+namespace reference_paths_test {
+
+using D3 = glm::dvec3;
+
+constexpr double kClaimRate = 1e-4;
+constexpr double kMaxRelativeError = 0.01;
+
+double Y(const D3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+double Radians(double degrees) { return degrees * M_PI / 180.0; }
+
+// ∫ over the polygon of cos θ dω seen from x with normal n, the polygon wholly above x's horizon (Lambert 1760:
+// ½ Σ over its edges of the angle each subtends times n · the unit normal of the plane through x and the edge).
+double ProjectedSolidAngle(const D3& x, const D3& n, const std::vector<D3>& polygon) {
+  double sum = 0.0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    const D3 a = glm::normalize(polygon[i] - x), b = glm::normalize(polygon[(i + 1) % polygon.size()] - x);
+    const D3 c = glm::cross(a, b);
+    const double len = glm::length(c);
+    if (len > 0.0) sum += std::atan2(len, glm::dot(a, b)) * glm::dot(n, c / len);
+  }
+  return 0.5 * std::fabs(sum);
+}
+
+struct Rendered {
+  GBuffer g;
+  ReferenceImage ref;
+};
+
+Rendered Render(const Sequence& seq, const FrameState& state, int bounces, int spp) {
+  Rendered r;
+  EmbreeScene scene(seq);
+  scene.Update(state);
+  TracePrimary(scene, state.camera, r.g);
+  ReferenceParams params;
+  params.samplesPerPixel = spp;
+  params.indirectBounces = bounces;
+  r.ref = RenderReference(seq, state, scene, r.g, params);
+  return r;
+}
+
+// The claims over the pixels `truth` gives a value for (NaN: not compared). Each pixel's estimate is a mean of few
+// paths that reach the light rarely (a few hits a replicate), so its replicate means are skewed and z = error / se is
+// not Student's t: the claims are on sums over the pixels instead, which the central limit theorem makes normal
+// whatever each pixel's distribution. Unbiased: the mean of the relative errors e_i = (v_i − t_i) / t_i is 0. Honest
+// standard errors: E[(v_i − t_i)²] = Var v_i = E[se_i²] (se² is the replicates' unbiased variance of the mean), so
+// the mean of d_i = (e_i² − se_i² / t_i²) is 0. Each by a z-test over the pixels at kClaimRate.
+void ExpectAgreement(const Rendered& r, const std::function<double(size_t)>& truth, const std::string& what,
+                     size_t minPixels) {
+  const GBuffer& g = r.g;
+  std::vector<double> relative, excess;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    if (!g.IsSurface(i)) continue;
+    const double t = truth(i);
+    if (std::isnan(t)) continue;
+    const double value = Y(D3(r.ref.mean.pixels[i])), se = r.ref.lumaStandardError[i];
+    ASSERT_GT(se, 0.0) << what << ": pixel " << i << " has no spread (" << value << " against " << t << ")";
+    const double e = value / t - 1.0;
+    relative.push_back(e);
+    excess.push_back(e * e - (se * se) / (t * t));
+  }
+  ASSERT_GE(relative.size(), minPixels) << what;
+  const auto meanAndSe = [](const std::vector<double>& v) {
+    double sum = 0.0, sumSq = 0.0;
+    for (double x : v) sum += x;
+    const double mean = sum / double(v.size());
+    for (double x : v) sumSq += (x - mean) * (x - mean);
+    return std::pair<double, double>(mean, std::sqrt(sumSq / double(v.size() - 1) / double(v.size())));
+  };
+  const auto [bias, biasSe] = meanAndSe(relative);
+  const auto [honesty, honestySe] = meanAndSe(excess);
+  double meanSq = 0.0;
+  for (double e : relative) meanSq += e * e;
+  meanSq /= double(relative.size());
+  const double q = test::NormalQuantileUpper(0.5 * kClaimRate);
+  std::printf("  %-48s px %5zu  rel.err %+.3f%% (se %.3f%%)  RMS rel.err %.2f%%, excess over se %+.2e (se %.1e)  "
+              "paths %llu\n",
+              what.c_str(), relative.size(), 100.0 * bias, 100.0 * biasSe, 100.0 * std::sqrt(meanSq), honesty,
+              honestySe, static_cast<unsigned long long>(r.ref.paths));
+  EXPECT_LE(std::fabs(bias), q * biasSe) << what << ": mean relative error, z-test";
+  EXPECT_LE(std::fabs(bias), kMaxRelativeError) << what;
+  EXPECT_LT(biasSe, kMaxRelativeError / 3.0) << what << ": the bound on the relative error has no power";
+  EXPECT_LE(std::fabs(honesty), q * honestySe) << what << ": squared errors against the standard errors, z-test";
+}
+
+// ---- a. A sunlit wall seen from a floor in the shade ----
+
+struct WallScene {
+  Sequence seq;
+  FrameState state;
+  std::vector<D3> wall;  // the wall's corners
+  double wallRadiance = 0.0;
+  double floorAlbedo = 0.0;
+  int32_t floorObject = 0;
+};
+
+// The wall: x = 0, facing +x, y in [0.3, 2.8], z in [-2, 2]; the floor: y = 0, x in [0.05, 3], z in [-1.5, 1.5], at the
+// wall's foot; the sun 3° below the floor's horizon from +x, so it lights the wall at cos θ = cos 3° and never the
+// floor, and its rays from the wall's lowest edge meet the floor's plane 5.7 m out, beyond the floor. Everything
+// moved by `offset`.
+WallScene SunlitWall(const D3& offset, double floorAlbedo, double wallAlbedo) {
+  WallScene s;
+  Sequence& seq = s.seq;
+  seq.name = "sunlit_wall";
+  seq.width = 64;
+  seq.height = 48;
+  seq.frameCount = 1;
+  seq.contentHash = "reference-paths-sunlit-wall-" + std::to_string(offset.x) + "-" + std::to_string(floorAlbedo);
+  Material floor, wall;
+  floor.name = "floor";
+  floor.albedo = Vec3(static_cast<float>(floorAlbedo));
+  wall.name = "wall";
+  wall.albedo = Vec3(static_cast<float>(wallAlbedo));
+  seq.materials = {floor, wall};
+  const D3 floorCentre = offset + D3(1.525, 0.0, 0.0), wallCentre = offset + D3(0.0, 1.55, 0.0);
+  test::AddQuadObject(seq, "floor", 0, Vec3(floorCentre), Vec3(1.475f, 0.0f, 0.0f), Vec3(0.0f, 0.0f, 1.5f));
+  test::AddQuadObject(seq, "wall", 1, Vec3(wallCentre), Vec3(0.0f, 1.25f, 0.0f), Vec3(0.0f, 0.0f, 2.0f));
+  s.floorObject = 0;
+  for (const D3& c : {D3(0, -1.25, -2), D3(0, 1.25, -2), D3(0, 1.25, 2), D3(0, -1.25, 2)})
+    s.wall.push_back(wallCentre + c);
+  const double sunRadiance = 2.0e4, diameter = 0.53;
+  seq.sun.present = true;
+  seq.sun.radiance = Vec3(static_cast<float>(sunRadiance));
+  seq.sun.angularDiameterDegrees = static_cast<float>(diameter);
+  seq.sun.keys.push_back(SunKey{});
+  CameraKey k;
+  k.position = Vec3(floorCentre + D3(2.0, 2.2, 1.2));
+  k.lookAt = Vec3(floorCentre);
+  k.vfovDegrees = 50.0f;
+  seq.cameraKeys.push_back(k);
+  s.state = test::StaticState(seq);
+  const double e = Radians(3.0);
+  s.state.sunDirection = Vec3(static_cast<float>(std::cos(e)), static_cast<float>(-std::sin(e)), 0.0f);
+  s.state.sunIntensity = 1.0f;
+  const double sinAlpha = std::sin(Radians(0.5 * diameter));
+  s.wallRadiance = wallAlbedo / M_PI * (M_PI * sunRadiance * sinAlpha * sinAlpha * std::cos(e));
+  s.floorAlbedo = floorAlbedo;
+  return s;
+}
+
+double WallTruth(const WallScene& s, const GBuffer& g, size_t i) {
+  if (g.objectId[i] != s.floorObject) return std::nan("");
+  return s.floorAlbedo / M_PI * s.wallRadiance * ProjectedSolidAngle(D3(g.Position(i)), D3(0, 1, 0), s.wall);
+}
+
+TEST(ReferencePaths, SunlitWallLightsTheShadedFloorByOneBounce) {
+  for (const D3& offset : {D3(0.0), D3(600.0, 300.0, -750.0)}) {
+    for (int bounces : {1, 2}) {
+      const WallScene s = SunlitWall(offset, 0.7, 0.6);
+      const Rendered r = Render(s.seq, s.state, bounces, 512);
+      char what[96];
+      std::snprintf(what, sizeof what, "sunlit wall, %g m out, %d bounce%s", glm::length(offset), bounces,
+                    bounces > 1 ? "s" : "");
+      ExpectAgreement(r, [&](size_t i) { return WallTruth(s, r.g, i); }, what, 800);
+    }
+  }
+}
+
+TEST(ReferencePaths, NoBouncesLeavesTheShadedFloorBlack) {
+  const WallScene s = SunlitWall(D3(0.0), 0.7, 0.6);
+  const Rendered r = Render(s.seq, s.state, 0, 64);
+  size_t floor = 0;
+  for (size_t i = 0; i < r.g.Size(); ++i)
+    if (r.g.IsSurface(i) && r.g.objectId[i] == s.floorObject) {
+      ++floor;
+      EXPECT_EQ(Y(D3(r.ref.mean.pixels[i])), 0.0) << "pixel " << i;
+    }
+  EXPECT_GT(floor, 800u);
+  EXPECT_EQ(r.ref.paths, 0u);
+}
+
+// ---- b. The integrating sphere ----
+
+struct SphereScene {
+  Sequence seq;
+  FrameState state;
+  std::vector<D3> emitter;  // corners, counter-clockwise seen from its lit side
+  D3 emitterNormal{0.0};
+  double emitterRadiance = 0.0, emitterArea = 0.0, albedo = 0.0, area = 0.0;
+  D3 centre{0.0};
+};
+
+SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegrees) {
+  SphereScene s;
+  Sequence& seq = s.seq;
+  seq.name = "integrating_sphere";
+  seq.width = 48;
+  seq.height = 36;
+  seq.frameCount = 1;
+  seq.contentHash = "reference-paths-sphere-" + std::to_string(centre.x) + "-" + std::to_string(albedo) + "-" +
+                    std::to_string(tiltDegrees);
+  Material wall;
+  wall.name = "wall";
+  wall.albedo = Vec3(static_cast<float>(albedo));
+  seq.materials = {wall};
+  const double radius = 1.0;
+  Object sphere;
+  sphere.name = "sphere";
+  sphere.material = 0;
+  sphere.mesh = MakeSphere(Vec3(centre), static_cast<float>(radius), 128);
+  sphere.keys.push_back(TransformKey{});
+  seq.objects.push_back(sphere);
+  // The polyhedron's own area, which its flux spreads over.
+  for (const glm::uvec3& t : sphere.mesh.triangles) {
+    const D3 a(sphere.mesh.positions[t.x]), b(sphere.mesh.positions[t.y]), c(sphere.mesh.positions[t.z]);
+    s.area += 0.5 * glm::length(glm::cross(b - a, c - a));
+  }
+  // A 4 cm square emitter 0.2 m below the centre, its normal tilted from +Y about +Z.
+  const double t = Radians(tiltDegrees);
+  const D3 n(-std::sin(t), std::cos(t), 0.0), u(std::cos(t), std::sin(t), 0.0), v(0.0, 0.0, 1.0);
+  const D3 c = centre + D3(0.0, -0.2, 0.0);
+  const double h = 0.02;
+  // cross(u, v) = -n for this u, v, so the light's u, v are swapped to emit along n.
+  test::AddQuadLight(seq, "emitter", Vec3(c), Vec3(h * v), Vec3(h * u), Vec3(50.0f));
+  // Its corners as the scene holds them, in float: 1000 m out their rounding (6e-5 m) changes a 4 cm emitter's area
+  // by 0.3%, which the flux must follow.
+  const std::vector<Vec3>& corners = seq.lights.back().vertices;  // p0 p1 p2, p0 p2 p3
+  s.emitter = {D3(corners[0]), D3(corners[1]), D3(corners[2]), D3(corners[5])};
+  for (size_t k = 0; k < corners.size(); k += 3)
+    s.emitterArea += 0.5 * glm::length(glm::cross(D3(corners[k + 1]) - D3(corners[k]), D3(corners[k + 2]) - D3(corners[k])));
+  s.emitterNormal = n;
+  s.emitterRadiance = 50.0;
+  s.albedo = albedo;
+  s.centre = centre;
+  CameraKey k;
+  k.position = Vec3(centre + D3(0.3, 0.35, 0.55));
+  k.lookAt = Vec3(centre + D3(-0.4, 0.1, -1.0));
+  k.vfovDegrees = 70.0f;
+  seq.cameraKeys.push_back(k);
+  s.state = test::StaticState(seq);
+  return s;
+}
+
+double SphereTruth(const SphereScene& s, const GBuffer& g, size_t i, int bounces) {
+  if (g.objectId[i] != 0) return std::nan("");
+  const D3 x(g.Position(i));
+  const D3 n = glm::normalize(s.centre - x);  // the wall faces the centre
+  const bool front = glm::dot(s.emitterNormal, x - s.emitter[0]) > 0.0;
+  const double direct = front ? s.emitterRadiance * ProjectedSolidAngle(x, n, s.emitter) : 0.0;
+  const double flux = M_PI * s.emitterArea * s.emitterRadiance;
+  double series = 0.0, power = 1.0;
+  for (int k = 0; k < bounces; ++k, power *= s.albedo) series += power;
+  return s.albedo / M_PI * (direct + s.albedo * flux / s.area * series);
+}
+
+TEST(ReferencePaths, IntegratingSphereReflectsTheGeometricSeries) {
+  struct Case {
+    D3 centre;
+    double albedo, tilt;
+    int bounces;
+  };
+  const D3 far = 1000.0 * glm::normalize(D3(0.8, 0.36, -0.48));
+  for (const Case& c : {Case{D3(0.0), 0.8, 0.0, 1}, Case{D3(0.0), 0.8, 0.0, 3}, Case{D3(0.0), 0.5, 35.0, 2},
+                        Case{far, 0.8, 35.0, 3}, Case{far, 0.5, 0.0, 1}, Case{D3(0.0), 0.8, 80.0, 2}}) {
+    const SphereScene s = IntegratingSphere(c.centre, c.albedo, c.tilt);
+    const Rendered r = Render(s.seq, s.state, c.bounces, 256);
+    char what[96];
+    std::snprintf(what, sizeof what, "sphere %g m out, albedo %.1f, tilt %g, %d bounce%s", glm::length(c.centre),
+                  c.albedo, c.tilt, c.bounces, c.bounces > 1 ? "s" : "");
+    ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, c.bounces); }, what, 1500);
+  }
+}
+
+}  // namespace reference_paths_test
+}  // namespace restir
