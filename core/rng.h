@@ -21,6 +21,8 @@ enum class RngPass : uint32_t {
   // the reference's indirect paths, and the pilot paths that set their counts (sim/reference/reference_paths.h)
   kReferencePaths = 9,
   kReferencePathsPilot = 10,
+  // a preset frame's indirect paths (sim/reference/reference_paths.h IndirectImage)
+  kIndirect = 11,
   kTest = 100,
 };
 

@@ -154,6 +154,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("shade.finalVisibilityMaxAge", shade.finalVisibilityMaxAge),
       RESTIR_FIELD("shade.finalVisibilityMaxDistance", shade.finalVisibilityMaxDistance),
       RESTIR_FIELD("shade.discardInvisibleSamples", shade.discardInvisibleSamples),
+      RESTIR_FIELD("indirect.bounces", indirect.bounces),
   };
   return fields;
 }
@@ -234,6 +235,7 @@ std::vector<SettingBound> MakeBounds() {
       Bound("spatial.cellSearchRadius", RESTIR_MEMBER(spatial.stochastic.cellSearchRadius), 1.0 / 4096.0, 1,
             "cellSearchRadius is in image heights and must be in [1/4096, 1] (the paper's 30 px at 1080 rows is "
             "0.0277778)"),
+      Bound("indirect.bounces", RESTIR_MEMBER(indirect.bounces), 0, 8, "indirect.bounces must be in [0, 8]"),
   };
 }
 

@@ -16,11 +16,22 @@
 
 namespace restir {
 
+// Indirect light (issue 41): what a preset's frames model beyond direct light. Not one of the pipeline's passes: the
+// frame loop adds it after them (sim/run/frame_loop.h RenderPresetFrame) with the reference's path sampler
+// (sim/reference/reference_paths.h), one path a pixel, until presets resample it (ReSTIR GI).
+struct IndirectParams {
+  // The most surfaces after the primary hit that a path's light may reflect at before it reaches the pixel, 0 to 8
+  // (kMaxIndirectBounces); 0: direct light only, the frames as they were before issue 41. A run's presets must all
+  // model the same, as their one reference does (ReferenceParams::indirectBounces).
+  int bounces = 0;
+};
+
 struct PipelineSettings {
   InitialSamplingParams initial;  // the initial-sampling pass
   TemporalParams temporal;        // the temporal-reuse pass
   SpatialParams spatial;          // the spatial-reuse pass (k neighbours, or stochastic pairwise over cells)
   ShadeParams shade;              // the shading pass
+  IndirectParams indirect;        // indirect light, added after the passes by the frame loop
 };
 
 // (name, value) for every field, in a fixed order.

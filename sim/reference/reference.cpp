@@ -1202,10 +1202,10 @@ void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<ui
 // variance per path against its whole light (direct, as the main pass found it, plus the pilot's indirect mean), and
 // the direct light's allocation (AllocateSamples: the budget, or the target and its cap) turns it into paths, in
 // kReplicates independent replicates. The two parts' random numbers are independent, so their variances add.
-void AddIndirectLight(ReferenceFrame& frame, const BlockPlan& plan, const ReferenceParams& params,
+void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
                       ReferenceImage& ref) {
   const int bounces = std::clamp(params.indirectBounces, 0, kMaxIndirectBounces);
-  const PathScene paths(*frame.sequence, frame.scene, plan.groups, plan.groupPowerPmf, frame.sky, frame.skySummary);
+  const PathScene paths(*frame.sequence, frame.scene, frame.sky);
   const Vec3 eye = frame.state.camera.position;
   tbb::combinable<uint64_t> pathCount{[] { return uint64_t{0}; }};
   // Runs fn(pixel, sp, u, scratch, rays) over the active pixels, rows in parallel.
@@ -1296,7 +1296,7 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);
   MainPass(frame, plan, perReplicate, ref);
-  if (params.indirectBounces > 0) AddIndirectLight(frame, plan, params, ref);
+  if (params.indirectBounces > 0) AddIndirectLight(frame, params, ref);
   ref.rays = frame.rays.combine(std::plus<uint64_t>());
   ref.samples = frame.samples.combine(std::plus<uint64_t>());
   WriteCache(cache, ref);

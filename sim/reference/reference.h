@@ -85,7 +85,7 @@ struct ReferenceImage {
   double ms = 0.0;          // wall time (render or cache read)
   uint64_t rays = 0;        // rays traced (0 when cached)
   uint64_t samples = 0;     // direct-lighting samples taken, the pilot's included (0 when cached)
-  uint64_t paths = 0;       // indirect paths traced (ReferenceParams::indirectBounces), the pilot's included
+  uint64_t paths = 0;       // indirect paths traced (ReferenceParams::indirectBounces), the pilot's included (0 when cached)
   std::vector<uint32_t> pixelSamples;  // per pixel, the samples it took, pilot included (empty when cached)
   ReferenceAllocation allocation;      // how the samples were spent (cached with the images)
 };

@@ -1,35 +1,49 @@
 #include "sim/reference/reference_paths.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <functional>
 #include <limits>
 
 #include "core/bsdf.h"
+#include "core/light_sampler.h"
 #include "core/shadow_ray.h"
 #include "sim/assets/texture.h"
 #include "sim/scene/shading_point.h"
+#include "sim/scene/sky_frame.h"
 
 namespace restir {
 
 namespace {
 
-std::vector<float> CumulativePower(const std::vector<float>& groupPowerPmf) {
-  std::vector<float> cdf(groupPowerPmf.size());
+// Per light group, the cumulative of its triangles' shares of the frame's power (core/light_sampler.h).
+std::vector<float> CumulativePower(const std::vector<LightTriangle>& lights, const LightGroups& groups) {
+  const LightSampler power(lights, LightSelection::kPower);
+  std::vector<float> cdf(groups.first.size());
   float sum = 0.0f;
-  for (size_t g = 0; g < groupPowerPmf.size(); ++g) cdf[g] = sum += groupPowerPmf[g];
+  for (size_t g = 0; g < groups.first.size() && !power.Empty(); ++g) {
+    const uint32_t t = groups.first[g];
+    sum += groups.split[g] <= 1.0f ? power.SelectionPmf(t) + power.SelectionPmf(t + 1) : power.SelectionPmf(t);
+    cdf[g] = sum;
+  }
   return cdf;
 }
 
 }  // namespace
 
-PathScene::PathScene(const Sequence& sequence, const EmbreeScene& scene, const LightGroups& groups,
-                     const std::vector<float>& groupPowerPmf, const Sky& sky, const SkySummary& summary)
+PathScene::PathScene(const Sequence& sequence, const EmbreeScene& scene, const Sky& sky)
     : sequence_(sequence),
       scene_(scene),
       lights_(scene.LightTriangles()),
       sky_(sky),
-      summary_(summary),
+      summary_(sky.Empty() ? SkySummary{} : SummarizeSky(sky)),
       materialBsdfs_(MaterialBsdfs(sequence)),
-      powerCdf_(CumulativePower(groupPowerPmf)),
-      powerDistribution_(powerCdf_.data(), &groups, -1.0f) {}
+      groups_(MakeLightGroups(lights_)),
+      powerCdf_(CumulativePower(lights_, groups_)),
+      powerDistribution_(powerCdf_.data(), &groups_, -1.0f) {}
 
 ShadingPoint PathScene::Vertex(const SurfaceHit& hit, const Vec3& dir) const {
   ShadingPoint sp;
@@ -87,6 +101,32 @@ Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float*
     sum += throughput * Vec3(value[0], value[1], value[2]);
   }
   return sum;
+}
+
+ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                       const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays) {
+  ImageRgb image(g.width, g.height);
+  if (bounces <= 0) return image;
+  bounces = std::min(bounces, kMaxIndirectBounces);
+  const Sky sky = MakeSky(sequence, state);
+  const PathScene paths(sequence, scene, sky);
+  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
+  tbb::combinable<uint64_t> rayCount{[] { return uint64_t{0}; }};
+  tbb::parallel_for(tbb::blocked_range<int>(0, g.height), [&](const tbb::blocked_range<int>& rows) {
+    SampleBatch scratch;
+    std::vector<float> u(static_cast<size_t>(bounces) * kBounceDims);
+    uint64_t& r = rayCount.local();
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < g.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * g.width + x;
+        if (!g.IsSurface(i)) continue;
+        PathRandomNumbers(seed, frame, static_cast<uint32_t>(i), 0, RngPass::kIndirect, bounces, u.data());
+        image.pixels[i] =
+            paths.IndirectSample(ShadingPointAt(g, i, state.camera.position, bsdfs), bounces, u.data(), scratch, r);
+      }
+  });
+  rays += rayCount.combine(std::plus<uint64_t>());
+  return image;
 }
 
 void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass, int bounces,

@@ -7,7 +7,8 @@
 // counted once); then from x₂ onwards the same, up to `bounces` surfaces after x₁. An emitter does not reflect and
 // a ray that escapes has no surface: either ends the path (what they send along it is x₁'s direct light or the
 // previous vertex's, taken there). Pure functions of their arguments and random numbers.
-// Internal to sim/reference/reference.cpp.
+// The reference adds them to its direct light (sim/reference/reference.cpp); a preset's frame adds one path a pixel
+// (IndirectImage; sim/run/frame_loop.h RenderPresetFrame).
 #pragma once
 
 #include <cstdint>
@@ -19,6 +20,8 @@
 #include "sim/reference/reference_samples.h"
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/embree_scene.h"
+#include "sim/scene/gbuffer.h"
+#include "sim/util/image.h"
 #include "sim/scene/sequence.h"
 
 namespace restir {
@@ -33,8 +36,10 @@ inline constexpr int kBounceDims = 2 + kSkySampleDims;
 // vertex's own estimates (reference_sky.h), the local lights weighed as much as the sky.
 class PathScene {
  public:
-  PathScene(const Sequence& sequence, const EmbreeScene& scene, const LightGroups& groups,
-            const std::vector<float>& groupPowerPmf, const Sky& sky, const SkySummary& summary);
+  // `sky` and `scene` must outlive it.
+  PathScene(const Sequence& sequence, const EmbreeScene& scene, const Sky& sky);
+  PathScene(const PathScene&) = delete;
+  PathScene& operator=(const PathScene&) = delete;
 
   // The surface a path's ray hit, as a receiver seen from along -dir: its material's BSDF, times the texel at the
   // hit where the material is textured. Only for a hit on an object (materialId >= 0).
@@ -53,9 +58,16 @@ class PathScene {
   const Sky& sky_;
   const SkySummary summary_;
   std::vector<Bsdf> materialBsdfs_;
+  LightGroups groups_;
   std::vector<float> powerCdf_;  // per light group, the cumulative of its share of the power
   PixelLightDistribution powerDistribution_;
 };
+
+// One frame's indirect light as a preset adds it (issue 41; PipelineSettings::indirect): one path a pixel from each
+// primary hit of `g`, an unbiased estimate at every surface pixel (0 elsewhere), from the random numbers of
+// RngPass::kIndirect keyed by (seed, frame, pixel). Counts its rays.
+ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                       const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays);
 
 // The random numbers of path `path` of a pixel (RngPass::kReferencePaths, or kReferencePathsPilot for the
 // allocation's pilot paths): kBounceDims × bounces of them into u. Each path has its own key, so a pixel's paths

@@ -1,5 +1,6 @@
 #include "sim/run/frame_loop.h"
 
+#include "sim/reference/reference_paths.h"
 #include "sim/util/clock.h"
 #include "sim/scene/shading_point.h"
 #include "sim/scene/sky_frame.h"
@@ -63,6 +64,20 @@ FrameInputs FrameLoop::MakeInputs() const {
     in.previousLights = &previousLights_;
   }
   return in;
+}
+
+FrameResult FrameLoop::RenderPreset(Pipeline& pipeline, const FrameInputs& inputs) const {
+  FrameResult result = pipeline.RenderFrame(inputs);
+  const int bounces = pipeline.Settings().indirect.bounces;
+  if (bounces <= 0) return result;
+  const auto t0 = Clock::now();
+  PassStats& pass = result.passes.emplace_back();
+  pass.name = "indirect";
+  const ImageRgb indirect =
+      IndirectImage(sequence_, state_, scene_, current_, bounces, inputs.seed, inputs.frame, pass.rays);
+  for (size_t i = 0; i < indirect.pixels.size(); ++i) result.image.pixels[i] += indirect.pixels[i];
+  pass.ms = MsSince(t0);
+  return result;
 }
 
 ReferenceImage FrameLoop::Reference(int spp) const {

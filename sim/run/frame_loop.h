@@ -35,7 +35,12 @@ class FrameLoop {
   double Reprojection();
   // What a pipeline renders this frame from: the frame's inputs, made once by BeginFrame, with `seed`.
   FrameInputs Inputs(uint32_t seed) const;
-  FrameResult Render(Pipeline& pipeline, uint32_t seed) const { return pipeline.RenderFrame(Inputs(seed)); }
+  FrameResult Render(Pipeline& pipeline, uint32_t seed) const { return RenderPreset(pipeline, Inputs(seed)); }
+  // A preset's frame: the pipeline's passes, then, where its settings ask for indirect light (indirect.bounces > 0),
+  // the indirect pass: one path a pixel from the frame's primary hits (sim/reference/reference_paths.h
+  // IndirectImage, keyed by inputs.seed and the frame) added to the image, its time and rays reported as the pass
+  // "indirect". Every preset frame of a run, a benchmark or a test is rendered through it.
+  FrameResult RenderPreset(Pipeline& pipeline, const FrameInputs& inputs) const;
   // The frame's reference: `spp` samples a pixel and no cache, or as `params` say (`restir-sim run`: its
   // cache and error target).
   ReferenceImage Reference(int spp) const;

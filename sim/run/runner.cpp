@@ -169,6 +169,21 @@ std::vector<Preset> ResolvePresets(const RunOptions& opt, const Sequence& seq) {
   return presets;
 }
 
+// The light transport the run's presets model (indirect.bounces), which its one reference must model too: a preset
+// that models another is refused, as its errors against that reference would measure the difference.
+int RunIndirectBounces(const std::vector<Preset>& presets) {
+  if (presets.empty()) return 0;
+  const Preset& first = presets.front();
+  for (const Preset& p : presets)
+    if (p.settings.indirect.bounces != first.settings.indirect.bounces)
+      throw InputError("--preset: error: presets '" + first.name + "' (indirect.bounces=" +
+                       std::to_string(first.settings.indirect.bounces) + ") and '" + p.name + "' (indirect.bounces=" +
+                       std::to_string(p.settings.indirect.bounces) +
+                       ") model different light; a run measures its presets against one reference, so they must "
+                       "agree (--set indirect.bounces=N sets every preset's)");
+  return first.settings.indirect.bounces;
+}
+
 // True when another of `presets` runs the same initial pass as presets[p] (InitialSamplingShare,
 // sim/estimator/pipeline.h): a pass no other preset reads is not kept.
 bool SharesInitialPass(const std::vector<Preset>& presets, size_t p) {
@@ -278,6 +293,7 @@ nlohmann::json RunJson(const RunOptions& opt, const Sequence& seq, const RunPlan
       {"reference", opt.reference ? nlohmann::json{{"samplesPerPixel", refParams.samplesPerPixel},
                                                     {"targetRelativeError", refParams.targetRelativeError},
                                                     {"sppCap", refParams.maxMeanSamplesPerPixel},
+                                                    {"indirectBounces", refParams.indirectBounces},
                                                     {"cacheDir", refParams.cacheDir}}
                                   : nlohmann::json(nullptr)},
       {"status", "running"}};
@@ -329,7 +345,7 @@ void RenderEnsemble(RunContext& run, const RunFrame& f, PresetState& ps, PresetF
   for (int k = 1; k < run.plan.members; ++k) {
     FrameInputs memberInputs = run.loop.Inputs(run.plan.seed + static_cast<uint32_t>(k));
     memberInputs.initialShare = share;
-    images.push_back(ps.members[k]->RenderFrame(memberInputs).image);
+    images.push_back(run.loop.RenderPreset(*ps.members[k], memberInputs).image);
   }
   // The members' running means, for the converged image's RMSPE (seed 000 Fig. 2); member 0's is accumSum.
   if (run.plan.members >= 3) {
@@ -523,6 +539,7 @@ RunPlan PlanRun(const RunOptions& opt, const Sequence& seq) {
                      "--resume");
   plan.refParams = ReferenceParamsFor(opt, seq.defaults);
   plan.refParams.cacheDir = opt.cacheDir;
+  plan.refParams.indirectBounces = RunIndirectBounces(plan.presets);
   CheckRunMemory(opt, seq, plan.refParams, plan.width, plan.height, plan.frameEnd - opt.frameBegin,
                  plan.presets, plan.members);
   plan.threads = opt.threads > 0 ? opt.threads : tbb::info::default_concurrency();
@@ -610,7 +627,7 @@ void RenderPresets(RunContext& run, RunFrame& f) {
     inputs.diagnosticsRegion = &f.recentMask;
     InitialSamplingShare* share = ps.sharesInitialPass ? &f.initialShare : nullptr;
     inputs.initialShare = share;
-    pf.fr = ps.members[0]->RenderFrame(inputs);
+    pf.fr = run.loop.RenderPreset(*ps.members[0], inputs);
     if (run.plan.members > 1) RenderEnsemble(run, f, ps, pf, share);
     if (run.opt.reference) pf.flipMap = HdrFlip(*f.flipReference, pf.fr.image);
     if (run.opt.writeImages && !exposureDue) SubmitPresetFiles(run, f, ps.preset.name, pf);

@@ -132,12 +132,13 @@ bool FiniteReservoir(const R& r) {
   return std::isfinite(r.W) && std::isfinite(r.confidence) && std::isfinite(r.visibility) && r.W >= 0.0f;
 }
 
-// The passes of a frame in order; metrics.csv has a column per pass for every preset.
-inline constexpr const char* kPassNames[] = {"initial", "temporal", "spatial", "shade"};
+// The passes of a frame in order (the last, indirect light, added by the frame loop: sim/run/frame_loop.h
+// RenderPreset); metrics.csv has a column per pass for every preset.
+inline constexpr const char* kPassNames[] = {"initial", "temporal", "spatial", "shade", "indirect"};
 
 // What one pass did, for metrics.csv.
 struct PassStats {
-  std::string name;     // initial, temporal, spatial, shade
+  std::string name;     // initial, temporal, spatial, shade, indirect (sim/run/frame_loop.h RenderPreset)
   double ms = 0.0;      // wall time of the pass
   uint64_t rays = 0;    // rays traced by the pass
   // Work the pass handed to its SIMD kernels (bench/frame_bench.cpp prices it at the kernels_bench rates):

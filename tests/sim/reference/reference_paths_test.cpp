@@ -31,6 +31,7 @@
 
 #include "tests/sim/scene_fixtures.h"
 #include "sim/reference/reference.h"
+#include "sim/reference/reference_paths.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/scene/shapes.h"
@@ -298,6 +299,86 @@ TEST(ReferencePaths, IntegratingSphereReflectsTheGeometricSeries) {
                   c.albedo, c.tilt, c.bounces, c.bounces > 1 ? "s" : "");
     ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, c.bounces); }, what, 1500);
   }
+}
+
+// ---- c. A preset frame's indirect light (IndirectImage: one path a pixel) ----
+
+// The mean of kSeeds frames' indirect images (seeds 0..kSeeds−1) with its standard error from their spread, as a
+// Rendered whose reference is that mean: the claims of ExpectAgreement then hold the frames' estimate unbiased and
+// their spread honest (the mean's variance over the seeds, unbiased, as the replicates' is).
+Rendered IndirectFrames(const Sequence& seq, const FrameState& state, int bounces, int seeds) {
+  Rendered r;
+  EmbreeScene scene(seq);
+  scene.Update(state);
+  TracePrimary(scene, state.camera, r.g);
+  const size_t n = r.g.Size();
+  std::vector<D3> sum(n, D3(0.0));
+  std::vector<double> sumY(n, 0.0), sumYSq(n, 0.0);
+  uint64_t rays = 0;
+  for (int k = 0; k < seeds; ++k) {
+    const ImageRgb image = IndirectImage(seq, state, scene, r.g, bounces, static_cast<uint32_t>(k), 0, rays);
+    for (size_t i = 0; i < n; ++i) {
+      const D3 v(image.pixels[i]);
+      sum[i] += v;
+      sumY[i] += Y(v);
+      sumYSq[i] += Y(v) * Y(v);
+    }
+  }
+  r.ref.mean = ImageRgb(r.g.width, r.g.height);
+  r.ref.lumaStandardError.assign(n, 0.0f);
+  for (size_t i = 0; i < n; ++i) {
+    r.ref.mean.pixels[i] = Vec3(sum[i] / double(seeds));
+    const double meanY = sumY[i] / seeds;
+    const double var = std::max(0.0, (sumYSq[i] - seeds * meanY * meanY) / (seeds - 1));
+    r.ref.lumaStandardError[i] = static_cast<float>(std::sqrt(var / seeds));
+  }
+  r.ref.paths = static_cast<uint64_t>(seeds) * n;
+  return r;
+}
+
+TEST(IndirectImage, FramesAverageToTheClosedForms) {
+  {
+    // A floor pixel's one path meets the wall with probability 6-32%: 384 frames for a 1% bound with power.
+    const WallScene s = SunlitWall(D3(0.0), 0.7, 0.6);
+    const Rendered r = IndirectFrames(s.seq, s.state, 1, 384);
+    ExpectAgreement(r, [&](size_t i) { return WallTruth(s, r.g, i); }, "frames: sunlit wall, 1 bounce", 800);
+  }
+  {
+    // Only the indirect part: the frames' direct light is the presets' (their own tests).
+    const SphereScene s = IntegratingSphere(D3(0.0), 0.8, 35.0);
+    const Rendered r = IndirectFrames(s.seq, s.state, 3, 96);
+    ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, 3) - SphereTruth(s, r.g, i, 0); },
+                    "frames: sphere, albedo 0.8, tilt 35, 3 bounces", 1500);
+  }
+}
+
+TEST(IndirectImage, SeedsAndFramesGiveIndependentPathsAndNoBouncesNoLight) {
+  const WallScene s = SunlitWall(D3(0.0), 0.7, 0.6);
+  EmbreeScene scene(s.seq);
+  scene.Update(s.state);
+  GBuffer g;
+  TracePrimary(scene, s.state.camera, g);
+  uint64_t rays = 0;
+  const ImageRgb a = IndirectImage(s.seq, s.state, scene, g, 1, 7, 0, rays);
+  const uint64_t raysOne = rays;
+  EXPECT_GT(raysOne, g.Size() / 2);
+  const ImageRgb again = IndirectImage(s.seq, s.state, scene, g, 1, 7, 0, rays);
+  const ImageRgb otherSeed = IndirectImage(s.seq, s.state, scene, g, 1, 8, 0, rays);
+  const ImageRgb otherFrame = IndirectImage(s.seq, s.state, scene, g, 1, 7, 1, rays);
+  size_t differSeed = 0, differFrame = 0, lit = 0;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    EXPECT_EQ(a.pixels[i], again.pixels[i]) << "pixel " << i;
+    lit += Y(D3(a.pixels[i])) > 0.0;
+    differSeed += a.pixels[i] != otherSeed.pixels[i];
+    differFrame += a.pixels[i] != otherFrame.pixels[i];
+  }
+  EXPECT_GT(lit, 100u);
+  EXPECT_GT(differSeed, lit / 2);
+  EXPECT_GT(differFrame, lit / 2);
+  rays = 0;
+  const ImageRgb none = IndirectImage(s.seq, s.state, scene, g, 0, 7, 0, rays);
+  EXPECT_EQ(rays, 0u);
+  for (const Vec3& p : none.pixels) EXPECT_EQ(p, Vec3(0.0f));
 }
 
 }  // namespace reference_paths_test

@@ -508,6 +508,45 @@ TEST(Run, RemovesItsOwnStaleTemporariesAndNothingOfTheUsers) {
   for (const char* f : mine) EXPECT_TRUE(std::filesystem::exists(out + f)) << f;
 }
 
+// indirect.bounces (issue 41) reaches every preset's frames, the reference (its cache key: a run without it renders
+// its own) and run.json; metrics.csv reports the indirect pass's time and rays, 0 where it does not run.
+TEST(Run, IndirectBouncesReachTheFramesTheReferenceAndRunJson) {
+  const std::string out = TempOut("restir-run-indirect");
+  auto column = [](const FrameMetricsRow& row, const std::string& name) {
+    for (const auto& [n, v] : row.values)
+      if (n == name) return v;
+    return -1.0;
+  };
+  RunOptions o = SmokeOptions(out + "/direct");
+  o.cacheDir = out + "/cache";
+  o.presets = {"ris", "restir-unbiased"};
+  o.frameEnd = 2;
+  o.writeImages = false;
+  const RunResult direct = restir::Run(o);
+  o.outDir = out + "/indirect";
+  o.settings = {"indirect.bounces=2"};
+  const RunResult indirect = restir::Run(o);
+  ASSERT_EQ(direct.rows.size(), 4u);
+  ASSERT_EQ(indirect.rows.size(), 4u);
+  for (size_t k = 0; k < 4; ++k) {
+    const FrameMetricsRow &a = direct.rows[k], &b = indirect.rows[k];
+    EXPECT_EQ(column(a, "ms_indirect"), 0.0);
+    EXPECT_EQ(column(a, "rays_per_pixel_indirect"), 0.0);
+    EXPECT_GT(column(b, "ms_indirect"), 0.0);
+    EXPECT_GT(column(b, "rays_per_pixel_indirect"), 0.5);  // a path a pixel: at least its first ray, most pixels
+    EXPECT_NE(a.imageHash, b.imageHash) << b.preset << " frame " << b.frame;
+    // The reference gained the indirect light as well: more light, not the direct-light entry from the cache.
+    EXPECT_GT(column(b, "reference_luma_sum"), column(a, "reference_luma_sum"));
+  }
+  std::ifstream rj(o.outDir + "/run.json");
+  const nlohmann::json j = nlohmann::json::parse(rj);
+  EXPECT_EQ(j["reference"]["indirectBounces"], 2);
+  EXPECT_EQ(j["presets"]["ris"]["settings"]["indirect.bounces"], "2");
+  o.settings = {"indirect.bounces=9"};
+  o.outDir = out + "/too-many";
+  EXPECT_THROW(restir::Run(o), InputError);
+}
+
 TEST(Run, BadInputThrowsInputError) {
   RunOptions o = SmokeOptions(TempOut("restir-run-bad"));
   o.presets = {"no-such-preset"};
