@@ -19,15 +19,22 @@ namespace restir {
 
 namespace {
 
-// Per light group, the cumulative of its triangles' shares of the frame's power (core/light_sampler.h).
-std::vector<float> CumulativePower(const std::vector<LightTriangle>& lights, const LightGroups& groups) {
+// Each light triangle's share of the frame's power (core/light_sampler.h); empty where no light has power.
+std::vector<float> PowerPmf(const std::vector<LightTriangle>& lights) {
   const LightSampler power(lights, LightSelection::kPower);
-  std::vector<float> cdf(groups.first.size());
+  std::vector<float> pmf;
+  for (uint32_t l = 0; l < lights.size() && !power.Empty(); ++l) pmf.push_back(power.SelectionPmf(l));
+  return pmf;
+}
+
+// Per light group, the cumulative of its triangles' shares of the power.
+std::vector<float> CumulativePower(const std::vector<float>& pmf, const LightGroups& groups) {
+  std::vector<float> cdf;
   float sum = 0.0f;
-  for (size_t g = 0; g < groups.first.size() && !power.Empty(); ++g) {
+  for (size_t g = 0; g < groups.first.size() && !pmf.empty(); ++g) {
     const uint32_t t = groups.first[g];
-    sum += groups.split[g] <= 1.0f ? power.SelectionPmf(t) + power.SelectionPmf(t + 1) : power.SelectionPmf(t);
-    cdf[g] = sum;
+    sum += groups.split[g] <= 1.0f ? pmf[t] + pmf[t + 1] : pmf[t];
+    cdf.push_back(sum);
   }
   return cdf;
 }
@@ -41,9 +48,34 @@ PathScene::PathScene(const Sequence& sequence, const EmbreeScene& scene, const S
       sky_(sky),
       summary_(sky.Empty() ? SkySummary{} : SummarizeSky(sky)),
       materialBsdfs_(MaterialBsdfs(sequence)),
-      groups_(MakeLightGroups(lights_)),
-      powerCdf_(CumulativePower(lights_, groups_)),
-      powerDistribution_(powerCdf_.data(), &groups_, -1.0f) {}
+      groups_(MakeLightGroups(lights_)) {
+  const std::vector<float> pmf = PowerPmf(lights_);
+  powerCdf_ = CumulativePower(pmf, groups_);
+  powerDistribution_ = PixelLightDistribution(powerCdf_.data(), &groups_, -1.0f);
+  if (!pmf.empty() && groups_.first.size() <= kMaxVertexSelectionGroups)
+    selection_ = MakeSelectionLights(lights_, groups_, pmf);
+}
+
+PixelLightDistribution PathScene::VertexDistribution(const ShadingPoint& x, std::vector<float>& cdf) const {
+  if (selection_.empty()) return powerDistribution_;
+  const size_t n = selection_.size();
+  cdf.resize(2 * n);
+  float* w = cdf.data() + n;
+  double total = 0.0;
+  for (size_t g = 0; g < n; ++g) {
+    const SelectionLight& light = selection_[g];
+    const float cosX = glm::dot(x.shadingNormal, glm::normalize(light.centroid - x.position));
+    w[g] = TileLightWeight(x.position, light) * std::max(0.0f, cosX);
+    if (!(w[g] <= std::numeric_limits<float>::max())) w[g] = 0.0f;
+    total += w[g];
+  }
+  if (!(total > 0.0)) return powerDistribution_;
+  const float keep = 1.0f - kDefensivePowerShare;
+  float sum = 0.0f;
+  for (size_t g = 0; g < n; ++g)
+    cdf[g] = sum += keep * static_cast<float>(w[g] / total) + kDefensivePowerShare * selection_[g].powerPmf;
+  return PixelLightDistribution(cdf.data(), &groups_, -1.0f);
+}
 
 ShadingPoint PathScene::Vertex(const SurfaceHit& hit, const Vec3& dir) const {
   ShadingPoint sp;
@@ -97,7 +129,7 @@ Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float*
     // SkySamples' layout: coordinate j of its one sample at u[j].
     float value[3] = {0.0f, 0.0f, 0.0f};
     float* const out[3] = {&value[0], &value[1], &value[2]};
-    SkySamples(x, scene_, lights_, powerDistribution_, sampling, ub + 2, 1, scratch, out, rays);
+    SkySamples(x, scene_, lights_, VertexDistribution(x, scratch.vertexCdf), sampling, ub + 2, 1, scratch, out, rays);
     sum += throughput * Vec3(value[0], value[1], value[2]);
   }
   return sum;

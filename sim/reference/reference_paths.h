@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/light.h"
+#include "core/light_selection_kernel.h"
 #include "core/rng.h"
 #include "core/sky.h"
 #include "sim/reference/reference_samples.h"
@@ -31,9 +32,17 @@ inline constexpr int kMaxIndirectBounces = 8;
 // Random numbers one bounce reads: two for the direction from the BSDF, kSkySampleDims for the next-event sample.
 inline constexpr int kBounceDims = 2 + kSkySampleDims;
 
-// What a path's vertices need of a frame, built once for it. At a secondary vertex the light distribution is the
-// frame's by power (the per-pixel distributions are the primary hits'), and the sky's strategies are mixed by the
-// vertex's own estimates (reference_sky.h), the local lights weighed as much as the sky.
+// The most light groups for which a secondary vertex weighs every group itself (PathScene); above, power alone: the
+// weights cost one pass over the groups a vertex.
+inline constexpr size_t kMaxVertexSelectionGroups = 256;
+
+// What a path's vertices need of a frame, built once for it. At a secondary vertex (the per-pixel distributions are
+// the primary hits') a light group's probability is 0.9 w_g / Σ w + 0.1 Φ_g / Σ Φ, w_g = TileLightWeight (its radiance
+// times the solid angle it subtends, d² floored by its size) times the cosine at the vertex towards its centroid:
+// measured on window_bars_pan's frame 0 at 64 paths a pixel, the reference's mean relative standard error with one
+// bounce fell from 24.3% (power alone) to 15.7%; Lambert's formula in place of the point estimate gave 15.5% for more
+// time. Above kMaxVertexSelectionGroups groups, power alone. The sky's strategies are mixed by the vertex's own
+// estimates (reference_sky.h), the local lights weighed as much as the sky.
 class PathScene {
  public:
   // `sky` and `scene` must outlive it.
@@ -61,6 +70,12 @@ class PathScene {
   LightGroups groups_;
   std::vector<float> powerCdf_;  // per light group, the cumulative of its share of the power
   PixelLightDistribution powerDistribution_;
+  // The groups as the vertices weigh them (core/light_selection_kernel.h); empty above kMaxVertexSelectionGroups.
+  std::vector<SelectionLight> selection_;
+
+  // The light distribution at vertex x: its own weights where selection_ holds the groups (the cdf in `cdf`), else
+  // the power distribution.
+  PixelLightDistribution VertexDistribution(const ShadingPoint& x, std::vector<float>& cdf) const;
 };
 
 // One frame's indirect light as a preset adds it (issue 41; PipelineSettings::indirect): one path a pixel from each

@@ -112,6 +112,9 @@ struct SampleBatch {
   std::vector<ShadowRay> rays;   // the shadow rays of the samples whose light term is nonzero
   std::vector<uint32_t> rayOf;   // the sample each ray belongs to
   std::vector<uint8_t> occluded;
+  // An indirect path's vertex: its light distribution's cdf over the groups, then its weights
+  // (sim/reference/reference_paths.h PathScene).
+  std::vector<float> vertexCdf;
 };
 
 // A block of receivers of one row, as the samplers take them.

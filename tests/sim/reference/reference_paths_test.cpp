@@ -14,12 +14,13 @@
 //    ρ/π (E_direct + ρ Φ / A (1 + ρ + … + ρ^(b−1))), E_direct = L_e ∫_emitter cos θ dω. The sphere is a polyhedron
 //    of 128 × 64 segments, whose interreflection differs from a sphere's by about the squared facet angle (3e-4
 //    relative); the emitter hides about a / A of the wall (5e-5). Configurations: at the origin and 1000 m out,
-//    the emitter level and tilted, ρ 0.5 and 0.8, bounces 1 to 3.
+//    the emitter level and tilted, ρ 0.5 and 0.8, bounces 1 to 3; and three emitters of different radiance facing
+//    different ways (the sum of their direct light and fluxes), where a path's vertex chooses among lights.
 //
 // Statistics (ExpectAgreement): over the surface pixels compared (pixels independent), the mean relative error is 0
 // by a z-test, and at most kMaxRelativeError with its own standard error below a third of that; the squared errors
 // match the reference's standard errors (the mean of e² − se² / t² is 0) by a z-test; each z-test at false-failure
-// rate kClaimRate = 1e-4. 10 configurations × 2 z-tests: family rate at most 0.2%. Seeds are fixed, so the outcome
+// rate kClaimRate = 1e-4. 12 configurations × 2 z-tests: family rate at most 0.24%. Seeds are fixed, so the outcome
 // is deterministic.
 #include <gtest/gtest.h>
 
@@ -211,16 +212,42 @@ TEST(ReferencePaths, NoBouncesLeavesTheShadedFloorBlack) {
 
 // ---- b. The integrating sphere ----
 
+// A one-sided square emitter as the scene holds it (its corners in float: 1000 m out their rounding, 6e-5 m, changes
+// a 4 cm emitter's area by 0.3%, which its flux must follow).
+struct SphereEmitter {
+  std::vector<D3> corners;  // counter-clockwise seen from its lit side
+  D3 normal{0.0};
+  double radiance = 0.0, area = 0.0;
+};
+
 struct SphereScene {
   Sequence seq;
   FrameState state;
-  std::vector<D3> emitter;  // corners, counter-clockwise seen from its lit side
-  D3 emitterNormal{0.0};
-  double emitterRadiance = 0.0, emitterArea = 0.0, albedo = 0.0, area = 0.0;
+  std::vector<SphereEmitter> emitters;
+  double albedo = 0.0, area = 0.0;
   D3 centre{0.0};
 };
 
-SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegrees) {
+// Adds a square emitter of half-size h at c, emitting along unit n.
+void AddSquareEmitter(SphereScene& s, const D3& c, const D3& n, double h, double radiance) {
+  const D3 t1 = glm::normalize(glm::cross(n, std::fabs(n.z) < 0.9 ? D3(0, 0, 1) : D3(1, 0, 0)));
+  const D3 t2 = glm::cross(n, t1);  // cross(t1, t2) = n: test::AddQuadLight emits along it
+  test::AddQuadLight(s.seq, "emitter" + std::to_string(s.emitters.size()), Vec3(c), Vec3(h * t1), Vec3(h * t2),
+                     Vec3(static_cast<float>(radiance)));
+  const std::vector<Vec3>& v = s.seq.lights.back().vertices;  // p0 p1 p2, p0 p2 p3
+  SphereEmitter e;
+  e.corners = {D3(v[0]), D3(v[1]), D3(v[2]), D3(v[5])};
+  for (size_t k = 0; k < v.size(); k += 3)
+    e.area += 0.5 * glm::length(glm::cross(D3(v[k + 1]) - D3(v[k]), D3(v[k + 2]) - D3(v[k])));
+  e.normal = n;
+  e.radiance = radiance;
+  s.emitters.push_back(e);
+}
+
+// One 4 cm emitter 0.2 m below the centre, its normal tilted from +Y about +Z; or three 3 cm emitters of different
+// radiance around a small circle, each facing outwards and 30° up, so that each of the others lies behind its plane
+// (none shades another's light).
+SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegrees, int emitters = 1) {
   SphereScene s;
   Sequence& seq = s.seq;
   seq.name = "integrating_sphere";
@@ -228,7 +255,7 @@ SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegree
   seq.height = 36;
   seq.frameCount = 1;
   seq.contentHash = "reference-paths-sphere-" + std::to_string(centre.x) + "-" + std::to_string(albedo) + "-" +
-                    std::to_string(tiltDegrees);
+                    std::to_string(tiltDegrees) + "-" + std::to_string(emitters);
   Material wall;
   wall.name = "wall";
   wall.albedo = Vec3(static_cast<float>(albedo));
@@ -245,21 +272,18 @@ SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegree
     const D3 a(sphere.mesh.positions[t.x]), b(sphere.mesh.positions[t.y]), c(sphere.mesh.positions[t.z]);
     s.area += 0.5 * glm::length(glm::cross(b - a, c - a));
   }
-  // A 4 cm square emitter 0.2 m below the centre, its normal tilted from +Y about +Z.
-  const double t = Radians(tiltDegrees);
-  const D3 n(-std::sin(t), std::cos(t), 0.0), u(std::cos(t), std::sin(t), 0.0), v(0.0, 0.0, 1.0);
-  const D3 c = centre + D3(0.0, -0.2, 0.0);
-  const double h = 0.02;
-  // cross(u, v) = -n for this u, v, so the light's u, v are swapped to emit along n.
-  test::AddQuadLight(seq, "emitter", Vec3(c), Vec3(h * v), Vec3(h * u), Vec3(50.0f));
-  // Its corners as the scene holds them, in float: 1000 m out their rounding (6e-5 m) changes a 4 cm emitter's area
-  // by 0.3%, which the flux must follow.
-  const std::vector<Vec3>& corners = seq.lights.back().vertices;  // p0 p1 p2, p0 p2 p3
-  s.emitter = {D3(corners[0]), D3(corners[1]), D3(corners[2]), D3(corners[5])};
-  for (size_t k = 0; k < corners.size(); k += 3)
-    s.emitterArea += 0.5 * glm::length(glm::cross(D3(corners[k + 1]) - D3(corners[k]), D3(corners[k + 2]) - D3(corners[k])));
-  s.emitterNormal = n;
-  s.emitterRadiance = 50.0;
+  if (emitters == 1) {
+    const double t = Radians(tiltDegrees);
+    AddSquareEmitter(s, centre + D3(0.0, -0.2, 0.0), D3(-std::sin(t), std::cos(t), 0.0), 0.02, 50.0);
+  } else {
+    const double radiances[3] = {50.0, 20.0, 120.0};
+    for (int k = 0; k < 3; ++k) {
+      const double phi = 2.0 * M_PI * k / 3.0 + Radians(tiltDegrees);
+      const D3 out(std::cos(phi), 0.0, std::sin(phi));
+      AddSquareEmitter(s, centre + D3(0.0, -0.1, 0.0) + 0.25 * out,
+                       glm::normalize(out + std::tan(Radians(30.0)) * D3(0, 1, 0)), 0.015, radiances[k]);
+    }
+  }
   s.albedo = albedo;
   s.centre = centre;
   CameraKey k;
@@ -275,9 +299,11 @@ double SphereTruth(const SphereScene& s, const GBuffer& g, size_t i, int bounces
   if (g.objectId[i] != 0) return std::nan("");
   const D3 x(g.Position(i));
   const D3 n = glm::normalize(s.centre - x);  // the wall faces the centre
-  const bool front = glm::dot(s.emitterNormal, x - s.emitter[0]) > 0.0;
-  const double direct = front ? s.emitterRadiance * ProjectedSolidAngle(x, n, s.emitter) : 0.0;
-  const double flux = M_PI * s.emitterArea * s.emitterRadiance;
+  double direct = 0.0, flux = 0.0;
+  for (const SphereEmitter& e : s.emitters) {
+    if (glm::dot(e.normal, x - e.corners[0]) > 0.0) direct += e.radiance * ProjectedSolidAngle(x, n, e.corners);
+    flux += M_PI * e.area * e.radiance;
+  }
   double series = 0.0, power = 1.0;
   for (int k = 0; k < bounces; ++k, power *= s.albedo) series += power;
   return s.albedo / M_PI * (direct + s.albedo * flux / s.area * series);
@@ -287,16 +313,18 @@ TEST(ReferencePaths, IntegratingSphereReflectsTheGeometricSeries) {
   struct Case {
     D3 centre;
     double albedo, tilt;
-    int bounces;
+    int bounces, emitters;
   };
   const D3 far = 1000.0 * glm::normalize(D3(0.8, 0.36, -0.48));
-  for (const Case& c : {Case{D3(0.0), 0.8, 0.0, 1}, Case{D3(0.0), 0.8, 0.0, 3}, Case{D3(0.0), 0.5, 35.0, 2},
-                        Case{far, 0.8, 35.0, 3}, Case{far, 0.5, 0.0, 1}, Case{D3(0.0), 0.8, 80.0, 2}}) {
-    const SphereScene s = IntegratingSphere(c.centre, c.albedo, c.tilt);
+  for (const Case& c : {Case{D3(0.0), 0.8, 0.0, 1, 1}, Case{D3(0.0), 0.8, 0.0, 3, 1}, Case{D3(0.0), 0.5, 35.0, 2, 1},
+                        Case{far, 0.8, 35.0, 3, 1}, Case{far, 0.5, 0.0, 1, 1}, Case{D3(0.0), 0.8, 80.0, 2, 1},
+                        Case{D3(0.0), 0.8, 10.0, 2, 3}, Case{far, 0.5, 50.0, 3, 3}}) {
+    const SphereScene s = IntegratingSphere(c.centre, c.albedo, c.tilt, c.emitters);
     const Rendered r = Render(s.seq, s.state, c.bounces, 256);
-    char what[96];
-    std::snprintf(what, sizeof what, "sphere %g m out, albedo %.1f, tilt %g, %d bounce%s", glm::length(c.centre),
-                  c.albedo, c.tilt, c.bounces, c.bounces > 1 ? "s" : "");
+    char what[112];
+    std::snprintf(what, sizeof what, "sphere %g m out, albedo %.1f, %d emitter%s, tilt %g, %d bounce%s",
+                  glm::length(c.centre), c.albedo, c.emitters, c.emitters > 1 ? "s" : "", c.tilt, c.bounces,
+                  c.bounces > 1 ? "s" : "");
     ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, c.bounces); }, what, 1500);
   }
 }
