@@ -235,6 +235,7 @@ std::vector<SettingBound> MakeBounds() {
       Bound("spatial.cellSearchRadius", RESTIR_MEMBER(spatial.stochastic.cellSearchRadius), 1.0 / 4096.0, 1,
             "cellSearchRadius is in image heights and must be in [1/4096, 1] (the paper's 30 px at 1080 rows is "
             "0.0277778)"),
+      // 8: kMaxIndirectBounces (sim/reference/reference_paths.h), which the estimator may not include.
       Bound("indirect.bounces", RESTIR_MEMBER(indirect.bounces), 0, 8, "indirect.bounces must be in [0, 8]"),
   };
 }

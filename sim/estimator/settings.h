@@ -17,7 +17,7 @@
 namespace restir {
 
 // Indirect light (issue 41): what a preset's frames model beyond direct light. Not one of the pipeline's passes: the
-// frame loop adds it after them (sim/run/frame_loop.h RenderPresetFrame) with the reference's path sampler
+// frame loop adds it after them (sim/run/frame_loop.h FrameLoop::RenderPreset) with the reference's path sampler
 // (sim/reference/reference_paths.h), one path a pixel, until presets resample it (ReSTIR GI).
 struct IndirectParams {
   // The most surfaces after the primary hit that a path's light may reflect at before it reaches the pixel, 0 to 8

@@ -52,7 +52,7 @@ namespace {
 // the pilot's relative variances spread to their neighbourhood before the allocation).
 constexpr uint32_t kReferenceVersion = 16;
 // The version of the indirect paths (sim/reference/reference_paths.h), in the key of references that have them.
-constexpr uint32_t kPathsVersion = 1;
+constexpr uint32_t kPathsVersion = 2;  // 2: the secondary vertices weigh their lights
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -1197,6 +1197,14 @@ void MainPass(ReferenceFrame& frame, const BlockPlan& plan, const std::vector<ui
   }, [](int, BandLearning&) {});
 }
 
+// The allocation's parameters for one part of the estimate: with indirect light, each of the two parts (direct and
+// indirect) is held to the error target / √2, so that their independent errors together reach the target.
+ReferenceParams PartParams(const ReferenceParams& params) {
+  ReferenceParams part = params;
+  if (params.indirectBounces > 0) part.targetRelativeError = params.targetRelativeError / std::sqrt(2.0);
+  return part;
+}
+
 // The indirect light (ReferenceParams::indirectBounces; sim/reference/reference_paths.h), added to the direct
 // light's estimate: a pilot of kPilotSamples paths a pixel (not part of the estimate) gives each pixel its relative
 // variance per path against its whole light (direct, as the main pass found it, plus the pilot's indirect mean), and
@@ -1238,10 +1246,13 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
     const double total = double(Luminance(ref.mean.pixels[i])) + mean;
     relVar[i] = total > 0.0 ? static_cast<float>(var / (total * total)) : 0.0f;
   });
-  ReferenceParams half = params;
-  half.targetRelativeError = params.targetRelativeError / std::sqrt(2.0);
+  // Indirect light often reaches a pixel through a few of its paths' directions, which 16 pilot paths can all miss:
+  // its neighbours' pilots hear it, as for direct light (SpreadRelativeVariance).
+  if (params.spreadRelativeVariance) relVar = SpreadRelativeVariance(relVar, frame.active, frame.w, frame.h);
   double scale = 1.0;
-  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, half, scale);
+  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, PartParams(params), scale);
+  // The frame is capped where either part was.
+  ref.allocation.scale = std::min(ref.allocation.scale, scale);
   forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
     const uint32_t m = perReplicate[i];
     glm::dvec3 replicateMean[kReplicates];
@@ -1292,7 +1303,8 @@ ReferenceImage RenderReference(const Sequence& sequence, const FrameState& state
   const BlockPlan plan(frame);
   std::vector<float> relVar = Pilot(frame, plan, params.learnVisibility);
   if (params.spreadRelativeVariance) relVar = SpreadRelativeVariance(relVar, frame.active, frame.w, frame.h);
-  const std::vector<uint32_t> perReplicate = AllocateSamples(relVar, frame.active, params, ref.allocation.scale);
+  const std::vector<uint32_t> perReplicate =
+      AllocateSamples(relVar, frame.active, PartParams(params), ref.allocation.scale);
   ref.pixelSamples = PixelSamples(frame.active, perReplicate);
   ref.allocation.meanSamplesPerPixel = MeanOverSampled(ref.pixelSamples);
   MainPass(frame, plan, perReplicate, ref);

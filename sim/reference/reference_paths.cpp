@@ -111,11 +111,12 @@ Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float*
     const Vec3 org = OffsetRayOrigin(x.position, x.geometricNormal, x.errorScale, bs.wi);
     const SurfaceHit hit = scene_.Intersect(org, bs.wi, std::numeric_limits<float>::infinity());
     ++rays;
-    // An escape or an emitter: what it sends along the ray is x's direct light, which x's own next-event sample
-    // (or, at x₁, the direct-light reference) takes; neither reflects.
+    // An escape or an emitter: what it sends along the ray is x's direct light, which x's own next-event
+    // sample (or, at x₁, the direct-light reference) takes; neither reflects.
     if (!hit.hit || hit.materialId < 0) break;
     x = Vertex(hit, bs.wi);
-    // x's direct light: one sample of the reference's light and BSDF strategies, combined by the power heuristic.
+    // x's direct light: one sample of the reference's light and BSDF strategies, combined by the power
+    // heuristic.
     SkySampling sampling;
     if (hasSky) {
       sampling.sky = &sky_;
@@ -129,7 +130,8 @@ Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float*
     // SkySamples' layout: coordinate j of its one sample at u[j].
     float value[3] = {0.0f, 0.0f, 0.0f};
     float* const out[3] = {&value[0], &value[1], &value[2]};
-    SkySamples(x, scene_, lights_, VertexDistribution(x, scratch.vertexCdf), sampling, ub + 2, 1, scratch, out, rays);
+    SkySamples(x, scene_, lights_, VertexDistribution(x, scratch.vertexCdf), sampling, ub + 2, 1, scratch,
+               out, rays);
     sum += throughput * Vec3(value[0], value[1], value[2]);
   }
   return sum;
@@ -153,18 +155,18 @@ ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const 
         const size_t i = static_cast<size_t>(y) * g.width + x;
         if (!g.IsSurface(i)) continue;
         PathRandomNumbers(seed, frame, static_cast<uint32_t>(i), 0, RngPass::kIndirect, bounces, u.data());
-        image.pixels[i] =
-            paths.IndirectSample(ShadingPointAt(g, i, state.camera.position, bsdfs), bounces, u.data(), scratch, r);
+        image.pixels[i] = paths.IndirectSample(ShadingPointAt(g, i, state.camera.position, bsdfs), bounces,
+                                               u.data(), scratch, r);
       }
   });
   rays += rayCount.combine(std::plus<uint64_t>());
   return image;
 }
 
-void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass, int bounces,
-                       float* u) {
-  // The path's index moves the key's frame word by an odd constant: a bijection of the index for a fixed state,
-  // so no two paths of a frame share a key.
+void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass,
+                       int bounces, float* u) {
+  // The path's index moves the key's frame word by an odd constant: a bijection of the index for a fixed
+  // state, so no two paths of a frame share a key.
   const RngKey key{seed, stateKey + path * 0x9E3779B9u, pixel, static_cast<uint32_t>(pass)};
   const int n = bounces * kBounceDims;
   for (int j = 0; j < n; ++j) u[j] = UniformFloat(key, static_cast<uint32_t>(j));

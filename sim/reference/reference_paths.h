@@ -1,14 +1,15 @@
 // The reference's indirect light (issue 41; DESIGN §7): light that reaches a pixel's primary hit x₁ after
-// reflecting at one or more further surfaces, estimated by paths traced from x₁ (pbrt-v4's PathIntegrator, less its
-// first vertex's direct light, which the direct-light reference already takes). A path draws a direction by the
-// BSDF at x₁, finds the surface x₂ it hits, and takes x₂'s direct light there by next-event estimation, with the
-// reference's own samplers (sim/reference/reference_samples.h SkySamples: a light strategy, a point on a light or a
-// sky direction, combined with BSDF sampling by the power heuristic, so an emitter or the sky a BSDF ray meets is
-// counted once); then from x₂ onwards the same, up to `bounces` surfaces after x₁. An emitter does not reflect and
-// a ray that escapes has no surface: either ends the path (what they send along it is x₁'s direct light or the
-// previous vertex's, taken there). Pure functions of their arguments and random numbers.
-// The reference adds them to its direct light (sim/reference/reference.cpp); a preset's frame adds one path a pixel
-// (IndirectImage; sim/run/frame_loop.h RenderPresetFrame).
+// reflecting at one or more further surfaces, estimated by paths traced from x₁ (pbrt-v4's PathIntegrator,
+// less its first vertex's direct light, which the direct-light reference already takes). A path draws a
+// direction by the BSDF at x₁, finds the surface x₂ it hits, and takes x₂'s direct light there by next-event
+// estimation, with the reference's own samplers (sim/reference/reference_samples.h SkySamples: a light
+// strategy, a point on a light or a sky direction, combined with BSDF sampling by the power heuristic, so an
+// emitter or the sky a BSDF ray meets is counted once); then from x₂ onwards the same, up to `bounces`
+// surfaces after x₁. An emitter does not reflect and a ray that escapes has no surface: either ends the path
+// (what they send along it is x₁'s direct light or the previous vertex's, taken there). Pure functions of
+// their arguments and random numbers. The reference adds them to its direct light
+// (sim/reference/reference.cpp); a preset's frame adds one path a pixel (IndirectImage; sim/run/frame_loop.h
+// FrameLoop::RenderPreset).
 #pragma once
 
 #include <cstdint>
@@ -22,72 +23,77 @@
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
-#include "sim/util/image.h"
 #include "sim/scene/sequence.h"
+#include "sim/util/image.h"
 
 namespace restir {
 
 // The most surfaces after the primary hit a path may reflect at (ReferenceParams::indirectBounces).
 inline constexpr int kMaxIndirectBounces = 8;
-// Random numbers one bounce reads: two for the direction from the BSDF, kSkySampleDims for the next-event sample.
+// Random numbers one bounce reads: two for the direction from the BSDF, kSkySampleDims for the next-event
+// sample.
 inline constexpr int kBounceDims = 2 + kSkySampleDims;
 
-// The most light groups for which a secondary vertex weighs every group itself (PathScene); above, power alone: the
-// weights cost one pass over the groups a vertex.
+// The most light groups for which a secondary vertex weighs every group itself (PathScene); above, power
+// alone: the weights cost one pass over the groups a vertex.
 inline constexpr size_t kMaxVertexSelectionGroups = 256;
 
-// What a path's vertices need of a frame, built once for it. At a secondary vertex (the per-pixel distributions are
-// the primary hits') a light group's probability is 0.9 w_g / Σ w + 0.1 Φ_g / Σ Φ, w_g = TileLightWeight (its radiance
-// times the solid angle it subtends, d² floored by its size) times the cosine at the vertex towards its centroid:
-// measured on window_bars_pan's frame 0 at 64 paths a pixel, the reference's mean relative standard error with one
-// bounce fell from 24.3% (power alone) to 15.7%, and the frames' relmse from 1.9-10 to about 0.5 (docs/metrics.md
-// "Indirect light"); Lambert's formula in place of the point estimate gave 15.5% for more time. Above kMaxVertexSelectionGroups groups, power alone. The sky's strategies are mixed by the vertex's own
-// estimates (reference_sky.h), the local lights weighed as much as the sky.
+// What a path's vertices need of a frame, built once for it. At a secondary vertex (the per-pixel
+// distributions are the primary hits') a light group's probability is 0.9 w_g / Σ w + 0.1 Φ_g / Σ Φ, w_g =
+// TileLightWeight (its radiance times the solid angle it subtends, d² floored by its size) times the cosine
+// at the vertex towards its centroid: measured on window_bars_pan's frame 0 at 64 paths a pixel, the
+// reference's mean relative standard error with one bounce fell from 24.3% (power alone) to 15.7%, and the
+// frames' relmse from 1.9-10 to about 0.5 (docs/metrics.md "Indirect light"); Lambert's formula in place of
+// the point estimate gave 15.5% for more time. Above kMaxVertexSelectionGroups groups, power alone. The sky's
+// strategies are mixed by the vertex's own estimates (reference_sky.h), the local lights weighed as much as
+// the sky.
 class PathScene {
  public:
-  // `sky` and `scene` must outlive it.
+  // `sequence`, `scene` and `sky` must outlive it.
   PathScene(const Sequence& sequence, const EmbreeScene& scene, const Sky& sky);
+  PathScene(const Sequence& sequence, const EmbreeScene& scene, Sky&& sky) = delete;
   PathScene(const PathScene&) = delete;
   PathScene& operator=(const PathScene&) = delete;
 
-  // The surface a path's ray hit, as a receiver seen from along -dir: its material's BSDF, times the texel at the
-  // hit where the material is textured. Only for a hit on an object (materialId >= 0).
+  // The surface a path's ray hit, as a receiver seen from along -dir: its material's BSDF, times the texel at
+  // the hit where the material is textured. Only for a hit on an object (materialId >= 0).
   ShadingPoint Vertex(const SurfaceHit& hit, const Vec3& dir) const;
 
-  // The radiance reflected at x₁ towards x₁.wo by light that reflected at 1 to `bounces` further surfaces first,
-  // estimated by one path from the random numbers `u` (kBounceDims × bounces of them, bounce k's at
+  // The radiance reflected at x₁ towards x₁.wo by light that reflected at 1 to `bounces` further surfaces
+  // first, estimated by one path from the random numbers `u` (kBounceDims × bounces of them, bounce k's at
   // u[k × kBounceDims ...]). Counts its rays.
   Vec3 IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
                       uint64_t& rays) const;
 
  private:
-  const Sequence& sequence_;
-  const EmbreeScene& scene_;
-  const std::vector<LightTriangle>& lights_;
-  const Sky& sky_;
-  const SkySummary summary_;
-  std::vector<Bsdf> materialBsdfs_;
-  LightGroups groups_;
-  std::vector<float> powerCdf_;  // per light group, the cumulative of its share of the power
+  const Sequence& sequence_;                  // its materials and textures, for the BSDF at a hit
+  const EmbreeScene& scene_;                  // the rays
+  const std::vector<LightTriangle>& lights_;  // the scene's light triangles
+  const Sky& sky_;                            // empty in a skyless frame
+  const SkySummary summary_;                  // what the sky strategies' estimates need of it
+  std::vector<Bsdf> materialBsdfs_;           // one per material, untextured
+  LightGroups groups_;                        // the light triangles' groups (a quad's two are one)
+  std::vector<float> powerCdf_;               // per light group, the cumulative of its share of the power
   PixelLightDistribution powerDistribution_;
-  // The groups as the vertices weigh them (core/light_selection_kernel.h); empty above kMaxVertexSelectionGroups.
+  // The groups as the vertices weigh them (core/light_selection_kernel.h); empty above
+  // kMaxVertexSelectionGroups.
   std::vector<SelectionLight> selection_;
 
-  // The light distribution at vertex x: its own weights where selection_ holds the groups (the cdf in `cdf`), else
-  // the power distribution.
+  // The light distribution at vertex x: its own weights where selection_ holds the groups (the cdf in `cdf`),
+  // else the power distribution.
   PixelLightDistribution VertexDistribution(const ShadingPoint& x, std::vector<float>& cdf) const;
 };
 
-// One frame's indirect light as a preset adds it (issue 41; PipelineSettings::indirect): one path a pixel from each
-// primary hit of `g`, an unbiased estimate at every surface pixel (0 elsewhere), from the random numbers of
-// RngPass::kIndirect keyed by (seed, frame, pixel). Counts its rays.
+// One frame's indirect light as a preset adds it (issue 41; PipelineSettings::indirect): one path a pixel
+// from each primary hit of `g`, an unbiased estimate at every surface pixel (0 elsewhere), from the random
+// numbers of RngPass::kIndirect keyed by (seed, frame, pixel). Counts its rays.
 ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                        const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays);
 
 // The random numbers of path `path` of a pixel (RngPass::kReferencePaths, or kReferencePathsPilot for the
-// allocation's pilot paths): kBounceDims × bounces of them into u. Each path has its own key, so a pixel's paths
-// are independent whatever their count.
-void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass, int bounces,
-                       float* u);
+// allocation's pilot paths): kBounceDims × bounces of them into u. Each path has its own key, so a pixel's
+// paths are independent whatever their count.
+void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass,
+                       int bounces, float* u);
 
 }  // namespace restir

@@ -1,5 +1,7 @@
 #include "sim/run/frame_loop.h"
 
+#include <cmath>
+
 #include "sim/reference/reference_paths.h"
 #include "sim/util/clock.h"
 #include "sim/scene/shading_point.h"
@@ -75,7 +77,16 @@ FrameResult FrameLoop::RenderPreset(Pipeline& pipeline, const FrameInputs& input
   pass.name = "indirect";
   const ImageRgb indirect =
       IndirectImage(sequence_, state_, scene_, current_, bounces, inputs.seed, inputs.frame, pass.rays);
-  for (size_t i = 0; i < indirect.pixels.size(); ++i) result.image.pixels[i] += indirect.pixels[i];
+  // The pipeline's guard (DESIGN §10) ran before this pass: a non-finite path is caught here, counted as its own.
+  for (size_t i = 0; i < indirect.pixels.size(); ++i) {
+    const Vec3& v = indirect.pixels[i];
+    if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)) {
+      result.image.pixels[i] += v;
+    } else {
+      ++pass.guarded;
+    }
+  }
+  result.guardedEvents += pass.guarded;
   pass.ms = MsSince(t0);
   return result;
 }

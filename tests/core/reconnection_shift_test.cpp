@@ -1,8 +1,9 @@
-// The reconnection shift (core/reconnection_shift.h) on configurations of every kind (near and 1 km from the origin,
-// tilted, grazing, millimetres to kilometres apart): the shift and its inverse undo each other, their Jacobians
-// multiply to 1, the Jacobian is the ratio of the solid angles a small patch of x₂ subtends (measured by finite
-// differences), and a Monte Carlo estimate that reuses x₁'s samples at y₁ is unbiased with it and biased without it
-// (a t-test each way, fixed seed).
+// The reconnection shift (core/reconnection_shift.h) on configurations of every kind (near and 1 km from the
+// origin, tilted, grazing, millimetres to kilometres apart): the shift and its inverse undo each other, their
+// Jacobians multiply to 1 (which any ratio g(x₁) / g(y₁) would: it checks the two directions agree, not the
+// formula), the Jacobian is the ratio of the solid angles a small patch of x₂ subtends (measured by finite
+// differences: this checks the formula), and a Monte Carlo estimate that reuses x₁'s samples at y₁ is unbiased
+// with it and biased without it (a t-test each way, fixed seed).
 #include "core/reconnection_shift.h"
 
 #include <gtest/gtest.h>
@@ -25,7 +26,9 @@ struct Configuration {
   const char* what;
 };
 
-D3 Unit(double a, double b, double c) { return glm::normalize(D3(a, b, c)); }
+D3 Unit(double a, double b, double c) {
+  return glm::normalize(D3(a, b, c));
+}
 
 // Two tangents of n.
 void Tangents(const D3& n, D3& t, D3& b) {
@@ -37,10 +40,11 @@ std::vector<Configuration> Configurations() {
   const D3 far = 1000.0 * Unit(0.8, 0.36, -0.48);
   std::vector<Configuration> c;
   c.push_back({D3(0.0), D3(0, 1, 0), D3(0.3, 1.0, 0.2), D3(-0.4, 1.3, 0.5), "floor, 1 m"});
-  c.push_back({far, Unit(0.3, 1.0, -0.2), far + D3(0.3, 1.0, 0.2), far + D3(-0.4, 1.3, 0.5), "tilted, 1 km out"});
+  c.push_back(
+      {far, Unit(0.3, 1.0, -0.2), far + D3(0.3, 1.0, 0.2), far + D3(-0.4, 1.3, 0.5), "tilted, 1 km out"});
   c.push_back({D3(0.0), D3(1, 0, 0), D3(2.0, 0.05, 0.1), D3(1.5, -0.02, 0.3), "wall seen at grazing"});
-  c.push_back({D3(5.0), Unit(-1.0, 0.5, 0.5), D3(5.0) + 0.002 * Unit(-1, 0.7, 0.2), D3(5.0) + 0.003 * Unit(-1, 0.2, 0.6),
-               "millimetres"});
+  c.push_back({D3(5.0), Unit(-1.0, 0.5, 0.5), D3(5.0) + 0.002 * Unit(-1, 0.7, 0.2),
+               D3(5.0) + 0.003 * Unit(-1, 0.2, 0.6), "millimetres"});
   c.push_back({D3(0.0), D3(0, 0, 1), D3(1500.0, -700.0, 2000.0), D3(-800.0, 300.0, 2600.0), "kilometres"});
   return c;
 }
@@ -67,10 +71,11 @@ TEST(ReconnectionShift, ShiftAndInverseUndoEachOtherAndTheirJacobiansMultiplyToO
       const D3 x2Again = HitPlane(D3(x2), c.n, D3(y1), D3(wy));
       const Vec3 wxAgain = ReconnectionDirection(x1, Vec3(x2Again));
       const Vec3 wx = ReconnectionDirection(x1, x2);
-      // The round trip moves x₂ by the float rounding of the directions and the plane's point: relative 1e-6 of the
-      // distances involved, at most.
+      // The round trip moves x₂ by the float rounding of the directions and the plane's point: relative 1e-6
+      // of the distances involved, at most.
       EXPECT_LT(glm::length(wxAgain - wx), 2e-5f) << c.what << " sample " << k;
-      const double forward = ReconnectionJacobian(x1, y1, x2, n2), back = ReconnectionJacobian(y1, x1, x2, n2);
+      const double forward = ReconnectionJacobian(x1, y1, x2, n2),
+                   back = ReconnectionJacobian(y1, x1, x2, n2);
       EXPECT_GT(forward, 0.0) << c.what;
       EXPECT_NEAR(forward * back, 1.0, 4e-6) << c.what << " sample " << k;
     }
@@ -99,9 +104,9 @@ TEST(ReconnectionShift, JacobianIsTheRatioOfTheSolidAnglesAPatchSubtends) {
   }
 }
 
-// ∫ over the directions from y₁ that meet a square S of the plane, of 1 dω (S's solid angle from y₁), estimated from
-// cosine-weighted directions at x₁: each that meets S is shifted to y₁ and weighs J / p(ω_x). Without J it estimates
-// S's solid angle from x₁ instead.
+// ∫ over the directions from y₁ that meet a square S of the plane, of 1 dω (S's solid angle from y₁),
+// estimated from cosine-weighted directions at x₁: each that meets S is shifted to y₁ and weighs J / p(ω_x).
+// Without J it estimates S's solid angle from x₁ instead.
 TEST(ReconnectionShift, ReusingSamplesAtAnotherVertexIsUnbiasedOnlyWithTheJacobian) {
   const Configuration c{D3(0.0), D3(0, 1, 0), D3(0.3, 0.6, 0.2), D3(-0.5, 0.9, 0.4), "floor"};
   const D3 corner[4] = {D3(-0.6, 0, -0.5), D3(0.6, 0, -0.5), D3(0.6, 0, 0.7), D3(-0.6, 0, 0.7)};
@@ -139,9 +144,11 @@ TEST(ReconnectionShift, ReusingSamplesAtAnotherVertexIsUnbiasedOnlyWithTheJacobi
     return (mean - target) / std::sqrt(var);
   };
   const double withJ = z(sum, sumSq, truth), without = z(sumPlain, sumPlainSq, truth);
-  std::printf("  square's solid angle from y1 %.5f (from x1 %.5f): with the Jacobian z = %+.2f, without z = %+.1f\n",
-              truth, unshifted, withJ, without);
-  // Normal quantile of a two-sided false-failure rate of 1e-4 (the mean of 200,000 samples of a bounded variable).
+  std::printf(
+      "  square's solid angle from y1 %.5f (from x1 %.5f): with the Jacobian z = %+.2f, without z = %+.1f\n",
+      truth, unshifted, withJ, without);
+  // Normal quantile of a two-sided false-failure rate of 1e-4 (the mean of 200,000 samples of a bounded
+  // variable).
   EXPECT_LT(std::fabs(withJ), 3.89);
   EXPECT_GT(std::fabs(without), 20.0) << "the test cannot tell the Jacobian from none";
 }

@@ -1,27 +1,34 @@
-// The reference's indirect light (issue 41; sim/reference/reference_paths.h) against closed forms that share none of
-// its code: every truth here is computed in double from the scene's description (Lambert's polygon formula written
-// out below, the sun disc's irradiance π L sin²α cos θ, the integrating sphere's uniform interreflection).
+// The reference's indirect light (issue 41; sim/reference/reference_paths.h) against closed forms that share
+// none of its code: every truth here is computed in double from the scene's description (Lambert's polygon
+// formula written out below, the sun disc's irradiance π L sin²α cos θ, the integrating sphere's uniform
+// interreflection).
 //
-// a. A floor that a low sun cannot see, facing a wall that the sun lights whole: with one bounce the floor reflects
-//    ρ_f/π · L_w · ∫_wall cos θ dω, L_w = ρ_w/π · π L_sun sin²α cos θ_w the wall's radiance (Lambert's formula for
-//    the wall's polygon from the floor point; every floor pixel sees the wall under at least 6% of π, so 496 paths
-//    all miss it with probability e^-31). Two bounces add nothing (a path floor → wall → floor ends on a floor
-//    the sun does not reach; the wall cannot see itself), so bounces = 2 must give the same; 0 gives a black floor.
-// b. The integrating sphere: inside a closed diffuse sphere (albedo ρ, area A) a small one-sided emitter of area a
-//    and radiance L_e sends its whole flux Φ = π a L_e onto the wall; the form factor between two points of a
-//    sphere is dA / A whatever their positions, so the light reflected once gives every point the same irradiance
-//    ρ Φ / A, and each further reflection multiplies it by ρ. With b bounces a wall point reflects
-//    ρ/π (E_direct + ρ Φ / A (1 + ρ + … + ρ^(b−1))), E_direct = L_e ∫_emitter cos θ dω. The sphere is a polyhedron
-//    of 128 × 64 segments, whose interreflection differs from a sphere's by about the squared facet angle (3e-4
-//    relative); the emitter hides about a / A of the wall (5e-5). Configurations: at the origin and 1000 m out,
-//    the emitter level and tilted, ρ 0.5 and 0.8, bounces 1 to 3; and three emitters of different radiance facing
-//    different ways (the sum of their direct light and fluxes), where a path's vertex chooses among lights.
+// a. A floor that a low sun cannot see, facing a wall that the sun lights whole: with one bounce the floor
+//    reflects ρ_f/π · L_w · ∫_wall cos θ dω, L_w = ρ_w/π · π L_sun sin²α cos θ_w the wall's radiance
+//    (Lambert's formula for the wall's polygon from the floor point). Two bounces add nothing (a path
+//    floor → wall → floor ends on a floor the sun does not reach; the wall cannot see itself), so bounces = 2
+//    must give the same; 0 gives a black floor. Every floor pixel sees the wall under at least 6% of π; at
+//    1024 samples a pixel each gets at least the allocation's uniform share, 252 paths, which all miss the
+//    wall (no spread, a failed assertion) with probability 0.94^252 = 2e-7.
+// b. The integrating sphere: inside a closed diffuse sphere (albedo ρ, area A) a small one-sided emitter of
+//    area a and radiance L_e sends its whole flux Φ = π a L_e onto the wall; the form factor between two
+//    points of a sphere is dA / A whatever their positions, so the light reflected once gives every point the
+//    same irradiance ρ Φ / A, and each further reflection multiplies it by ρ. With b bounces a wall point
+//    reflects ρ/π (E_direct + ρ Φ / A (1 + ρ + … + ρ^(b−1))), E_direct = L_e ∫_emitter cos θ dω. The sphere is
+//    a polyhedron of 128 × 64 segments, whose interreflection differs from a sphere's by about the squared
+//    facet angle (3e-4 relative); the emitter hides about a / A of the wall (5e-5). Configurations: at the
+//    origin and 1000 m out, the emitter level and tilted, ρ 0.5 and 0.8, bounces 1 to 3; and three emitters
+//    of different radiance facing different ways (the sum of their direct light and fluxes), where a path's
+//    vertex chooses among lights.
+// c. A preset frame's indirect pass (IndirectImage, one path a pixel) over many seeds, against a and b.
 //
-// Statistics (ExpectAgreement): over the surface pixels compared (pixels independent), the mean relative error is 0
-// by a z-test, and at most kMaxRelativeError with its own standard error below a third of that; the squared errors
-// match the reference's standard errors (the mean of e² − se² / t² is 0) by a z-test; each z-test at false-failure
-// rate kClaimRate = 1e-4. 12 configurations × 2 z-tests: family rate at most 0.24%. Seeds are fixed, so the outcome
-// is deterministic.
+// Statistics (ExpectAgreement): over the surface pixels compared (pixels independent), the mean relative
+// error is 0 by a z-test, and at most kMaxRelativeError with its own standard error below a third of that;
+// the squared errors match the reference's standard errors (the mean of e² − se² / t² is 0) by a z-test; each
+// z-test at false-failure rate kClaimRate = 1e-4. 14 configurations × 2 z-tests: family rate at most 0.28%.
+// Seeds are fixed, so the outcome is deterministic.
+#include "sim/reference/reference_paths.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,13 +37,12 @@
 #include <string>
 #include <vector>
 
-#include "tests/sim/scene_fixtures.h"
 #include "sim/reference/reference.h"
-#include "sim/reference/reference_paths.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/scene/shapes.h"
 #include "stats.h"
+#include "tests/sim/scene_fixtures.h"
 
 namespace restir {
 // Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
@@ -47,11 +53,16 @@ using D3 = glm::dvec3;
 constexpr double kClaimRate = 1e-4;
 constexpr double kMaxRelativeError = 0.01;
 
-double Y(const D3& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
-double Radians(double degrees) { return degrees * M_PI / 180.0; }
+double Y(const D3& c) {
+  return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+}
+double Radians(double degrees) {
+  return degrees * M_PI / 180.0;
+}
 
-// ∫ over the polygon of cos θ dω seen from x with normal n, the polygon wholly above x's horizon (Lambert 1760:
-// ½ Σ over its edges of the angle each subtends times n · the unit normal of the plane through x and the edge).
+// ∫ over the polygon of cos θ dω seen from x with normal n, the polygon wholly above x's horizon (Lambert
+// 1760: ½ Σ over its edges of the angle each subtends times n · the unit normal of the plane through x and
+// the edge).
 double ProjectedSolidAngle(const D3& x, const D3& n, const std::vector<D3>& polygon) {
   double sum = 0.0;
   for (size_t i = 0; i < polygon.size(); ++i) {
@@ -80,12 +91,13 @@ Rendered Render(const Sequence& seq, const FrameState& state, int bounces, int s
   return r;
 }
 
-// The claims over the pixels `truth` gives a value for (NaN: not compared). Each pixel's estimate is a mean of few
-// paths that reach the light rarely (a few hits a replicate), so its replicate means are skewed and z = error / se is
-// not Student's t: the claims are on sums over the pixels instead, which the central limit theorem makes normal
-// whatever each pixel's distribution. Unbiased: the mean of the relative errors e_i = (v_i − t_i) / t_i is 0. Honest
-// standard errors: E[(v_i − t_i)²] = Var v_i = E[se_i²] (se² is the replicates' unbiased variance of the mean), so
-// the mean of d_i = (e_i² − se_i² / t_i²) is 0. Each by a z-test over the pixels at kClaimRate.
+// The claims over the pixels `truth` gives a value for (NaN: not compared). Each pixel's estimate is a mean
+// of few paths that reach the light rarely (a few hits a replicate), so its replicate means are skewed and z
+// = error / se is not Student's t: the claims are on sums over the pixels instead, which the central limit
+// theorem makes normal whatever each pixel's distribution. Unbiased: the mean of the relative errors e_i =
+// (v_i − t_i) / t_i is 0. Honest standard errors: E[(v_i − t_i)²] = Var v_i = E[se_i²] (se² is the
+// replicates' unbiased variance of the mean), so the mean of d_i = (e_i² − se_i² / t_i²) is 0. Each by a
+// z-test over the pixels at kClaimRate.
 void ExpectAgreement(const Rendered& r, const std::function<double(size_t)>& truth, const std::string& what,
                      size_t minPixels) {
   const GBuffer& g = r.g;
@@ -114,14 +126,16 @@ void ExpectAgreement(const Rendered& r, const std::function<double(size_t)>& tru
   for (double e : relative) meanSq += e * e;
   meanSq /= double(relative.size());
   const double q = test::NormalQuantileUpper(0.5 * kClaimRate);
-  std::printf("  %-48s px %5zu  rel.err %+.3f%% (se %.3f%%)  RMS rel.err %.2f%%, excess over se %+.2e (se %.1e)  "
-              "paths %llu\n",
-              what.c_str(), relative.size(), 100.0 * bias, 100.0 * biasSe, 100.0 * std::sqrt(meanSq), honesty,
-              honestySe, static_cast<unsigned long long>(r.ref.paths));
+  std::printf(
+      "  %-48s px %5zu  rel.err %+.3f%% (se %.3f%%)  RMS rel.err %.2f%%, excess over se %+.2e (se %.1e)  "
+      "paths %llu\n",
+      what.c_str(), relative.size(), 100.0 * bias, 100.0 * biasSe, 100.0 * std::sqrt(meanSq), honesty,
+      honestySe, static_cast<unsigned long long>(r.ref.paths));
   EXPECT_LE(std::fabs(bias), q * biasSe) << what << ": mean relative error, z-test";
   EXPECT_LE(std::fabs(bias), kMaxRelativeError) << what;
   EXPECT_LT(biasSe, kMaxRelativeError / 3.0) << what << ": the bound on the relative error has no power";
-  EXPECT_LE(std::fabs(honesty), q * honestySe) << what << ": squared errors against the standard errors, z-test";
+  EXPECT_LE(std::fabs(honesty), q * honestySe)
+      << what << ": squared errors against the standard errors, z-test";
 }
 
 // ---- a. A sunlit wall seen from a floor in the shade ----
@@ -135,10 +149,10 @@ struct WallScene {
   int32_t floorObject = 0;
 };
 
-// The wall: x = 0, facing +x, y in [0.3, 2.8], z in [-2, 2]; the floor: y = 0, x in [0.05, 3], z in [-1.5, 1.5], at the
-// wall's foot; the sun 3° below the floor's horizon from +x, so it lights the wall at cos θ = cos 3° and never the
-// floor, and its rays from the wall's lowest edge meet the floor's plane 5.7 m out, beyond the floor. Everything
-// moved by `offset`.
+// The wall: x = 0, facing +x, y in [0.3, 2.8], z in [-2, 2]; the floor: y = 0, x in [0.05, 3], z in
+// [-1.5, 1.5], at the wall's foot; the sun 3° below the floor's horizon from +x, so it lights the wall at cos
+// θ = cos 3° and never the floor, and its rays from the wall's lowest edge meet the floor's plane 5.7 m out,
+// beyond the floor. Everything moved by `offset`.
 WallScene SunlitWall(const D3& offset, double floorAlbedo, double wallAlbedo) {
   WallScene s;
   Sequence& seq = s.seq;
@@ -146,7 +160,8 @@ WallScene SunlitWall(const D3& offset, double floorAlbedo, double wallAlbedo) {
   seq.width = 64;
   seq.height = 48;
   seq.frameCount = 1;
-  seq.contentHash = "reference-paths-sunlit-wall-" + std::to_string(offset.x) + "-" + std::to_string(floorAlbedo);
+  seq.contentHash =
+      "reference-paths-sunlit-wall-" + std::to_string(offset.x) + "-" + std::to_string(floorAlbedo);
   Material floor, wall;
   floor.name = "floor";
   floor.albedo = Vec3(static_cast<float>(floorAlbedo));
@@ -188,11 +203,12 @@ TEST(ReferencePaths, SunlitWallLightsTheShadedFloorByOneBounce) {
   for (const D3& offset : {D3(0.0), D3(600.0, 300.0, -750.0)}) {
     for (int bounces : {1, 2}) {
       const WallScene s = SunlitWall(offset, 0.7, 0.6);
-      const Rendered r = Render(s.seq, s.state, bounces, 512);
+      const Rendered r = Render(s.seq, s.state, bounces, 1024);
       char what[96];
       std::snprintf(what, sizeof what, "sunlit wall, %g m out, %d bounce%s", glm::length(offset), bounces,
                     bounces > 1 ? "s" : "");
-      ExpectAgreement(r, [&](size_t i) { return WallTruth(s, r.g, i); }, what, 800);
+      ExpectAgreement(
+          r, [&](size_t i) { return WallTruth(s, r.g, i); }, what, 800);
     }
   }
 }
@@ -212,8 +228,8 @@ TEST(ReferencePaths, NoBouncesLeavesTheShadedFloorBlack) {
 
 // ---- b. The integrating sphere ----
 
-// A one-sided square emitter as the scene holds it (its corners in float: 1000 m out their rounding, 6e-5 m, changes
-// a 4 cm emitter's area by 0.3%, which its flux must follow).
+// A one-sided square emitter as the scene holds it (its corners in float: 1000 m out their rounding, 6e-5 m,
+// changes a 4 cm emitter's area by 0.3%, which its flux must follow).
 struct SphereEmitter {
   std::vector<D3> corners;  // counter-clockwise seen from its lit side
   D3 normal{0.0};
@@ -232,8 +248,8 @@ struct SphereScene {
 void AddSquareEmitter(SphereScene& s, const D3& c, const D3& n, double h, double radiance) {
   const D3 t1 = glm::normalize(glm::cross(n, std::fabs(n.z) < 0.9 ? D3(0, 0, 1) : D3(1, 0, 0)));
   const D3 t2 = glm::cross(n, t1);  // cross(t1, t2) = n: test::AddQuadLight emits along it
-  test::AddQuadLight(s.seq, "emitter" + std::to_string(s.emitters.size()), Vec3(c), Vec3(h * t1), Vec3(h * t2),
-                     Vec3(static_cast<float>(radiance)));
+  test::AddQuadLight(s.seq, "emitter" + std::to_string(s.emitters.size()), Vec3(c), Vec3(h * t1),
+                     Vec3(h * t2), Vec3(static_cast<float>(radiance)));
   const std::vector<Vec3>& v = s.seq.lights.back().vertices;  // p0 p1 p2, p0 p2 p3
   SphereEmitter e;
   e.corners = {D3(v[0]), D3(v[1]), D3(v[2]), D3(v[5])};
@@ -244,9 +260,9 @@ void AddSquareEmitter(SphereScene& s, const D3& c, const D3& n, double h, double
   s.emitters.push_back(e);
 }
 
-// One 4 cm emitter 0.2 m below the centre, its normal tilted from +Y about +Z; or three 3 cm emitters of different
-// radiance around a small circle, each facing outwards and 30° up, so that each of the others lies behind its plane
-// (none shades another's light).
+// One 4 cm emitter 0.2 m below the centre, its normal tilted from +Y about +Z; or three 3 cm emitters of
+// different radiance around a small circle, each facing outwards and 30° up, so that each of the others lies
+// behind its plane (none shades another's light).
 SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegrees, int emitters = 1) {
   SphereScene s;
   Sequence& seq = s.seq;
@@ -254,8 +270,8 @@ SphereScene IntegratingSphere(const D3& centre, double albedo, double tiltDegree
   seq.width = 48;
   seq.height = 36;
   seq.frameCount = 1;
-  seq.contentHash = "reference-paths-sphere-" + std::to_string(centre.x) + "-" + std::to_string(albedo) + "-" +
-                    std::to_string(tiltDegrees) + "-" + std::to_string(emitters);
+  seq.contentHash = "reference-paths-sphere-" + std::to_string(centre.x) + "-" + std::to_string(albedo) +
+                    "-" + std::to_string(tiltDegrees) + "-" + std::to_string(emitters);
   Material wall;
   wall.name = "wall";
   wall.albedo = Vec3(static_cast<float>(albedo));
@@ -301,7 +317,8 @@ double SphereTruth(const SphereScene& s, const GBuffer& g, size_t i, int bounces
   const D3 n = glm::normalize(s.centre - x);  // the wall faces the centre
   double direct = 0.0, flux = 0.0;
   for (const SphereEmitter& e : s.emitters) {
-    if (glm::dot(e.normal, x - e.corners[0]) > 0.0) direct += e.radiance * ProjectedSolidAngle(x, n, e.corners);
+    if (glm::dot(e.normal, x - e.corners[0]) > 0.0)
+      direct += e.radiance * ProjectedSolidAngle(x, n, e.corners);
     flux += M_PI * e.area * e.radiance;
   }
   double series = 0.0, power = 1.0;
@@ -316,24 +333,26 @@ TEST(ReferencePaths, IntegratingSphereReflectsTheGeometricSeries) {
     int bounces, emitters;
   };
   const D3 far = 1000.0 * glm::normalize(D3(0.8, 0.36, -0.48));
-  for (const Case& c : {Case{D3(0.0), 0.8, 0.0, 1, 1}, Case{D3(0.0), 0.8, 0.0, 3, 1}, Case{D3(0.0), 0.5, 35.0, 2, 1},
-                        Case{far, 0.8, 35.0, 3, 1}, Case{far, 0.5, 0.0, 1, 1}, Case{D3(0.0), 0.8, 80.0, 2, 1},
-                        Case{D3(0.0), 0.8, 10.0, 2, 3}, Case{far, 0.5, 50.0, 3, 3}}) {
+  for (const Case& c :
+       {Case{D3(0.0), 0.8, 0.0, 1, 1}, Case{D3(0.0), 0.8, 0.0, 3, 1}, Case{D3(0.0), 0.5, 35.0, 2, 1},
+        Case{far, 0.8, 35.0, 3, 1}, Case{far, 0.5, 0.0, 1, 1}, Case{D3(0.0), 0.8, 80.0, 2, 1},
+        Case{D3(0.0), 0.8, 10.0, 2, 3}, Case{far, 0.5, 50.0, 3, 3}}) {
     const SphereScene s = IntegratingSphere(c.centre, c.albedo, c.tilt, c.emitters);
     const Rendered r = Render(s.seq, s.state, c.bounces, 256);
     char what[112];
     std::snprintf(what, sizeof what, "sphere %g m out, albedo %.1f, %d emitter%s, tilt %g, %d bounce%s",
                   glm::length(c.centre), c.albedo, c.emitters, c.emitters > 1 ? "s" : "", c.tilt, c.bounces,
                   c.bounces > 1 ? "s" : "");
-    ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, c.bounces); }, what, 1500);
+    ExpectAgreement(
+        r, [&](size_t i) { return SphereTruth(s, r.g, i, c.bounces); }, what, 1500);
   }
 }
 
 // ---- c. A preset frame's indirect light (IndirectImage: one path a pixel) ----
 
-// The mean of kSeeds frames' indirect images (seeds 0..kSeeds−1) with its standard error from their spread, as a
-// Rendered whose reference is that mean: the claims of ExpectAgreement then hold the frames' estimate unbiased and
-// their spread honest (the mean's variance over the seeds, unbiased, as the replicates' is).
+// The mean of kSeeds frames' indirect images (seeds 0..kSeeds−1) with its standard error from their spread,
+// as a Rendered whose reference is that mean: the claims of ExpectAgreement then hold the frames' estimate
+// unbiased and their spread honest (the mean's variance over the seeds, unbiased, as the replicates' is).
 Rendered IndirectFrames(const Sequence& seq, const FrameState& state, int bounces, int seeds) {
   Rendered r;
   EmbreeScene scene(seq);
@@ -369,14 +388,16 @@ TEST(IndirectImage, FramesAverageToTheClosedForms) {
     // A floor pixel's one path meets the wall with probability 6-32%: 384 frames for a 1% bound with power.
     const WallScene s = SunlitWall(D3(0.0), 0.7, 0.6);
     const Rendered r = IndirectFrames(s.seq, s.state, 1, 384);
-    ExpectAgreement(r, [&](size_t i) { return WallTruth(s, r.g, i); }, "frames: sunlit wall, 1 bounce", 800);
+    ExpectAgreement(
+        r, [&](size_t i) { return WallTruth(s, r.g, i); }, "frames: sunlit wall, 1 bounce", 800);
   }
   {
     // Only the indirect part: the frames' direct light is the presets' (their own tests).
     const SphereScene s = IntegratingSphere(D3(0.0), 0.8, 35.0);
     const Rendered r = IndirectFrames(s.seq, s.state, 3, 96);
-    ExpectAgreement(r, [&](size_t i) { return SphereTruth(s, r.g, i, 3) - SphereTruth(s, r.g, i, 0); },
-                    "frames: sphere, albedo 0.8, tilt 35, 3 bounces", 1500);
+    ExpectAgreement(
+        r, [&](size_t i) { return SphereTruth(s, r.g, i, 3) - SphereTruth(s, r.g, i, 0); },
+        "frames: sphere, albedo 0.8, tilt 35, 3 bounces", 1500);
   }
 }
 

@@ -1,5 +1,5 @@
-// The frame loop's preset frame (sim/run/frame_loop.h RenderPreset): the pipeline's passes, then the indirect pass
-// where the preset's settings ask for indirect light.
+// The frame loop's preset frame (sim/run/frame_loop.h RenderPreset): the pipeline's passes, then the indirect
+// pass where the preset's settings ask for indirect light.
 #include "sim/run/frame_loop.h"
 
 #include <gtest/gtest.h>
