@@ -88,6 +88,17 @@ inline bool FormsQuad(const LightTriangle& t0, const LightTriangle& t1) {
   return true;
 }
 
+// Per group, the sum of its triangles' entries of a per-triangle distribution (a quad's two, in order).
+inline std::vector<float> GroupShares(const std::vector<float>& trianglePmf, const LightGroups& groups) {
+  std::vector<float> shares;
+  shares.reserve(groups.first.size());
+  for (size_t g = 0; g < groups.first.size(); ++g) {
+    const uint32_t t = groups.first[g];
+    shares.push_back(groups.split[g] <= 1.0f ? trianglePmf[t] + trianglePmf[t + 1] : trianglePmf[t]);
+  }
+  return shares;
+}
+
 inline LightGroups MakeLightGroups(const std::vector<LightTriangle>& triangles) {
   LightGroups g;
   for (size_t t = 0; t < triangles.size();) {

@@ -516,10 +516,7 @@ BlockPlan::BlockPlan(const ReferenceFrame& frame)
   std::vector<float> powerPmf;
   for (uint32_t l = 0; frame.hasLocal && l < nLights; ++l) powerPmf.push_back(frame.lights.SelectionPmf(l));
   if (frame.hasLocal) selectionLights = MakeSelectionLights(frame.lightList, groups, powerPmf);
-  for (size_t g = 0; frame.hasLocal && g < nGroups; ++g) {
-    const uint32_t t = groups.first[g];
-    groupPowerPmf.push_back(groups.split[g] <= 1.0f ? powerPmf[t] + powerPmf[t + 1] : powerPmf[t]);
-  }
+  if (frame.hasLocal) groupPowerPmf = GroupShares(powerPmf, groups);
   selection = SelectionLights{perPixelLights ? selectionLights.data() : nullptr,
                               perPixelLights ? selectionLights.size() : 0};
 }
@@ -1145,6 +1142,29 @@ void ReplicatePoints(const ReferenceFrame& frame, const ReceiverBlock& block, co
 // the mean of the replicate means plus `constant` (the difference estimator's exact part, 0 elsewhere), added to
 // what the pixel sees emitted, and the standard errors of its channels and of its luminance from the replicates'
 // spread.
+// A pixel's estimate from its kReplicates independent replicate means: their mean, and the variance of that mean
+// per channel and of its luminance (the replicates' unbiased variance / kReplicates).
+struct ReplicateEstimate {
+  glm::dvec3 mean{0.0};
+  glm::dvec3 variance{0.0};
+  double lumaVariance = 0.0;
+};
+ReplicateEstimate CombineReplicates(const glm::dvec3 (&replicateMean)[kReplicates]) {
+  ReplicateEstimate e;
+  for (const glm::dvec3& r : replicateMean) e.mean += r;
+  e.mean /= double(kReplicates);
+  glm::dvec3 var(0.0);
+  for (const glm::dvec3& r : replicateMean) var += (r - e.mean) * (r - e.mean);
+  var /= double(kReplicates - 1);
+  const double meanY = Luminance(e.mean);
+  double varY = 0.0;
+  for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
+  varY /= double(kReplicates - 1);
+  e.variance = var / double(kReplicates);
+  e.lumaVariance = varY / double(kReplicates);
+  return e;
+}
+
 void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_t i, const glm::dvec3& constant,
                       ReferenceImage& ref) {
   // Replicate sums channel by channel over the SoA samples (the same double additions in the same order as a
@@ -1159,18 +1179,10 @@ void AddPixelEstimate(const BlockScratch& scratch, size_t first, size_t m, size_
   const double perPoint = 1.0 / double(m);  // one division, not one per replicate and channel
   for (int rep = 0; rep < kReplicates; ++rep)
     replicateMean[rep] = glm::dvec3(sums[0][rep], sums[1][rep], sums[2][rep]) * perPoint;
-  glm::dvec3 mean(0.0), var(0.0);
-  for (const glm::dvec3& r : replicateMean) mean += r;
-  mean /= double(kReplicates);
-  for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
-  var /= double(kReplicates - 1);
-  const double meanY = Luminance(mean);
-  double varY = 0.0;
-  for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
-  varY /= double(kReplicates - 1);
-  ref.mean.pixels[i] += Vec3(mean + constant);
-  ref.standardError.pixels[i] = Vec3(glm::sqrt(var / double(kReplicates)));
-  ref.lumaStandardError[i] = static_cast<float>(std::sqrt(varY / double(kReplicates)));
+  const ReplicateEstimate e = CombineReplicates(replicateMean);
+  ref.mean.pixels[i] += Vec3(e.mean + constant);
+  ref.standardError.pixels[i] = Vec3(glm::sqrt(e.variance));
+  ref.lumaStandardError[i] = static_cast<float>(std::sqrt(e.lumaVariance));
 }
 
 // Main pass: per pixel, kReplicates independently shifted copies of the Roberts sequence, perReplicate[i]
@@ -1266,20 +1278,12 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
       replicateMean[rep] = sum / double(m);
     }
     pathCount.local() += uint64_t(m) * kReplicates;
-    glm::dvec3 mean(0.0), var(0.0);
-    for (const glm::dvec3& r : replicateMean) mean += r;
-    mean /= double(kReplicates);
-    for (const glm::dvec3& r : replicateMean) var += (r - mean) * (r - mean);
-    var /= double(kReplicates - 1);
-    const double meanY = Luminance(mean);
-    double varY = 0.0;
-    for (const glm::dvec3& r : replicateMean) varY += (Luminance(r) - meanY) * (Luminance(r) - meanY);
-    varY /= double(kReplicates - 1);
-    ref.mean.pixels[i] += Vec3(mean);
+    const ReplicateEstimate e = CombineReplicates(replicateMean);
+    ref.mean.pixels[i] += Vec3(e.mean);
     const glm::dvec3 se(ref.standardError.pixels[i]);
-    ref.standardError.pixels[i] = Vec3(glm::sqrt(se * se + var / double(kReplicates)));
+    ref.standardError.pixels[i] = Vec3(glm::sqrt(se * se + e.variance));
     const double seY = ref.lumaStandardError[i];
-    ref.lumaStandardError[i] = static_cast<float>(std::sqrt(seY * seY + varY / double(kReplicates)));
+    ref.lumaStandardError[i] = static_cast<float>(std::sqrt(seY * seY + e.lumaVariance));
   });
   ref.paths = pathCount.combine(std::plus<uint64_t>());
 }

@@ -29,13 +29,9 @@ std::vector<float> PowerPmf(const std::vector<LightTriangle>& lights) {
 
 // Per light group, the cumulative of its triangles' shares of the power.
 std::vector<float> CumulativePower(const std::vector<float>& pmf, const LightGroups& groups) {
-  std::vector<float> cdf;
+  std::vector<float> cdf = pmf.empty() ? std::vector<float>() : GroupShares(pmf, groups);
   float sum = 0.0f;
-  for (size_t g = 0; g < groups.first.size() && !pmf.empty(); ++g) {
-    const uint32_t t = groups.first[g];
-    sum += groups.split[g] <= 1.0f ? pmf[t] + pmf[t + 1] : pmf[t];
-    cdf.push_back(sum);
-  }
+  for (float& c : cdf) c = sum += c;
   return cdf;
 }
 
