@@ -7,6 +7,7 @@
 
 #include <cmath>
 
+#include "core/bsdf.h"
 #include "core/math.h"
 
 namespace restir {
@@ -31,5 +32,26 @@ inline float ReconnectionJacobian(const Vec3& x1, const Vec3& y1, const Vec3& x2
   const float lx = std::sqrt(lx2), ly = std::sqrt(ly2);
   return (cosY * lx2 * lx) / (cosX * ly2 * ly);
 }
+
+// Whether a path may be reconnected at x₂ with BSDF `bsdf`: where x₂ reflects by a Lambertian lobe alone, the
+// radiance it sends towards any primary vertex is the same, L_o(x₂), and the rest of the path (its directions
+// drawn at x₂ by the cosine, independent of where the path came from) keeps its density, so a shifted sample's
+// value is f_r(y₁) G(y₁, x₂) V L_o(x₂): a secondary vertex is reused exactly as a point on a light with
+// radiance L_o is (DESIGN §4 "Path reuse", area measure). A glossy x₂ (any GGX lobe) sends a radiance that
+// depends on the direction and draws its next direction from it, so it is not reconnected: its path is used
+// at its own pixel only (the hybrid shift is not built; docs/architecture.md).
+inline bool Reconnectable(const Bsdf& bsdf) {
+  return bsdf.type == BsdfType::kDiffuse || (bsdf.type == BsdfType::kLayered && !(bsdf.specularWeight > 0.0f));
+}
+
+// A path's first vertex after the primary hit, as a sample ReSTIR GI resamples (Ouyang et al. 2021 §3): x₂, the
+// radiance it sends back towards x₁ and the density with which x₁'s BSDF found it, in area measure at x₂.
+struct SecondaryVertex {
+  Vec3 position{0.0f};   // x₂
+  Vec3 normal{0.0f};     // x₂'s geometric normal on the side x₁ sees (the side the ray arrived on)
+  Vec3 radiance{0.0f};   // L_o(x₂ → x₁): the path's estimate of what leaves x₂ by reflection
+  float pdfArea = 0.0f;  // p_A(x₂) = p_ω(ω) |n₂ · ω| / ‖x₂ − x₁‖², ω x₁'s sampled direction; 0: no vertex
+  float errorScale = 0;  // x₂'s error scale, for the far end of a ray to it (core/shadow_ray.h)
+};
 
 }  // namespace restir

@@ -60,12 +60,6 @@ void Tally(const GBuffer& g, const ReservoirBuffer& reservoirs, bool measureRese
   if (measureReservoirs) MeasureOutputReservoirs(g, reservoirs, r.diagnostics);
 }
 
-// One BSDF per material, and one per textured receiver when the scene has textures (GBuffer::bsdfId indexes it).
-BsdfSoa FrameMaterials(const FrameInputs& in) {
-  return in.sceneMaterials ? FrameBsdfTable(*in.materials, *in.sceneMaterials, *in.gbuffer,
-                                            in.previousState ? in.previousGbuffer : nullptr)
-                           : MakeBsdfSoa(*in.materials);
-}
 
 // The share of pixels whose reservoir contributes, in the whole frame and in the diagnostics region; zero when the
 // run does not measure reservoirs.
@@ -74,6 +68,12 @@ Contributing MeasureContributing(const FrameInputs& in, const ReservoirBuffer& r
 }
 
 }  // namespace
+
+BsdfSoa FrameMaterials(const FrameInputs& in) {
+  return in.sceneMaterials ? FrameBsdfTable(*in.materials, *in.sceneMaterials, *in.gbuffer,
+                                            in.previousState ? in.previousGbuffer : nullptr)
+                           : MakeBsdfSoa(*in.materials);
+}
 
 PipelineSettings PassSettings(const PipelineSettings& settings) {
   PipelineSettings s = settings;
@@ -105,14 +105,21 @@ Contributing Pipeline::InitialPass(const FrameInputs& in, const FrameView& view,
   return initial;
 }
 
+PipelineSettings IndirectPassSettings(const PipelineSettings& settings) {
+  PipelineSettings s = settings;
+  s.temporal = settings.indirect.temporal;
+  s.spatial = settings.indirect.spatial;
+  s.shade = settings.indirect.shade;
+  return PassSettings(s);
+}
+
 // The spatial pass the MIS family selects: stochastic pairwise over cells (seed 004), else k neighbours.
-void Pipeline::SpatialPass(const FrameView& view, FrameResult& r) {
-  const SpatialParams& spatial = passes_.spatial;
+void Pipeline::SpatialPass(const SpatialParams& spatial, const FrameView& view, ReservoirBuffer& current,
+                           ReservoirBuffer& scratch, CellGrid& cells, FrameResult& r) {
   if (spatial.mis == MisFamily::kStochasticPairwise)
-    StochasticPairwiseReuse(spatial, view, r.temporalAccepted, reservoirs_, previousReservoirs_, cells_,
-                            r.passes.emplace_back());
+    StochasticPairwiseReuse(spatial, view, r.temporalAccepted, current, scratch, cells, r.passes.emplace_back());
   else
-    SpatialReuse(spatial, view, r.temporalAccepted, reservoirs_, previousReservoirs_, r.passes.emplace_back());
+    SpatialReuse(spatial, view, r.temporalAccepted, current, scratch, r.passes.emplace_back());
 }
 
 // DESIGN §2, from InitialSampling to Shade. A pass the preset lacks leaves the contributing share as it was.
@@ -127,7 +134,7 @@ FrameResult Pipeline::RenderFrame(const FrameInputs& in) {
     TemporalReuse(s.temporal, view, previousReservoirs_, reservoirs_, r.temporalAccepted,
                   r.passes.emplace_back());
   const Contributing temporal = s.temporal.enabled ? MeasureContributing(in, reservoirs_) : initial;
-  if (s.spatial.enabled) SpatialPass(view, r);
+  if (s.spatial.enabled) SpatialPass(s.spatial, view, reservoirs_, previousReservoirs_, cells_, r);
   const Contributing spatial = s.spatial.enabled ? MeasureContributing(in, reservoirs_) : temporal;
   RecordContributing(initial, temporal, spatial, r.diagnostics);
   Shade(s.shade, view, reservoirs_, r.image, r.passes.emplace_back());

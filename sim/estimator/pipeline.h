@@ -9,6 +9,7 @@
 
 #include "core/bsdf.h"
 #include "core/light_sampler.h"
+#include "core/reconnection_shift.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/util/image.h"
@@ -30,6 +31,9 @@ class InitialSamplingShare;
 // other's struct (TemporalParams::visibility and SpatialParams::visibility from shade.visibility,
 // SpatialParams::disocclusionBoost from temporal.enabled), so each pass takes only its own struct.
 PipelineSettings PassSettings(const PipelineSettings& settings);
+// The settings ReSTIR GI's passes read: indirect.temporal, spatial and shade in the places of the direct light's,
+// through PassSettings.
+PipelineSettings IndirectPassSettings(const PipelineSettings& settings);
 
 // Everything a frame reads about the current and previous frame. Owned by the frame loop; passes never write it.
 struct FrameInputs {
@@ -104,6 +108,14 @@ class Pipeline {
   // scratch is sized by them).
   explicit Pipeline(const PipelineSettings& settings);
   FrameResult RenderFrame(const FrameInputs& in);
+  // ReSTIR GI's frame (Ouyang et al. 2021; DESIGN §4 "Path reuse"), where Settings().indirect.reuse: each pixel's
+  // path vertex x₂ (`vertices`, per pixel, from the frame loop's paths: sim/reference/reference_paths.h
+  // SecondaryVertices) is its initial reservoir, W = 1 / p_A(x₂); then the direct light's own temporal reuse,
+  // spatial reuse and shading passes with indirect.temporal/spatial/shade, on a view whose "lights" are the
+  // secondary vertices as points sending L_o(x₂): in area measure at x₂ the reconnection shift is the identity,
+  // so every MIS family, bias correction and SIMD kernel of the direct light applies as it is, Jacobian 1. The
+  // image is the GI estimate alone (no emission); its passes' statistics are in `passes`.
+  FrameResult RenderIndirect(const FrameInputs& in, const std::vector<SecondaryVertex>& vertices);
   const PipelineSettings& Settings() const { return settings_; }
   // The state carried to the next frame (the last output reservoirs), for checkpoints (--resume).
   const ReservoirBuffer& History() const { return previousReservoirs_; }
@@ -113,10 +125,23 @@ class Pipeline {
   static constexpr int kReservoirBuffers = 2;
   // The cells of the last stochastic pairwise iteration (tests, memory accounting).
   const CellGrid& Cells() const { return cells_; }
+  // ReSTIR GI's state carried to the next frame: the output reservoirs and the vertices they hold (their lightIds
+  // index it).
+  const ReservoirBuffer& IndirectHistory() const { return gi_.previous; }
+  const std::vector<LightTriangle>& IndirectVertices() const { return gi_.vertices; }
 
  private:
+  // One family of reservoirs with its history: the direct light's, or ReSTIR GI's.
+  struct ReservoirState {
+    ReservoirBuffer current;   // this frame's reservoirs
+    ReservoirBuffer previous;  // last frame's output (temporal input), then spatial scratch
+    CellGrid cells;            // the last stochastic pairwise iteration's
+    std::vector<LightTriangle> vertices;  // GI: the secondary vertices `previous` holds, as points (RenderIndirect)
+  };
+
   Contributing InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r);
-  void SpatialPass(const FrameView& view, FrameResult& r);
+  static void SpatialPass(const SpatialParams& spatial, const FrameView& view, ReservoirBuffer& current,
+                          ReservoirBuffer& scratch, CellGrid& cells, FrameResult& r);
 
   PipelineSettings settings_;
   // What the passes read: settings_ with the cross-pass facts filled in once, when the pipeline is built (why: a
@@ -125,7 +150,14 @@ class Pipeline {
   ReservoirBuffer reservoirs_;          // this frame's reservoirs
   ReservoirBuffer previousReservoirs_;  // last frame's output (temporal input), then spatial scratch
   CellGrid cells_;
+  // ReSTIR GI's passes (settings_.indirect's temporal, spatial and shade as PassSettings fills them) and state.
+  PipelineSettings giPasses_ = IndirectPassSettings(settings_);
+  ReservoirState gi_;
 };
+
+// The frame's materials as the kernels read them: one BSDF per material, and one per textured receiver when the
+// scene has textures (GBuffer::bsdfId indexes it).
+BsdfSoa FrameMaterials(const FrameInputs& in);
 
 // The passes' view of a frame's inputs, with the materials as the kernels read them.
 FrameView MakeFrameView(const FrameInputs& in, const BsdfSoa& materials);

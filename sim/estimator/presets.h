@@ -16,8 +16,13 @@ struct Preset {
   PipelineSettings settings;
 };
 
+// The direct-light presets, `--preset all`.
 const std::vector<Preset>& AllPresets();
-// nullptr when unknown.
+// The ReSTIR GI presets (issue 41): each a direct-light preset with one bounce of indirect light resampled by
+// ReSTIR GI. Not in `all`: a run's presets share one reference, so they must model the same bounces.
+const std::vector<Preset>& IndirectPresets();
+// nullptr when unknown. Knows AllPresets, IndirectPresets and "A+B", A's direct light with B's indirect light (B
+// one that models indirect light).
 const Preset* FindPreset(const std::string& name);
 // "unknown preset 'x'" with the nearest name or the list of them: the body of every message about one.
 std::string UnknownPresetMessage(const std::string& name);

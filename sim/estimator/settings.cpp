@@ -155,6 +155,26 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("shade.finalVisibilityMaxDistance", shade.finalVisibilityMaxDistance),
       RESTIR_FIELD("shade.discardInvisibleSamples", shade.discardInvisibleSamples),
       RESTIR_FIELD("indirect.bounces", indirect.bounces),
+      RESTIR_FIELD("indirect.reuse", indirect.reuse),
+      RESTIR_FIELD("indirect.temporal.enabled", indirect.temporal.enabled),
+      RESTIR_ENUM_FIELD("indirect.temporal.mis", indirect.temporal.mis, kMisNames),
+      RESTIR_ENUM_FIELD("indirect.temporal.bias", indirect.temporal.bias, kBiasNames),
+      RESTIR_FIELD("indirect.temporal.maxHistory", indirect.temporal.maxHistory),
+      RESTIR_FIELD("indirect.temporal.sampleChecks", indirect.temporal.sampleChecks),
+      RESTIR_FIELD("indirect.temporal.targetRatioClamp", indirect.temporal.targetRatioClamp),
+      RESTIR_FIELD("indirect.temporal.boilingFilterStrength", indirect.temporal.boilingFilterStrength),
+      RESTIR_FIELD("indirect.spatial.enabled", indirect.spatial.enabled),
+      RESTIR_ENUM_FIELD("indirect.spatial.mis", indirect.spatial.mis, kMisNames),
+      RESTIR_ENUM_FIELD("indirect.spatial.bias", indirect.spatial.bias, kBiasNames),
+      RESTIR_FIELD("indirect.spatial.neighbours", indirect.spatial.neighbours),
+      RESTIR_FIELD("indirect.spatial.disocclusionNeighbours", indirect.spatial.disocclusionNeighbours),
+      RESTIR_FIELD("indirect.spatial.radius", indirect.spatial.radius),
+      RESTIR_FIELD("indirect.spatial.iterations", indirect.spatial.iterations),
+      RESTIR_FIELD("indirect.spatial.normalThreshold", indirect.spatial.normalThreshold),
+      RESTIR_FIELD("indirect.spatial.depthThreshold", indirect.spatial.depthThreshold),
+      RESTIR_FIELD("indirect.spatial.draws", indirect.spatial.stochastic.draws),
+      RESTIR_FIELD("indirect.spatial.canonicalDraws", indirect.spatial.stochastic.canonicalDraws),
+      RESTIR_ENUM_FIELD("indirect.shade.visibility", indirect.shade.visibility, kVisNames),
   };
   return fields;
 }
@@ -237,6 +257,17 @@ std::vector<SettingBound> MakeBounds() {
             "0.0277778)"),
       // 8: kMaxIndirectBounces (sim/reference/reference_paths.h), which the estimator may not include.
       Bound("indirect.bounces", RESTIR_MEMBER(indirect.bounces), 0, 8, "indirect.bounces must be in [0, 8]"),
+      // The GI reservoirs' passes are the direct light's, with the same per-batch scratch.
+      Bound("indirect.spatial.neighbours", RESTIR_MEMBER(indirect.spatial.neighbours), -kNone, kMaxGrisInputs - 1,
+            neighbours),
+      Bound("indirect.spatial.disocclusionNeighbours", RESTIR_MEMBER(indirect.spatial.disocclusionNeighbours),
+            -kNone, kMaxGrisInputs - 1, neighbours),
+      Bound("indirect.temporal.boilingFilterStrength", RESTIR_MEMBER(indirect.temporal.boilingFilterStrength), 0, 1,
+            "boilingFilterStrength must be in [0, 1] (0: off)"),
+      Bound("indirect.spatial.draws", RESTIR_MEMBER(indirect.spatial.stochastic.draws), 1, kMaxGrisInputs - 1,
+            draws, kPipeline),
+      Bound("indirect.spatial.canonicalDraws", RESTIR_MEMBER(indirect.spatial.stochastic.canonicalDraws), 1,
+            kMaxGrisInputs - 1, draws, kPipeline),
   };
 }
 

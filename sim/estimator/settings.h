@@ -16,14 +16,21 @@
 
 namespace restir {
 
-// Indirect light (issue 41): what a preset's frames model beyond direct light. Not one of the pipeline's passes: the
-// frame loop adds it after them (sim/run/frame_loop.h FrameLoop::RenderPreset) with the reference's path sampler
-// (sim/reference/reference_paths.h), one path a pixel, until presets resample it (ReSTIR GI).
+// Indirect light (issue 41): what a preset's frames model beyond direct light, after the direct light's passes.
+// Paths come from the reference's path sampler (sim/reference/reference_paths.h), one a pixel, which the frame
+// loop traces (sim/run/frame_loop.h FrameLoop::RenderPreset): added as they are, or resampled by ReSTIR GI.
 struct IndirectParams {
   // The most surfaces after the primary hit that a path's light may reflect at before it reaches the pixel, 0 to 8
   // (kMaxIndirectBounces); 0: direct light only, the frames as they were before issue 41. A run's presets must all
   // model the same, as their one reference does (ReferenceParams::indirectBounces).
   int bounces = 0;
+  // ReSTIR GI (Ouyang et al. 2021): each path's first vertex after the primary hit, x₂, becomes a reservoir
+  // sample that the passes below reuse across frames and pixels by the reconnection shift (Pipeline::
+  // RenderIndirect; DESIGN §4 "Path reuse"). false: each pixel's path is added as it is.
+  bool reuse = false;
+  TemporalParams temporal;  // the GI reservoirs' temporal reuse (its visibility follows shade.visibility below)
+  SpatialParams spatial;    // their spatial reuse: k neighbours, or stochastic pairwise over cells
+  ShadeParams shade;        // their shading: f V W of each pixel's final GI sample
 };
 
 struct PipelineSettings {
@@ -31,7 +38,7 @@ struct PipelineSettings {
   TemporalParams temporal;        // the temporal-reuse pass
   SpatialParams spatial;          // the spatial-reuse pass (k neighbours, or stochastic pairwise over cells)
   ShadeParams shade;              // the shading pass
-  IndirectParams indirect;        // indirect light, added after the passes by the frame loop
+  IndirectParams indirect;        // indirect light, after the direct light's passes (FrameLoop::RenderPreset)
 };
 
 // (name, value) for every field, in a fixed order.

@@ -89,48 +89,83 @@ ShadingPoint PathScene::Vertex(const SurfaceHit& hit, const Vec3& dir) const {
   return sp;
 }
 
+bool PathScene::Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdf, uint64_t& rays) const {
+  const BsdfSample bs = SampleBsdf(x.bsdf, x.shadingNormal, x.wo, ub[0], ub[1]);
+  if (!(bs.pdf > 0.0f) || !(glm::dot(x.geometricNormal, bs.wi) > 0.0f)) return false;
+  const float cosX = glm::dot(x.shadingNormal, bs.wi);
+  if (!(cosX > 0.0f)) return false;
+  throughput *= EvalBsdf(x.bsdf, x.shadingNormal, x.wo, bs.wi) * (cosX / bs.pdf);
+  if (!(throughput.x > 0.0f || throughput.y > 0.0f || throughput.z > 0.0f)) return false;
+  const Vec3 org = OffsetRayOrigin(x.position, x.geometricNormal, x.errorScale, bs.wi);
+  const SurfaceHit hit = scene_.Intersect(org, bs.wi, std::numeric_limits<float>::infinity());
+  ++rays;
+  // An escape or an emitter: what it sends along the ray is x's direct light, which x's own next-event
+  // sample (or, at x₁, the direct-light reference) takes; neither reflects.
+  if (!hit.hit || hit.materialId < 0) return false;
+  if (pdf) *pdf = bs.pdf;
+  x = Vertex(hit, bs.wi);
+  return true;
+}
+
+bool PathScene::NextEvent(const ShadingPoint& x, const float* u, SampleBatch& scratch, Vec3& value,
+                          uint64_t& rays) const {
+  const bool hasLocal = !powerCdf_.empty() && powerCdf_.back() > 0.0f;
+  SkySampling sampling;
+  if (!sky_.Empty()) {
+    sampling.sky = &sky_;
+    const float sunEstimate = SunEstimate(x, sky_, summary_);
+    const float environmentEstimate = EnvironmentEstimate(x, sky_, summary_);
+    const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
+    sampling.mixture = MixLightStrategies(hasLocal ? skyEstimate : -1.0f, sunEstimate, environmentEstimate);
+  } else if (!hasLocal) {
+    return false;
+  }
+  // SkySamples' layout: coordinate j of its one sample at u[j].
+  float v[3] = {0.0f, 0.0f, 0.0f};
+  float* const out[3] = {&v[0], &v[1], &v[2]};
+  SkySamples(x, scene_, lights_, VertexDistribution(x, scratch.vertexCdf), sampling, u, 1, scratch, out, rays);
+  value = Vec3(v[0], v[1], v[2]);
+  return true;
+}
+
 Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
                                uint64_t& rays) const {
-  const bool hasLocal = !powerCdf_.empty() && powerCdf_.back() > 0.0f;
-  const bool hasSky = !sky_.Empty();
-  Vec3 sum(0.0f), throughput(1.0f);
+  Vec3 sum(0.0f), throughput(1.0f), light(0.0f);
   ShadingPoint x = x1;
   for (int bounce = 0; bounce < bounces; ++bounce) {
     const float* ub = u + static_cast<size_t>(bounce) * kBounceDims;
-    // The next vertex by the BSDF at x (throughput f cos θ / p, the path's weight in solid angle).
-    const BsdfSample bs = SampleBsdf(x.bsdf, x.shadingNormal, x.wo, ub[0], ub[1]);
-    if (!(bs.pdf > 0.0f) || !(glm::dot(x.geometricNormal, bs.wi) > 0.0f)) break;
-    const float cosX = glm::dot(x.shadingNormal, bs.wi);
-    if (!(cosX > 0.0f)) break;
-    throughput *= EvalBsdf(x.bsdf, x.shadingNormal, x.wo, bs.wi) * (cosX / bs.pdf);
-    if (!(throughput.x > 0.0f || throughput.y > 0.0f || throughput.z > 0.0f)) break;
-    const Vec3 org = OffsetRayOrigin(x.position, x.geometricNormal, x.errorScale, bs.wi);
-    const SurfaceHit hit = scene_.Intersect(org, bs.wi, std::numeric_limits<float>::infinity());
-    ++rays;
-    // An escape or an emitter: what it sends along the ray is x's direct light, which x's own next-event
-    // sample (or, at x₁, the direct-light reference) takes; neither reflects.
-    if (!hit.hit || hit.materialId < 0) break;
-    x = Vertex(hit, bs.wi);
-    // x's direct light: one sample of the reference's light and BSDF strategies, combined by the power
-    // heuristic.
-    SkySampling sampling;
-    if (hasSky) {
-      sampling.sky = &sky_;
-      const float sunEstimate = SunEstimate(x, sky_, summary_);
-      const float environmentEstimate = EnvironmentEstimate(x, sky_, summary_);
-      const float skyEstimate = std::max(0.0f, sunEstimate) + std::max(0.0f, environmentEstimate);
-      sampling.mixture = MixLightStrategies(hasLocal ? skyEstimate : -1.0f, sunEstimate, environmentEstimate);
-    } else if (!hasLocal) {
-      break;
-    }
-    // SkySamples' layout: coordinate j of its one sample at u[j].
-    float value[3] = {0.0f, 0.0f, 0.0f};
-    float* const out[3] = {&value[0], &value[1], &value[2]};
-    SkySamples(x, scene_, lights_, VertexDistribution(x, scratch.vertexCdf), sampling, ub + 2, 1, scratch,
-               out, rays);
-    sum += throughput * Vec3(value[0], value[1], value[2]);
+    // The next vertex by the BSDF at x (throughput f cos θ / p, the path's weight in solid angle), then its
+    // direct light: one sample of the reference's light and BSDF strategies, combined by the power heuristic.
+    if (!Step(x, ub, throughput, nullptr, rays) || !NextEvent(x, ub + 2, scratch, light, rays)) break;
+    sum += throughput * light;
   }
   return sum;
+}
+
+PathScene::FirstVertex PathScene::SecondaryVertexSample(const ShadingPoint& x1, int bounces, const float* u,
+                                                        SampleBatch& scratch, uint64_t& rays) const {
+  FirstVertex v;
+  ShadingPoint x = x1;
+  float pdf = 0.0f;
+  Vec3 first(1.0f);
+  if (bounces <= 0 || !Step(x, u, first, &pdf, rays)) return v;
+  v.throughput = first;
+  // x is x₂: what the rest of the path delivers there, in the same operations as IndirectSample from x₂ on.
+  const Vec3 d = x.position - x1.position;
+  const float d2 = glm::dot(d, d);
+  v.vertex.position = x.position;
+  v.vertex.normal = x.geometricNormal;
+  v.vertex.errorScale = x.errorScale;
+  v.vertex.pdfArea = d2 > 0.0f ? pdf * std::fabs(glm::dot(x.geometricNormal, d)) / (d2 * std::sqrt(d2)) : 0.0f;
+  v.reconnectable = Reconnectable(x.bsdf);
+  Vec3 throughput(1.0f), light(0.0f);
+  for (int bounce = 0; bounce < bounces; ++bounce) {
+    const float* ub = u + static_cast<size_t>(bounce) * kBounceDims;
+    if (bounce > 0 && !Step(x, ub, throughput, nullptr, rays)) break;
+    if (!NextEvent(x, ub + 2, scratch, light, rays)) break;
+    v.vertex.radiance += throughput * light;
+  }
+  return v;
 }
 
 ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
@@ -157,6 +192,38 @@ ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const 
   });
   rays += rayCount.combine(std::plus<uint64_t>());
   return image;
+}
+
+IndirectVertices SecondaryVertices(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                                   const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays) {
+  IndirectVertices out;
+  out.vertices.assign(g.Size(), SecondaryVertex{});
+  out.unshifted = ImageRgb(g.width, g.height);
+  if (bounces <= 0) return out;
+  bounces = std::min(bounces, kMaxIndirectBounces);
+  const Sky sky = MakeSky(sequence, state);
+  const PathScene paths(sequence, scene, sky);
+  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
+  tbb::combinable<uint64_t> rayCount{[] { return uint64_t{0}; }};
+  tbb::parallel_for(tbb::blocked_range<int>(0, g.height), [&](const tbb::blocked_range<int>& rows) {
+    SampleBatch scratch;
+    std::vector<float> u(static_cast<size_t>(bounces) * kBounceDims);
+    uint64_t& r = rayCount.local();
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < g.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * g.width + x;
+        if (!g.IsSurface(i)) continue;
+        PathRandomNumbers(seed, frame, static_cast<uint32_t>(i), 0, RngPass::kIndirect, bounces, u.data());
+        const PathScene::FirstVertex v = paths.SecondaryVertexSample(
+            ShadingPointAt(g, i, state.camera.position, bsdfs), bounces, u.data(), scratch, r);
+        if (v.reconnectable)
+          out.vertices[i] = v.vertex;
+        else
+          out.unshifted.pixels[i] = v.throughput * v.vertex.radiance;
+      }
+  });
+  rays += rayCount.combine(std::plus<uint64_t>());
+  return out;
 }
 
 void PathRandomNumbers(uint32_t seed, uint32_t stateKey, uint32_t pixel, uint32_t path, RngPass pass,

@@ -17,6 +17,7 @@
 
 #include "core/light.h"
 #include "core/light_selection_kernel.h"
+#include "core/reconnection_shift.h"
 #include "core/rng.h"
 #include "core/sky.h"
 #include "sim/reference/reference_samples.h"
@@ -65,6 +66,16 @@ class PathScene {
   Vec3 IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
                       uint64_t& rays) const;
 
+  // The same path split at its first vertex after x₁, for ReSTIR GI: IndirectSample is throughput × the
+  // vertex's radiance (up to rounding). No vertex (pdfArea 0, throughput 0) where the path ends at x₁.
+  struct FirstVertex {
+    SecondaryVertex vertex;   // x₂ and L_o(x₂ → x₁) from the rest of the path (bounces 2 to `bounces`)
+    Vec3 throughput{0.0f};    // f_r(x₁) cos θ₁ / p_ω(ω) of the first step
+    bool reconnectable = false;  // core/reconnection_shift.h Reconnectable(x₂'s BSDF)
+  };
+  FirstVertex SecondaryVertexSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
+                                    uint64_t& rays) const;
+
  private:
   const Sequence& sequence_;                  // its materials and textures, for the BSDF at a hit
   const EmbreeScene& scene_;                  // the rays
@@ -79,6 +90,13 @@ class PathScene {
   // kMaxVertexSelectionGroups.
   std::vector<SelectionLight> selection_;
 
+  // One step of a path: a direction by x's BSDF from ub[0], ub[1], the throughput times f cos θ / p, and x
+  // becomes the surface the ray hits (its density p into *pdf when asked); false where the path ends (a failed
+  // or absorbed sample, an escape, an emitter).
+  bool Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdf, uint64_t& rays) const;
+  // x's direct light by one next-event sample (kSkySampleDims numbers at u) into `value`; false where the
+  // frame has no light at all.
+  bool NextEvent(const ShadingPoint& x, const float* u, SampleBatch& scratch, Vec3& value, uint64_t& rays) const;
   // The light distribution at vertex x: its own weights where selection_ holds the groups (the cdf in `cdf`),
   // else the power distribution.
   PixelLightDistribution VertexDistribution(const ShadingPoint& x, std::vector<float>& cdf) const;
@@ -89,6 +107,17 @@ class PathScene {
 // numbers of RngPass::kIndirect keyed by (seed, frame, pixel). Counts its rays.
 ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
                        const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays);
+
+// One frame's paths as ReSTIR GI takes them (issue 41; sim/estimator/pipeline.h Pipeline::RenderIndirect): the
+// paths of IndirectImage (the same random numbers), split at their first vertex x₂. Where x₂ can be
+// reconnected, vertices[i] holds it (pdfArea > 0) for the reservoirs; elsewhere the path's whole estimate is in
+// `unshifted`, added to the pixel as it is.
+struct IndirectVertices {
+  std::vector<SecondaryVertex> vertices;  // per pixel; pdfArea 0: none
+  ImageRgb unshifted;                     // per pixel: the paths through a vertex that is not reconnected
+};
+IndirectVertices SecondaryVertices(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                                   const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays);
 
 // The random numbers of path `path` of a pixel (RngPass::kReferencePaths, or kReferencePathsPilot for the
 // allocation's pilot paths): kBounceDims × bounces of them into u. Each path has its own key, so a pixel's

@@ -70,16 +70,28 @@ FrameInputs FrameLoop::MakeInputs() const {
 
 FrameResult FrameLoop::RenderPreset(Pipeline& pipeline, const FrameInputs& inputs) const {
   FrameResult result = pipeline.RenderFrame(inputs);
-  const int bounces = pipeline.Settings().indirect.bounces;
-  if (bounces <= 0) return result;
+  const IndirectParams& indirect = pipeline.Settings().indirect;
+  if (indirect.bounces <= 0) return result;
   const auto t0 = Clock::now();
-  PassStats& pass = result.passes.emplace_back();
+  PassStats pass;
+  ImageRgb image;
+  if (indirect.reuse) {
+    IndirectVertices paths = SecondaryVertices(sequence_, state_, scene_, current_, indirect.bounces, inputs.seed,
+                                               inputs.frame, pass.rays);
+    const FrameResult gi = pipeline.RenderIndirect(inputs, paths.vertices);
+    image = std::move(paths.unshifted);
+    for (size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] += gi.image.pixels[i];
+    const uint64_t pathRays = pass.rays;
+    pass = gi.passes.front();  // the reservoirs' passes, and the paths' rays
+    pass.rays += pathRays;
+  } else {
+    image = IndirectImage(sequence_, state_, scene_, current_, indirect.bounces, inputs.seed, inputs.frame,
+                          pass.rays);
+  }
   pass.name = "indirect";
-  const ImageRgb indirect =
-      IndirectImage(sequence_, state_, scene_, current_, bounces, inputs.seed, inputs.frame, pass.rays);
   // The pipeline's guard (DESIGN §10) ran before this pass: a non-finite path is caught here, counted as its own.
-  for (size_t i = 0; i < indirect.pixels.size(); ++i) {
-    const Vec3& v = indirect.pixels[i];
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    const Vec3& v = image.pixels[i];
     if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)) {
       result.image.pixels[i] += v;
     } else {
@@ -87,7 +99,9 @@ FrameResult FrameLoop::RenderPreset(Pipeline& pipeline, const FrameInputs& input
     }
   }
   result.guardedEvents += pass.guarded;
+  result.crossObjectReuse += pass.crossObjectReuse;
   pass.ms = MsSince(t0);
+  result.passes.push_back(pass);
   return result;
 }
 

@@ -49,11 +49,16 @@ struct FrameView {
   const BsdfSoa* materials = nullptr;        // the sequence's materials as the kernels read them
   uint32_t seed = 0;                         // RngKey::seed
   uint32_t frame = 0;                        // RngKey::frame
+  // The "lights" the reuse passes and shading evaluate samples on, in place of lights->Lights(): ReSTIR GI's
+  // secondary vertices as points with the radiance they send (Pipeline::RenderIndirect). Null: the frame's lights.
+  const std::vector<LightTriangle>* lightList = nullptr;
+  // Shading adds what the primary ray sees (an emitter, the sky); false where the image is indirect light only.
+  bool primaryEmission = true;
 
   bool HasHistory() const { return previousGbuffer != nullptr && previousLights != nullptr; }
-  const std::vector<LightTriangle>& Lights() const { return lights->Lights(); }
+  const std::vector<LightTriangle>& Lights() const { return lightList ? *lightList : lights->Lights(); }
   // Something to sample: local lights or a sky.
-  bool HasLight() const { return !lights->Empty() || !sky.Empty(); }
+  bool HasLight() const { return (lightList ? !lightList->empty() : !lights->Empty()) || !sky.Empty(); }
 };
 
 // A stored sample as a light point seen from a receiver at x (DESIGN §4): a point on a local light is itself; a

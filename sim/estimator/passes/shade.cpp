@@ -95,7 +95,9 @@ void WriteRow(const ShadeFrame& sf, const ReservoirBuffer& reservoirs, size_t ro
   size_t k = 0;
   for (int x = 0; x < g.width; ++x) {
     const size_t i = rowStart + static_cast<size_t>(x);
-    Vec3 c = view.camera ? DirectEmission(g, i, sf.lights, view.sky, *view.camera) : DirectEmission(g, i, sf.lights);
+    Vec3 c = !view.primaryEmission ? Vec3(0.0f)
+             : view.camera         ? DirectEmission(g, i, sf.lights, view.sky, *view.camera)
+                                   : DirectEmission(g, i, sf.lights);
     if (k < m && sc.pixelOf[k] == static_cast<uint32_t>(x)) {
       const StoredReservoir& r = reservoirs[i];
       Vec3 fx(sc.f[0][k], sc.f[1][k], sc.f[2][k]);

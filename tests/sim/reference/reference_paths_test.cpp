@@ -23,6 +23,8 @@
 // a'. The same under a constant environment too (one bounce): the sky lights the floor directly, and the wall
 //    where the floor does not hide it; an independent midpoint rule over the wall, checked for convergence.
 // c. A preset frame's indirect pass (IndirectImage, one path a pixel) over many seeds, against a, a' and b.
+// d. ReSTIR GI's frames (sim/estimator/pipeline.h Pipeline::RenderIndirect) of the unbiased GI presets, after
+//    temporal and spatial reuse of the paths' vertices, against a and b (GiFramesAverageToTheClosedForms).
 //
 // Statistics (ExpectAgreement): over the surface pixels compared (pixels independent), the mean relative
 // error is 0 by a z-test, and at most kMaxRelativeError with its own standard error below a third of that;
@@ -39,6 +41,9 @@
 #include <string>
 #include <vector>
 
+#include "core/light_sampler.h"
+#include "sim/estimator/pipeline.h"
+#include "sim/estimator/presets.h"
 #include "sim/reference/reference.h"
 #include "sim/scene/embree_scene.h"
 #include "sim/scene/gbuffer.h"
@@ -502,6 +507,137 @@ TEST(IndirectImage, SeedsAndFramesGiveIndependentPathsAndNoBouncesNoLight) {
   const ImageRgb none = IndirectImage(s.seq, s.state, scene, g, 0, 7, 0, rays);
   EXPECT_EQ(rays, 0u);
   for (const Vec3& p : none.pixels) EXPECT_EQ(p, Vec3(0.0f));
+}
+
+// ---- d. ReSTIR GI's frames (Pipeline::RenderIndirect) ----
+
+// Seed k's indirect light after `frames` frames of a static scene, each frame's paths (SecondaryVertices) resampled
+// by the preset's GI passes with the previous frame's reservoirs: the reservoirs' image plus the paths through a
+// vertex that is not reconnected, as FrameLoop::RenderPreset adds them.
+std::vector<ImageRgb> GiFrames(const Sequence& seq, const FrameState& state, const PipelineSettings& settings,
+                               int frames, int seeds, GBuffer& g) {
+  EmbreeScene scene(seq);
+  scene.Update(state);
+  TracePrimary(scene, state.camera, g);
+  GBuffer previous = g;  // the same view: every pixel reprojects onto itself
+  Reproject(state, state, previous, scene.LightObjectId(), ReprojectionParams{}, g);
+  const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
+  const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
+  const Sky sky = MakeSky(seq, state);
+  std::vector<ImageRgb> out;
+  for (int k = 0; k < seeds; ++k) {
+    Pipeline pipeline(settings);
+    ImageRgb last;
+    for (int f = 0; f < frames; ++f) {
+      FrameInputs in;
+      in.state = &state;
+      in.scene = &scene;
+      in.gbuffer = &g;
+      in.lights = &lights;
+      in.materials = &bsdfs;
+      in.sky = sky;
+      in.previousSky = sky;
+      if (f > 0) in.previousState = &state, in.previousGbuffer = &g, in.previousLights = &scene.LightTriangles();
+      in.seed = static_cast<uint32_t>(k);
+      in.frame = static_cast<uint32_t>(f);
+      uint64_t rays = 0;
+      IndirectVertices paths = SecondaryVertices(seq, state, scene, g, settings.indirect.bounces, in.seed,
+                                                 in.frame, rays);
+      const FrameResult gi = pipeline.RenderIndirect(in, paths.vertices);
+      last = std::move(paths.unshifted);
+      for (size_t i = 0; i < last.pixels.size(); ++i) last.pixels[i] += gi.image.pixels[i];
+    }
+    out.push_back(std::move(last));
+  }
+  return out;
+}
+
+// The bound on a GI frame mean's relative error: its standard error over 96 seeds is 0.4-0.5% on the floor.
+constexpr double kGiMaxRelativeError = 0.02;
+
+// Reuse makes neighbouring pixels' errors depend on each other, so the claim is on whole frames, which the seeds
+// make independent: per seed, the mean relative error over the compared pixels, and over each of four bands of
+// them (in pixel order: the floor's near to far rows, the sphere's top to bottom), is 0 by Student's t-test over
+// the seeds at kClaimRate / 5 each (Bonferroni over the five); and the frames' mean is within kMaxRelativeError.
+void ExpectUnbiasedFrames(const std::vector<ImageRgb>& frames, const GBuffer& g,
+                          const std::function<double(size_t)>& truth, const std::string& what) {
+  std::vector<size_t> compared;
+  for (size_t i = 0; i < g.Size(); ++i)
+    if (g.IsSurface(i) && !std::isnan(truth(i))) compared.push_back(i);
+  ASSERT_GE(compared.size(), 400u) << what;
+  constexpr int kBands = 4;
+  const double n = double(frames.size());
+  for (int band = -1; band < kBands; ++band) {
+    const size_t begin = band < 0 ? 0 : compared.size() * band / kBands;
+    const size_t end = band < 0 ? compared.size() : compared.size() * (band + 1) / kBands;
+    double sum = 0.0, sumSq = 0.0;
+    for (const ImageRgb& image : frames) {
+      double e = 0.0;
+      for (size_t j = begin; j < end; ++j) e += Y(D3(image.pixels[compared[j]])) / truth(compared[j]) - 1.0;
+      e /= double(end - begin);
+      sum += e;
+      sumSq += e * e;
+    }
+    const double mean = sum / n, se = std::sqrt(std::max(0.0, (sumSq - n * mean * mean) / (n - 1.0)) / n);
+    const double q = test::StudentTQuantileTwoSided(kClaimRate / (kBands + 1), n - 1.0);
+    std::printf("  %-60s band %2d  rel.err %+.3f%% (se %.3f%%)\n", what.c_str(), band, 100.0 * mean, 100.0 * se);
+    EXPECT_LE(std::fabs(mean), q * se) << what << " band " << band << ": mean relative error, t-test";
+    if (band < 0) {
+      EXPECT_LE(std::fabs(mean), kGiMaxRelativeError) << what;
+      EXPECT_LT(se, kGiMaxRelativeError / 3.0) << what << ": the bound on the relative error has no power";
+    }
+  }
+}
+
+TEST(IndirectReuse, GiFramesAverageToTheClosedForms) {
+  // 96 seeds: the frames' mean relative error has a standard error of 0.3-0.5% on the floor, 0.15-0.2% on the
+  // sphere. The sphere is at the origin: 1 km out the paths themselves, without reuse, read +0.41% (se 0.13%,
+  // 400 seeds), 10 km out +3.0% (se 0.13%), whatever the emitter's size (a float-spacing effect of the paths',
+  // not the reuse's, left open: issue 41's closing note, stop 60).
+  constexpr int kGiSeeds = 96;
+  for (const char* name : {"restir-gi-unbiased", "restir-gi-spmis"}) {
+    const PipelineSettings& settings = FindPreset(name)->settings;
+    {
+      const WallScene s = SunlitWall(1000.0 * glm::normalize(D3(-0.3, 0.2, 0.9)), 0.7, 0.6);
+      GBuffer g;
+      const std::vector<ImageRgb> frames = GiFrames(s.seq, s.state, settings, 4, kGiSeeds, g);
+      ExpectUnbiasedFrames(frames, g, [&](size_t i) { return WallTruth(s, g, i); },
+                           std::string(name) + ": sunlit wall 1 km out, frame 4");
+    }
+    {
+      const SphereScene s = IntegratingSphere(D3(0.0), 0.8, 35.0);
+      GBuffer g;
+      const std::vector<ImageRgb> frames = GiFrames(s.seq, s.state, settings, 4, kGiSeeds, g);
+      ExpectUnbiasedFrames(
+          frames, g, [&](size_t i) { return SphereTruth(s, g, i, 1) - SphereTruth(s, g, i, 0); },
+          std::string(name) + ": sphere, tilt 35, frame 4");
+    }
+  }
+}
+
+// A glossy x₂ is not reconnected (core/reconnection_shift.h Reconnectable): with a glossy wall every floor path
+// goes to the unshifted image, the reservoirs stay empty, and the frame is the paths' own estimate, IndirectImage's
+// (the same random numbers; the products in another order, so equal to rounding).
+TEST(IndirectReuse, AGlossyVertexIsUsedAtItsOwnPixelOnly) {
+  WallScene s = SunlitWall(D3(0.0), 0.7, 0.6);
+  s.seq.materials[1].type = MaterialType::kLayered;
+  s.seq.materials[1].metallic = 0.3f;
+  s.seq.materials[1].roughness = 0.4f;
+  ASSERT_FALSE(Reconnectable(MaterialBsdfs(s.seq)[1]));
+  GBuffer g;
+  const std::vector<ImageRgb> frames =
+      GiFrames(s.seq, s.state, FindPreset("restir-gi-unbiased")->settings, 1, 1, g);
+  EmbreeScene scene(s.seq);
+  scene.Update(s.state);
+  uint64_t rays = 0;
+  const ImageRgb paths = IndirectImage(s.seq, s.state, scene, g, 1, 0, 0, rays);
+  size_t lit = 0;
+  for (size_t i = 0; i < g.Size(); ++i) {
+    const Vec3 a = frames[0].pixels[i], b = paths.pixels[i];
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], 1e-5f * b[c]) << "pixel " << i;
+    lit += Y(D3(b)) > 0.0;
+  }
+  EXPECT_GT(lit, 100u);
 }
 
 }  // namespace reference_paths_test
