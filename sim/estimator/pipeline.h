@@ -128,7 +128,9 @@ class Pipeline {
   // ReSTIR GI's state carried to the next frame: the output reservoirs and the vertices they hold (their lightIds
   // index it).
   const ReservoirBuffer& IndirectHistory() const { return gi_.previous; }
+  ReservoirBuffer& IndirectHistory() { return gi_.previous; }
   const std::vector<LightTriangle>& IndirectVertices() const { return gi_.vertices; }
+  std::vector<LightTriangle>& IndirectVertices() { return gi_.vertices; }
 
  private:
   // One family of reservoirs with its history: the direct light's, or ReSTIR GI's.

@@ -13,6 +13,7 @@
 
 #include "core/bsdf.h"
 #include "core/light.h"
+#include "core/reconnection_shift.h"
 #include "sim/metrics/flip.h"
 #include "sim/scene/gbuffer.h"
 #include "sim/util/input_file.h"
@@ -42,6 +43,7 @@ constexpr double kBsdfEntry = sizeof(int32_t) + 3 * sizeof(float) + sizeof(float
 
 constexpr double kRgb = sizeof(Vec3);               // one ImageRgb pixel
 constexpr double kReservoir = sizeof(StoredReservoir);
+constexpr double kVertexPoint = sizeof(LightTriangle);  // a ReSTIR GI vertex as the passes read it
 
 // A metrics row: at most kMaxColumns (name, value) pairs, each name on the heap when longer than the small-string
 // buffer, then the row again as CSV text (the file is rewritten whole each frame) and in the checkpoint.
@@ -89,6 +91,12 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   if (s.textures) add("BSDF table of textured receivers", px * 2.0 * (sizeof(Bsdf) + kBsdfEntry));
   // Per member: this frame's and last frame's reservoirs, the spatial pass's output buffer and its image.
   add("reservoirs", px * presets * members * 3.0 * kReservoir);
+  // ReSTIR GI (Pipeline::RenderIndirect), per member of a preset that reuses its paths: the GI reservoirs of this
+  // frame and the last (the spatial pass writes into the last's), and the vertices the last frame's reservoirs hold
+  // (at most one a pixel).
+  if (s.reusedIndirectPresets > 0)
+    add("ReSTIR GI reservoirs and held vertices",
+        px * double(s.reusedIndirectPresets) * members * (2.0 * kReservoir + kVertexPoint));
   // A frame's initial passes, kept for the presets that share them (sim/estimator/pipeline.h InitialSamplingShare).
   if (s.sharedInitialPasses > 0)
     add("shared initial passes", px * double(s.sharedInitialPasses) * members * kReservoir);
@@ -105,8 +113,16 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   // Transient: the largest of what a frame allocates and frees again.
   const double checkpoint =
       px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) +
-            presets * ((members >= 3 ? members + 1.0 : 2.0) * kRgb + members * kReservoir));
+            presets * ((members >= 3 ? members + 1.0 : 2.0) * kRgb + members * kReservoir) +
+            double(s.reusedIndirectPresets) * members * (kReservoir + kVertexPoint));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
+  // A preset frame's indirect pass: its image, and where ReSTIR GI resamples the paths, the paths' vertices, the
+  // frame's points (a pixel's own and the held ones: two a pixel at most), the next frame's held points and the
+  // reuse's image.
+  const double indirectPass =
+      s.reusedIndirectPresets > 0
+          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 3.0 * kVertexPoint)
+          : (s.indirectPresets > 0 ? px * kRgb : 0.0);
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =
       s.reference ? ReferenceScratchBytes(px, double(s.lightTriangles), double(s.lightGroups),
@@ -135,12 +151,13 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
     writer = px * (jobs * job + moved) + exr + frames * frameInputs;
   }
   // A checkpoint drains the writer first: beside it only the current frame's inputs stay.
-  const double loopTransient = std::max({flip, cacheEntry, referenceRender});
+  const double loopTransient = std::max({flip, cacheEntry, referenceRender, indirectPass});
   if (checkpoint + frameInputs >= loopTransient + writer) {
     add("checkpoint", checkpoint + frameInputs);
   } else {
     add(loopTransient == flip              ? "FLIP"
         : loopTransient == referenceRender ? "reference rendering"
+        : loopTransient == indirectPass    ? "indirect pass"
                                            : "reference cache entry",
         loopTransient);
     if (writer > 0.0) add("images being written", writer);

@@ -22,6 +22,8 @@ struct RunShape {
   int64_t presets = 0;           // presets run side by side
   int64_t members = 1;           // pipelines per preset (--ensemble K)
   int64_t sharedInitialPasses = 0;  // distinct initial-sampling configurations a frame keeps (InitialSamplingShare)
+  int64_t indirectPresets = 0;   // presets with indirect light (indirect.bounces > 0)
+  int64_t reusedIndirectPresets = 0;  // of those, the ones whose paths ReSTIR GI resamples (indirect.reuse)
   bool reference = true;         // a reference per frame, FLIP and the error metrics
   bool writeImages = true;       // EXR and PNG per frame
   int64_t sceneTriangles = 0;    // object triangles, for Embree's BVH

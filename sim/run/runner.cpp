@@ -140,7 +140,8 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-constexpr uint64_t kCheckpointMagic = 0x39544B43'52545352ull;  // "RSTRCKT9" (9: the scrub PNGs' exposure)
+// "RSTRCKTA" (A: ReSTIR GI's reservoirs and vertices; 9: the scrub PNGs' exposure)
+constexpr uint64_t kCheckpointMagic = 0x41544B43'52545352ull;
 
 // Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
 // write them; false (saying nothing) when every one is as written.
@@ -208,6 +209,10 @@ void CheckRunMemory(const RunOptions& opt, const Sequence& seq, const ReferenceP
         std::find(shared.begin(), shared.end(), presets[p].settings.initial) == shared.end())
       shared.push_back(presets[p].settings.initial);
   shape.sharedInitialPasses = static_cast<int64_t>(shared.size());
+  for (const Preset& p : presets) {
+    shape.indirectPresets += p.settings.indirect.bounces > 0;
+    shape.reusedIndirectPresets += p.settings.indirect.bounces > 0 && p.settings.indirect.reuse;
+  }
   shape.reference = opt.reference;
   shape.writeImages = opt.writeImages;
   for (const Object& o : seq.objects) shape.sceneTriangles += static_cast<int64_t>(o.mesh.triangles.size());
@@ -436,7 +441,11 @@ void RunState::Transfer(Io& io, int& nextFrame) {
     TransferImage(io, p->previousImage);
     TransferImage(io, p->accumSum);
     for (ImageRgb& sum : p->memberAccumSums) TransferImage(io, sum);
-    for (auto& member : p->members) io.Vector(member->History());
+    for (auto& member : p->members) {
+      io.Vector(member->History());
+      io.Vector(member->IndirectHistory());
+      io.Vector(member->IndirectVertices());
+    }
   }
   io.Pod(accumFrames);
   io.Pod(scrubExposure);
