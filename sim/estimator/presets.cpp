@@ -301,6 +301,17 @@ std::string UnknownPresetMessage(const std::string& name) {
   std::vector<std::string> names;
   for (const Preset& p : AllPresets()) names.push_back(p.name);
   for (const Preset& p : IndirectPresets()) names.push_back(p.name);
+  const size_t plus = name.find('+');
+  if (plus != std::string::npos) {  // "A+B": say which half is wrong
+    const std::string a = name.substr(0, plus), b = name.substr(plus + 1);
+    if (b.find('+') != std::string::npos) return "preset '" + name + "' combines more than two presets";
+    if (!FindPreset(a)) return "unknown preset '" + a + "' in '" + name + "'" + Suggestion(a, names);
+    if (!FindPreset(b)) return "unknown preset '" + b + "' in '" + name + "'" + Suggestion(b, names);
+    std::string gi;
+    for (const Preset& p : IndirectPresets()) gi += (gi.empty() ? "" : ", ") + p.name;
+    return "preset '" + name + "': '" + b + "' models no indirect light, so it has none to give '" + a +
+           "' (after '+' name one that does: " + gi + ")";
+  }
   return "unknown preset '" + name + "'" + Suggestion(name, names);
 }
 

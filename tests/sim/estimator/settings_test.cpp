@@ -244,5 +244,42 @@ TEST(Presets, EveryDesignPresetExistsWithItsSource) {
   EXPECT_NE(DescribePresets().find("temporal.maxHistory=20"), std::string::npos);
 }
 
+// ReSTIR GI's presets (issue 41): one bounce resampled, over a direct-light preset whose settings they keep; the
+// unbiased ones with ray-traced bias correction and no sample-dependent rejection in both GI passes; not in `all`.
+TEST(Presets, GiPresetsAndCombinations) {
+  const std::pair<const char*, const char*> gi[] = {
+      {"restir-gi", "rtxdi-defaults"}, {"restir-gi-unbiased", "restir-unbiased"}, {"restir-gi-spmis", "restir-spmis"}};
+  for (const auto& [name, direct] : gi) {
+    const Preset* p = FindPreset(name);
+    ASSERT_NE(p, nullptr) << name;
+    EXPECT_EQ(p->settings.indirect.bounces, 1) << name;
+    EXPECT_TRUE(p->settings.indirect.reuse) << name;
+    EXPECT_EQ(p->settings.initial, FindPreset(direct)->settings.initial) << name;
+    EXPECT_NE(DescribePresets().find(std::string(name) + "\n"), std::string::npos) << name;
+    for (const Preset& q : AllPresets()) EXPECT_NE(q.name, name);
+  }
+  for (const char* name : {"restir-gi-unbiased", "restir-gi-spmis"}) {
+    const IndirectParams& in = FindPreset(name)->settings.indirect;
+    EXPECT_EQ(in.temporal.bias, BiasCorrection::kRayTraced) << name;
+    EXPECT_EQ(in.spatial.bias, BiasCorrection::kRayTraced) << name;
+    EXPECT_FALSE(in.temporal.sampleChecks) << name;
+  }
+  EXPECT_EQ(FindPreset("restir-gi-spmis")->settings.indirect.spatial.mis, MisFamily::kStochasticPairwise);
+
+  // A+B: A's direct light, B's indirect light; the same object when asked again.
+  const Preset* combined = FindPreset("ris+restir-gi-unbiased");
+  ASSERT_NE(combined, nullptr);
+  EXPECT_EQ(combined, FindPreset("ris+restir-gi-unbiased"));
+  EXPECT_EQ(combined->name, "ris+restir-gi-unbiased");
+  EXPECT_FALSE(combined->settings.temporal.enabled);  // ris's
+  EXPECT_EQ(combined->settings.indirect.spatial.mis, MisFamily::kPairwise);
+  EXPECT_TRUE(combined->settings.indirect.reuse);
+  EXPECT_EQ(FindPreset("restir-gi+ris"), nullptr);
+  EXPECT_NE(UnknownPresetMessage("restir-gi+ris").find("'ris' models no indirect light"), std::string::npos);
+  EXPECT_NE(UnknownPresetMessage("ris+restir-gj").find("unknown preset 'restir-gj'"), std::string::npos);
+  EXPECT_NE(UnknownPresetMessage("ris+restir-gi+ris").find("more than two"), std::string::npos);
+  for (const char* bad : {"+restir-gi", "restir-gi+", "+", "ris++restir-gi"}) EXPECT_EQ(FindPreset(bad), nullptr) << bad;
+}
+
 }  // namespace
 }  // namespace restir
