@@ -52,7 +52,8 @@ namespace {
 // the pilot's relative variances spread to their neighbourhood before the allocation).
 constexpr uint32_t kReferenceVersion = 16;
 // The version of the indirect paths (sim/reference/reference_paths.h), in the key of references that have them.
-constexpr uint32_t kPathsVersion = 2;  // 2: the secondary vertices weigh their lights
+// 2: the secondary vertices weigh their lights; 3: a step is weighed in area measure from the ray's true origin.
+constexpr uint32_t kPathsVersion = 3;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 

@@ -70,7 +70,7 @@ class PathScene {
   // vertex's radiance (up to rounding). No vertex (pdfArea 0, throughput 0) where the path ends at x₁.
   struct FirstVertex {
     SecondaryVertex vertex;   // x₂ and L_o(x₂ → x₁) from the rest of the path (bounces 2 to `bounces`)
-    Vec3 throughput{0.0f};    // f_r(x₁) cos θ₁ / p_ω(ω) of the first step
+    Vec3 throughput{0.0f};    // the first step's integrand over its density (Step): f_r(x₁) cos θ₁ / p_ω(ω) but for the offset
     bool reconnectable = false;  // core/reconnection_shift.h Reconnectable(x₂'s BSDF)
   };
   FirstVertex SecondaryVertexSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
@@ -90,10 +90,11 @@ class PathScene {
   // kMaxVertexSelectionGroups.
   std::vector<SelectionLight> selection_;
 
-  // One step of a path: a direction by x's BSDF from ub[0], ub[1], the throughput times f cos θ / p, and x
-  // becomes the surface the ray hits (its density p into *pdf when asked); false where the path ends (a failed
-  // or absorbed sample, an escape, an emitter).
-  bool Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdf, uint64_t& rays) const;
+  // One step of a path: a direction by x's BSDF from ub[0], ub[1], traced from x's spawn offset; x becomes the
+  // surface y the ray hits and the throughput is multiplied by the step's integrand over its density, both in
+  // area measure at y (f_r(x, ω_xy) cos θ_x |cos θ_y| / ‖y − x‖² over p_ω |cos θ_y,ray| / ‖y − org‖²; the density
+  // into *pdfArea when asked); false where the path ends (a failed or absorbed sample, an escape, an emitter).
+  bool Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdfArea, uint64_t& rays) const;
   // x's direct light by one next-event sample (kSkySampleDims numbers at u) into `value`; false where the
   // frame has no light at all.
   bool NextEvent(const ShadingPoint& x, const float* u, SampleBatch& scratch, Vec3& value, uint64_t& rays) const;
