@@ -344,8 +344,18 @@ struct StageTimes {
   }
 };
 
-StageTimes RenderOnce(FrameLoop& d, Pipeline& p, const std::vector<StoredReservoir>& history) {
-  p.History() = history;
+// What a pipeline carries from the previous frame: its reservoirs and, under ReSTIR GI, the GI reservoirs and the
+// vertices they hold.
+struct History {
+  std::vector<StoredReservoir> reservoirs, indirect;
+  std::vector<LightTriangle> vertices;
+  explicit History(Pipeline& p) : reservoirs(p.History()), indirect(p.IndirectHistory()), vertices(p.IndirectVertices()) {}
+};
+
+StageTimes RenderOnce(FrameLoop& d, Pipeline& p, const History& history) {
+  p.History() = history.reservoirs;
+  p.IndirectHistory() = history.indirect;
+  p.IndirectVertices() = history.vertices;
   StageTimes s;
   const double cpu0 = ThreadCpuMs();
   s.primary = d.Primary();
@@ -380,7 +390,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   // again and again from the same history below.
   d.Play(kHistoryFrame, kMeasuredFrame, [&](int) { d.Render(pipeline, WindowBars().seed); });
   d.BeginFrame(kMeasuredFrame);
-  const std::vector<StoredReservoir> history = pipeline.History();
+  const History history(pipeline);
   const double sceneUpdate = d.MsSceneUpdate();
 
   // Timed repetitions of the steady-state frame (2 threads, or whatever TBB is allowed), fastest counts.
@@ -419,19 +429,23 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     return out;
   }
 
-  // Capture render: the exact rays of this frame.
-  uint64_t shadowRays = 0;
-  for (const auto& [name, n] : best.rays) shadowRays += n;
+  // Capture render: the exact rays of this frame. The passes' rays are shadow rays but for the indirect pass's
+  // paths, whose closest-hit rays come after the primary rays in the intersect capture.
+  uint64_t passRays = 0;
+  for (const auto& [name, n] : best.rays) passRays += n;
   const size_t pixels = static_cast<size_t>(w) * h;
   Recorder rec;
-  rec.Reset(shadowRays, pixels);
+  rec.Reset(passRays, pixels + (best.rays.count("indirect") ? best.rays.at("indirect") : 0));
   SetRayHook(d.Scene(), &rec);
   const StageTimes cap = RenderOnce(d, pipeline, history);
   SetRayHook(d.Scene(), nullptr);
   const size_t shadowCount = std::min(rec.ShadowCount(), rec.Shadow().size());
-  const size_t primaryCount = std::min(rec.PrimaryCount(), rec.Primary().size());
+  const size_t intersectCount = std::min(rec.PrimaryCount(), rec.Primary().size());
+  const size_t primaryCount = std::min(intersectCount, pixels);
+  const size_t pathRays = intersectCount - primaryCount;  // the indirect pass's paths
   c["capture_hash_match"] = cap.hash == frameHash ? 1 : 0;
-  c["capture_complete"] = rec.ShadowCount() == shadowRays && rec.PrimaryCount() == pixels ? 1 : 0;
+  c["capture_complete"] = rec.ShadowCount() + pathRays == passRays && rec.PrimaryCount() >= pixels ? 1 : 0;
+  c["rays_paths"] = double(pathRays);
 
   // Ray floor per pass: the captured rays alone (primary rays rtcIntersect1 one at a time, shadow rays in
   // batches as the passes trace them), parallel.
@@ -445,17 +459,20 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     size_t at = 0;
     for (const char* name : kPassNames) {
       if (!best.rays.count(name)) continue;
-      const size_t n = best.rays.at(name);
+      const size_t n = best.rays.at(name) - (std::string(name) == "indirect" ? pathRays : 0);
       range[name] = {std::min(at, shadowCount), std::min(at + n, shadowCount)};
       at += n;
     }
   }
   ToStreamOrder(rec.Primary(), 0, primaryCount, &rec.Hits());
+  ToStreamOrder(rec.Primary(), primaryCount, intersectCount, &rec.Hits());
   for (const auto& [name, r] : range) ToStreamOrder(rec.Shadow(), r.first, r.second);
-  rayFloor["primary"] = TimeParallel(0, primaryCount, FloorReps(), [&](size_t i) {
+  auto intersect = [&](size_t i) {
     const RawHit hit = IntersectRaw(scene, prim[i].org, prim[i].dir, prim[i].tmax);
     if (uint8_t(hit.geomId != ~0u) != prim[i].answer) mismatches.fetch_add(1, std::memory_order_relaxed);
-  });
+  };
+  rayFloor["primary"] = TimeParallel(0, primaryCount, FloorReps(), intersect);
+  const double pathFloor = pathRays ? TimeParallel(primaryCount, intersectCount, FloorReps(), intersect) : 0.0;
   // Shadow rays go through OccludedBatch with the passes' entry point, in blocks of consecutive captured rays
   // (one thread's rays of a few pixel batches), each block split by scene frame as the passes split theirs.
   auto traceBlock = [&](size_t begin, size_t end) {
@@ -481,13 +498,14 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
       traceBlock(begin, std::min(r.second, begin + kFloorBlock));
     });
   }
+  if (pathRays) rayFloor["indirect"] += pathFloor;
 
   // The same at one thread, in CPU time (robust to other processes sharing the cores): all rays, in order.
   double rayFloorCpu1 = 0;
   {
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
     const double cpu0 = ThreadCpuMs();
-    for (size_t i = 0; i < primaryCount; ++i)
+    for (size_t i = 0; i < intersectCount; ++i)
       benchmark::DoNotOptimize(IntersectRaw(scene, prim[i].org, prim[i].dir, prim[i].tmax));
     for (const auto& [name, r] : range)
       for (size_t begin = r.first; begin < r.second; begin += kFloorBlock)
@@ -498,7 +516,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
   // Kernel floor: the same frame with every ray answered from memory, minus those lookups timed alone.
   double kernelFloorCpu1 = 0;
   {
-    Replayer replay(shad, shadowCount, prim, rec.Hits(), primaryCount);
+    Replayer replay(shad, shadowCount, prim, rec.Hits(), intersectCount);
     c["replay_table_mb"] = double(replay.Bytes()) / 1048576.0;
     SetRayHook(d.Scene(), &replay);
     StageTimes rep;
@@ -527,6 +545,12 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
         benchmark::DoNotOptimize(occ);
       });
     }
+    if (pathRays)
+      lookup["indirect"] += TimeParallel(primaryCount, intersectCount, FloorReps(), [&](size_t i) {
+        RawHit hit;
+        hook->AnswerIntersect(prim[i].org, prim[i].dir, prim[i].tmax, SceneFrame::kCurrent, hit);
+        benchmark::DoNotOptimize(hit);
+      });
     kernelFloor["primary"] = std::max(0.0, rep.primary - lookup["primary"]);
     c["replay_ms_primary"] = rep.primary;
     for (const auto& [name, ms] : rep.pass) {
@@ -544,7 +568,7 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     if (rep1.hash != frameHash) c["replay_hash_match"] = 0;
     replay.ResetCursors();
     const double cpu0 = ThreadCpuMs();
-    for (size_t i = 0; i < primaryCount; ++i) {
+    for (size_t i = 0; i < intersectCount; ++i) {
       RawHit hit;
       hook->AnswerIntersect(prim[i].org, prim[i].dir, prim[i].tmax, SceneFrame::kCurrent, hit);
       benchmark::DoNotOptimize(hit);
@@ -763,8 +787,11 @@ void RegisterAll() {
       ->Iterations(1)
       ->UseManualTime()
       ->Unit(benchmark::kMillisecond);
-  for (const Preset& p : AllPresets()) {
-    benchmark::RegisterBenchmark(("BM_Frame/" + p.name).c_str(), BM_Frame, &p)
+  std::vector<const Preset*> presets;
+  for (const Preset& p : AllPresets()) presets.push_back(&p);
+  for (const Preset& p : IndirectPresets()) presets.push_back(&p);  // ReSTIR GI (issue 41)
+  for (const Preset* p : presets) {
+    benchmark::RegisterBenchmark(("BM_Frame/" + p->name).c_str(), BM_Frame, p)
         ->Iterations(1)
         ->UseManualTime()
         ->Unit(benchmark::kMillisecond);
