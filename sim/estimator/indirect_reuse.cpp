@@ -137,6 +137,10 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   view.sky = Sky{};
   view.previousSky = Sky{};
   view.primaryEmission = false;
+  // The passes key their random numbers by (seed, frame, pixel, pass): the GI passes get a seed of their own, an
+  // odd-multiplier bijection of the run's, so that they never draw the direct light's numbers (DESIGN §3: one
+  // stream per pass).
+  view.seed = in.seed * 0x9E3779B1u + 0x47493131u;
 
   const PipelineSettings& s = giPasses_;
   FrameResult r;

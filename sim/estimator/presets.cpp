@@ -1,8 +1,10 @@
 #include "sim/estimator/presets.h"
 
+#include <algorithm>
 #include <deque>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 
 #include "sim/estimator/settings.h"
 #include "sim/util/text.h"
@@ -189,7 +191,11 @@ std::vector<Preset> RtxdiPresets() {
 // vertices are resampled as `configure` sets indirect.temporal, spatial and shade.
 Preset WithIndirect(const std::string& direct, const std::string& name, const std::string& description,
                     const std::string& source, void (*configure)(IndirectParams&)) {
-  Preset p = *FindPreset(direct);
+  // From AllPresets alone: FindPreset would reach IndirectPresets, whose list this call is building.
+  const auto it = std::find_if(AllPresets().begin(), AllPresets().end(),
+                               [&](const Preset& q) { return q.name == direct; });
+  if (it == AllPresets().end()) throw std::logic_error("WithIndirect: no direct-light preset '" + direct + "'");
+  Preset p = *it;
   p.name = name;
   p.description = description + "; direct light as " + direct;
   p.source = source;

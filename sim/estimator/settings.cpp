@@ -163,6 +163,7 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("indirect.temporal.sampleChecks", indirect.temporal.sampleChecks),
       RESTIR_FIELD("indirect.temporal.targetRatioClamp", indirect.temporal.targetRatioClamp),
       RESTIR_FIELD("indirect.temporal.boilingFilterStrength", indirect.temporal.boilingFilterStrength),
+      RESTIR_FIELD("indirect.temporal.permutation", indirect.temporal.permutation),
       RESTIR_FIELD("indirect.spatial.enabled", indirect.spatial.enabled),
       RESTIR_ENUM_FIELD("indirect.spatial.mis", indirect.spatial.mis, kMisNames),
       RESTIR_ENUM_FIELD("indirect.spatial.bias", indirect.spatial.bias, kBiasNames),
@@ -174,7 +175,17 @@ const std::vector<Field>& Fields() {
       RESTIR_FIELD("indirect.spatial.depthThreshold", indirect.spatial.depthThreshold),
       RESTIR_FIELD("indirect.spatial.draws", indirect.spatial.stochastic.draws),
       RESTIR_FIELD("indirect.spatial.canonicalDraws", indirect.spatial.stochastic.canonicalDraws),
+      RESTIR_FIELD("indirect.spatial.disocclusionDraws", indirect.spatial.stochastic.disocclusionDraws),
+      RESTIR_ENUM_FIELD("indirect.spatial.canonicalPdf", indirect.spatial.stochastic.canonicalPdf,
+                        kCanonicalPdfNames),
+      RESTIR_FIELD("indirect.spatial.cellTile", indirect.spatial.stochastic.cellTile),
+      RESTIR_FIELD("indirect.spatial.normalBins", indirect.spatial.stochastic.normalBins),
+      RESTIR_FIELD("indirect.spatial.cellSearchIterations", indirect.spatial.stochastic.cellSearchIterations),
+      RESTIR_FIELD("indirect.spatial.cellSearchRadius", indirect.spatial.stochastic.cellSearchRadius),
+      RESTIR_FIELD("indirect.spatial.cellSearchGrowth", indirect.spatial.stochastic.cellSearchGrowth),
+      RESTIR_FIELD("indirect.spatial.confidenceScaling", indirect.spatial.stochastic.confidenceScaling),
       RESTIR_ENUM_FIELD("indirect.shade.visibility", indirect.shade.visibility, kVisNames),
+      RESTIR_FIELD("indirect.shade.discardInvisibleSamples", indirect.shade.discardInvisibleSamples),
   };
   return fields;
 }
@@ -268,6 +279,19 @@ std::vector<SettingBound> MakeBounds() {
             draws, kPipeline),
       Bound("indirect.spatial.canonicalDraws", RESTIR_MEMBER(indirect.spatial.stochastic.canonicalDraws), 1,
             kMaxGrisInputs - 1, draws, kPipeline),
+      Bound("indirect.spatial.disocclusionDraws", RESTIR_MEMBER(indirect.spatial.stochastic.disocclusionDraws), 1,
+            kMaxGrisInputs - 1, "disocclusionDraws must be in [1, " + std::to_string(kMaxGrisInputs - 1) + "]",
+            kPipeline),
+      Bound("indirect.spatial.cellTile", RESTIR_MEMBER(indirect.spatial.stochastic.cellTile), 1, kMaxCellTile,
+            cells, kPipeline),
+      Bound("indirect.spatial.normalBins", RESTIR_MEMBER(indirect.spatial.stochastic.normalBins), 1, 64, cells),
+      Bound("indirect.spatial.cellSearchIterations",
+            RESTIR_MEMBER(indirect.spatial.stochastic.cellSearchIterations), 1, kMaxCellSearchIterations, cells,
+            kPipeline),
+      Bound("indirect.spatial.cellSearchRadius", RESTIR_MEMBER(indirect.spatial.stochastic.cellSearchRadius),
+            1.0 / 4096.0, 1,
+            "cellSearchRadius is in image heights and must be in [1/4096, 1] (the paper's 30 px at 1080 rows is "
+            "0.0277778)"),
   };
 }
 

@@ -173,7 +173,7 @@ PathScene::FirstVertex PathScene::SecondaryVertexSample(const ShadingPoint& x1, 
   v.vertex.normal = x.geometricNormal;
   v.vertex.errorScale = x.errorScale;
   v.vertex.pdfArea = pdfArea;
-  v.reconnectable = Reconnectable(x.bsdf);
+  v.reconnectable = Reconnectable(x.bsdf, x.geometricNormal, x.shadingNormal);
   Vec3 throughput(1.0f), light(0.0f);
   for (int bounce = 0; bounce < bounces; ++bounce) {
     const float* ub = u + static_cast<size_t>(bounce) * kBounceDims;

@@ -92,11 +92,11 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   // Per member: this frame's and last frame's reservoirs, the spatial pass's output buffer and its image.
   add("reservoirs", px * presets * members * 3.0 * kReservoir);
   // ReSTIR GI (Pipeline::RenderIndirect), per member of a preset that reuses its paths: the GI reservoirs of this
-  // frame and the last (the spatial pass writes into the last's), and the vertices the last frame's reservoirs hold
-  // (at most one a pixel).
+  // frame and the last (the spatial pass writes into the last's), the vertices the last frame's reservoirs hold (at
+  // most one a pixel) and the cells of a stochastic pairwise pass (two indices a pixel).
   if (s.reusedIndirectPresets > 0)
     add("ReSTIR GI reservoirs and held vertices",
-        px * double(s.reusedIndirectPresets) * members * (2.0 * kReservoir + kVertexPoint));
+        px * double(s.reusedIndirectPresets) * members * (2.0 * kReservoir + kVertexPoint + 2.0 * sizeof(uint32_t)));
   // A frame's initial passes, kept for the presets that share them (sim/estimator/pipeline.h InitialSamplingShare).
   if (s.sharedInitialPasses > 0)
     add("shared initial passes", px * double(s.sharedInitialPasses) * members * kReservoir);
@@ -117,11 +117,11 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
             double(s.reusedIndirectPresets) * members * (kReservoir + kVertexPoint));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   // A preset frame's indirect pass: its image, and where ReSTIR GI resamples the paths, the paths' vertices, the
-  // frame's points (a pixel's own and the held ones: two a pixel at most), the next frame's held points and the
-  // reuse's image.
+  // frame's points (a pixel's own and the held ones: two a pixel at most) with an index of them for keeping the
+  // held ones, the next frame's held points (one a pixel at most), the reuse's image and its temporal flags.
   const double indirectPass =
       s.reusedIndirectPresets > 0
-          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 3.0 * kVertexPoint)
+          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 3.0 * kVertexPoint + 2.0 * sizeof(uint32_t) + 1.0)
           : (s.indirectPresets > 0 ? px * kRgb : 0.0);
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =

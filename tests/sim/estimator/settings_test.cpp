@@ -147,10 +147,17 @@ TEST(Settings, ParserAndPipelineAgreeOnTheBounds) {
   // The Pipeline checks the bounds it checked before they were one table, and issue 39's disocclusionDraws (a
   // pixel's combination holds at most that many inputs), and the same draws of ReSTIR GI's spatial pass (issue
   // 41), no more: a value set in code beyond the others still runs.
-  const std::set<std::string> checkedBefore = {"spatial.draws",           "spatial.canonicalDraws",
-                                               "spatial.cellTile",        "spatial.cellSearchIterations",
-                                               "temporal.fusedNeighbours", "spatial.disocclusionDraws",
-                                               "indirect.spatial.draws",  "indirect.spatial.canonicalDraws"};
+  const std::set<std::string> checkedBefore = {"spatial.draws",
+                                               "spatial.canonicalDraws",
+                                               "spatial.cellTile",
+                                               "spatial.cellSearchIterations",
+                                               "temporal.fusedNeighbours",
+                                               "spatial.disocclusionDraws",
+                                               "indirect.spatial.draws",
+                                               "indirect.spatial.canonicalDraws",
+                                               "indirect.spatial.disocclusionDraws",
+                                               "indirect.spatial.cellTile",
+                                               "indirect.spatial.cellSearchIterations"};
   EXPECT_EQ(pipelineKeys, checkedBefore);
 }
 
