@@ -16,13 +16,14 @@ namespace restir {
 namespace {
 
 // A secondary vertex as a point its reservoirs' passes evaluate like a point on a light (LightPointAt): its
-// position and normal are in the reservoir, its radiance and error scale here. The triangle's edges and area
-// stay 0: nothing samples it.
+// position and geometric normal are in the reservoir, its radiance, error scale and shading normal (the side it
+// sends light to) here. The triangle's edges and area stay 0 (IsVertexPoint): nothing samples it.
 LightTriangle VertexPoint(const SecondaryVertex& v) {
   LightTriangle t;
   t.p0 = v.position;
   t.e1 = t.e2 = Vec3(0.0f);
-  t.normal = v.normal;
+  t.area = 0.0f;
+  t.normal = v.shadingNormal;
   t.radiance = v.radiance;
   t.errorScale = v.errorScale;
   return t;
@@ -49,6 +50,7 @@ void InitialVertices(const FrameView& view, const std::vector<SecondaryVertex>& 
       out[i].confidence = 1.0f;
       if (!(v.pdfArea > 0.0f)) continue;
       const ShadingPoint sp = ShadingPointAt(g, i, view.eye, *view.materials);
+      if (!InFrontOfVertex(v.shadingNormal, v.position, sp.position)) continue;  // x₂ sends x₁ nothing
       LightSample sample;
       sample.lightId = static_cast<uint32_t>(i);
       sample.position = v.position;

@@ -171,9 +171,14 @@ PathScene::FirstVertex PathScene::SecondaryVertexSample(const ShadingPoint& x1, 
   // x is x₂: what the rest of the path delivers there, in the same operations as IndirectSample from x₂ on.
   v.vertex.position = x.position;
   v.vertex.normal = x.geometricNormal;
+  v.vertex.shadingNormal = x.shadingNormal;
   v.vertex.errorScale = x.errorScale;
   v.vertex.pdfArea = pdfArea;
-  v.reconnectable = Reconnectable(x.bsdf, x.geometricNormal, x.shadingNormal);
+  v.reconnectable = Reconnectable(x.bsdf);
+  // A Lambertian x₂ reflects the same towards every direction in front of its shading hemisphere: L_o is taken
+  // for that front (as seen along the shading normal), and whether x₁ or a pixel the vertex is shifted to lies in
+  // front is asked of each receiver (InFrontOfVertex). The path's own value is then the same: 0 behind.
+  if (v.reconnectable) x.wo = x.shadingNormal;
   Vec3 throughput(1.0f), light(0.0f);
   for (int bounce = 0; bounce < bounces; ++bounce) {
     const float* ub = u + static_cast<size_t>(bounce) * kBounceDims;

@@ -71,7 +71,7 @@ class PathScene {
   struct FirstVertex {
     SecondaryVertex vertex;   // x₂ and L_o(x₂ → x₁) from the rest of the path (bounces 2 to `bounces`)
     Vec3 throughput{0.0f};    // the first step's integrand over its density (Step): f_r(x₁) cos θ₁ / p_ω(ω) but for the offset
-    bool reconnectable = false;  // core/reconnection_shift.h Reconnectable(x₂'s BSDF and normals)
+    bool reconnectable = false;  // core/reconnection_shift.h Reconnectable(x₂'s BSDF)
   };
   FirstVertex SecondaryVertexSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
                                     uint64_t& rays) const;

@@ -13,6 +13,7 @@
 #include "core/gris.h"
 #include "core/light.h"
 #include "core/light_sampler.h"
+#include "core/reconnection_shift.h"
 #include "core/reservoir.h"
 #include "core/sky.h"
 #include "sim/scene/embree_scene.h"
@@ -61,6 +62,10 @@ struct FrameView {
   bool HasLight() const { return (lightList ? !lightList->empty() : !lights->Empty()) || !sky.Empty(); }
 };
 
+// A ReSTIR GI vertex in a view's light list (sim/estimator/indirect_reuse.cpp): a point, so its triangle has no
+// area; every light triangle of a scene has some (degenerate ones are dropped when the scene is built).
+inline bool IsVertexPoint(const LightTriangle& t) { return t.area == 0.0f; }
+
 // A stored sample as a light point seen from a receiver at x (DESIGN §4): a point on a local light is itself; a
 // direction on the sky is its far point from x (core/sky.h SkyPointFor), so every receiver sees the same direction
 // (the shift is the identity on ω). The radiance is the frame's: zero for a light switched off or a sky that is
@@ -88,6 +93,9 @@ inline bool LightPointAt(const Vec3& x, uint32_t lightId, const Vec3& position, 
   out.normal = normal;
   out.radiance = t.radiance;
   out.errorScale = t.errorScale;
+  // A ReSTIR GI vertex (Pipeline::RenderIndirect: a point, its triangle's normal its shading normal) sends its L_o
+  // only to receivers in front of its shading hemisphere (core/reconnection_shift.h InFrontOfVertex).
+  if (IsVertexPoint(t) && !InFrontOfVertex(t.normal, position, x)) out.radiance = Vec3(0.0f);
   return true;
 }
 

@@ -605,8 +605,7 @@ TEST(IndirectReuse, GiFramesAverageToTheClosedForms) {
                            std::string(name) + ": sunlit wall 1 km out, frame 4");
     }
     {
-      // Flat-shaded: a vertex on a mesh with interpolated normals is not reconnected (Reconnectable), and the
-      // test is of the reuse.
+      // Flat-shaded, as the closed form's polyhedron is (interpolated normals are the tilted-wall test's).
       SphereScene s = IntegratingSphere(1000.0 * glm::normalize(D3(0.8, 0.36, -0.48)), 0.8, 35.0);
       s.seq.objects[0].mesh.normals.clear();
       GBuffer g;
@@ -692,9 +691,9 @@ void ExpectGiMatchesItsPaths(const Sequence& seq, const FrameState& state, const
 
 // The wall of the sunlit-wall scene with vertex normals tilted 60° about the vertical: its shading hemisphere
 // excludes part of the floor that its geometric one admits, which a vertex's L_o must respect (core/
-// reconnection_shift.h Reconnectable). Reconnecting such vertices read +28% near the wall, +15% in the middle and
-// -8.5% far from it (t = +23, +15, -18; a review's measurement); now they are used at their own pixels. (On the
-// plain wall the pairing does not help: GI and its paths correlate little, and the closed-form test resolves more.)
+// reconnection_shift.h InFrontOfVertex). Without it, reconnecting such vertices read +28% near the wall, +15% in the
+// middle and -8.5% far from it (t = +23, +15, -18; a review's measurement). (On the plain wall the pairing does not
+// help: GI and its paths correlate little, and the closed-form test resolves more.)
 TEST(IndirectReuse, GiFramesMatchTheirOwnPathsWhereShadingNormalsTilt) {
   for (const char* name : {"restir-gi-unbiased", "restir-gi-spmis"}) {
     const PipelineSettings& settings = FindPreset(name)->settings;
@@ -715,7 +714,7 @@ TEST(IndirectReuse, AGlossyVertexIsUsedAtItsOwnPixelOnly) {
   s.seq.materials[1].type = MaterialType::kLayered;
   s.seq.materials[1].metallic = 0.3f;
   s.seq.materials[1].roughness = 0.4f;
-  ASSERT_FALSE(Reconnectable(MaterialBsdfs(s.seq)[1], Vec3(0, 0, 1), Vec3(0, 0, 1)));
+  ASSERT_FALSE(Reconnectable(MaterialBsdfs(s.seq)[1]));
   GBuffer g;
   const std::vector<ImageRgb> frames =
       GiFrames(s.seq, s.state, FindPreset("restir-gi-unbiased")->settings, 1, 1, g);
