@@ -429,8 +429,10 @@ PresetResult RunPreset(const Preset& preset, bool keepRays) {
     return out;
   }
 
-  // Capture render: the exact rays of this frame. The passes' rays are shadow rays but for the indirect pass's
-  // paths, whose closest-hit rays come after the primary rays in the intersect capture.
+  // Capture render: the exact rays of this frame. The passes' rays are shadow rays but for the closest-hit rays
+  // after the primary ones: the indirect pass's paths, and initial sampling's BSDF candidates where a preset draws
+  // them (rtxdi-defaults and restir-gi), which are counted with the indirect pass here ("rays_paths"): the frame's
+  // floors are exact, that pass's share of them approximate for those presets.
   uint64_t passRays = 0;
   for (const auto& [name, n] : best.rays) passRays += n;
   const size_t pixels = static_cast<size_t>(w) * h;
