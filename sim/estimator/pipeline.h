@@ -133,12 +133,12 @@ class Pipeline {
   std::vector<LightTriangle>& IndirectVertices() { return gi_.vertices; }
 
  private:
-  // One family of reservoirs with its history: the direct light's, or ReSTIR GI's.
+  // ReSTIR GI's reservoirs with their history (the direct light's are the members below, as they were).
   struct ReservoirState {
     ReservoirBuffer current;   // this frame's reservoirs
     ReservoirBuffer previous;  // last frame's output (temporal input), then spatial scratch
     CellGrid cells;            // the last stochastic pairwise iteration's
-    std::vector<LightTriangle> vertices;  // GI: the secondary vertices `previous` holds, as points (RenderIndirect)
+    std::vector<LightTriangle> vertices;  // the secondary vertices `previous` holds, as points (RenderIndirect)
   };
 
   Contributing InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r);
