@@ -189,11 +189,13 @@ PathScene::FirstVertex PathScene::SecondaryVertexSample(const ShadingPoint& x1, 
   return v;
 }
 
-ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
-                       const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays) {
-  ImageRgb image(g.width, g.height);
-  if (bounces <= 0) return image;
-  bounces = std::min(bounces, kMaxIndirectBounces);
+namespace {
+
+// One path a pixel over the frame's surface pixels (RngPass::kIndirect, keyed by seed, frame and pixel): `body(paths,
+// x1, u, scratch, rays, i)` for each, rows in parallel. Counts the rays.
+template <typename Body>
+void ForEachPixelPath(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene, const GBuffer& g,
+                      int bounces, uint32_t seed, uint32_t frame, uint64_t& rays, Body&& body) {
   const Sky sky = MakeSky(sequence, state);
   const PathScene paths(sequence, scene, sky);
   const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
@@ -207,11 +209,22 @@ ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const 
         const size_t i = static_cast<size_t>(y) * g.width + x;
         if (!g.IsSurface(i)) continue;
         PathRandomNumbers(seed, frame, static_cast<uint32_t>(i), 0, RngPass::kIndirect, bounces, u.data());
-        image.pixels[i] = paths.IndirectSample(ShadingPointAt(g, i, state.camera.position, bsdfs), bounces,
-                                               u.data(), scratch, r);
+        body(paths, ShadingPointAt(g, i, state.camera.position, bsdfs), u.data(), scratch, r, i);
       }
   });
   rays += rayCount.combine(std::plus<uint64_t>());
+}
+
+}  // namespace
+
+ImageRgb IndirectImage(const Sequence& sequence, const FrameState& state, const EmbreeScene& scene,
+                       const GBuffer& g, int bounces, uint32_t seed, uint32_t frame, uint64_t& rays) {
+  ImageRgb image(g.width, g.height);
+  if (bounces <= 0) return image;
+  bounces = std::min(bounces, kMaxIndirectBounces);
+  ForEachPixelPath(sequence, state, scene, g, bounces, seed, frame, rays,
+                   [&](const PathScene& paths, const ShadingPoint& x1, const float* u, SampleBatch& scratch,
+                       uint64_t& r, size_t i) { image.pixels[i] = paths.IndirectSample(x1, bounces, u, scratch, r); });
   return image;
 }
 
@@ -222,28 +235,15 @@ IndirectVertices SecondaryVertices(const Sequence& sequence, const FrameState& s
   out.unshifted = ImageRgb(g.width, g.height);
   if (bounces <= 0) return out;
   bounces = std::min(bounces, kMaxIndirectBounces);
-  const Sky sky = MakeSky(sequence, state);
-  const PathScene paths(sequence, scene, sky);
-  const BsdfSoa bsdfs = FrameBsdfTable(MaterialBsdfs(sequence), sequence.materials, g, nullptr);
-  tbb::combinable<uint64_t> rayCount{[] { return uint64_t{0}; }};
-  tbb::parallel_for(tbb::blocked_range<int>(0, g.height), [&](const tbb::blocked_range<int>& rows) {
-    SampleBatch scratch;
-    std::vector<float> u(static_cast<size_t>(bounces) * kBounceDims);
-    uint64_t& r = rayCount.local();
-    for (int y = rows.begin(); y < rows.end(); ++y)
-      for (int x = 0; x < g.width; ++x) {
-        const size_t i = static_cast<size_t>(y) * g.width + x;
-        if (!g.IsSurface(i)) continue;
-        PathRandomNumbers(seed, frame, static_cast<uint32_t>(i), 0, RngPass::kIndirect, bounces, u.data());
-        const PathScene::FirstVertex v = paths.SecondaryVertexSample(
-            ShadingPointAt(g, i, state.camera.position, bsdfs), bounces, u.data(), scratch, r);
-        if (v.reconnectable)
-          out.vertices[i] = v.vertex;
-        else
-          out.unshifted.pixels[i] = v.throughput * v.vertex.radiance;
-      }
-  });
-  rays += rayCount.combine(std::plus<uint64_t>());
+  ForEachPixelPath(sequence, state, scene, g, bounces, seed, frame, rays,
+                   [&](const PathScene& paths, const ShadingPoint& x1, const float* u, SampleBatch& scratch,
+                       uint64_t& r, size_t i) {
+                     const PathScene::FirstVertex v = paths.SecondaryVertexSample(x1, bounces, u, scratch, r);
+                     if (v.reconnectable)
+                       out.vertices[i] = v.vertex;
+                     else
+                       out.unshifted.pixels[i] = v.throughput * v.vertex.radiance;
+                   });
   return out;
 }
 

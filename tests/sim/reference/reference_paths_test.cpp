@@ -38,6 +38,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -511,42 +512,60 @@ TEST(IndirectImage, SeedsAndFramesGiveIndependentPathsAndNoBouncesNoLight) {
 
 // ---- d. ReSTIR GI's frames (Pipeline::RenderIndirect) ----
 
+// A static scene as every frame of ReSTIR GI sees it: the same view, each pixel reprojecting onto itself.
+struct StaticGiScene {
+  const Sequence& seq;
+  const FrameState& state;
+  EmbreeScene scene;
+  GBuffer g;
+  std::unique_ptr<LightSampler> lights;
+  std::vector<Bsdf> bsdfs;
+  Sky sky;
+
+  StaticGiScene(const Sequence& s, const FrameState& st) : seq(s), state(st), scene(s) {
+    scene.Update(state);
+    TracePrimary(scene, state.camera, g);
+    const GBuffer previous = g;
+    Reproject(state, state, previous, scene.LightObjectId(), ReprojectionParams{}, g);
+    lights = std::make_unique<LightSampler>(scene.LightTriangles(), LightSelection::kPower);
+    bsdfs = MaterialBsdfs(seq);
+    sky = MakeSky(seq, state);
+  }
+  // Seed k's GI frame f through `pipeline` (its reservoirs carried from frame f − 1): the reservoirs' image plus the
+  // paths through a vertex that is not reconnected, as FrameLoop::RenderPreset adds them.
+  ImageRgb Frame(Pipeline& pipeline, int k, int f) const {
+    FrameInputs in;
+    in.state = &state;
+    in.scene = &scene;
+    in.gbuffer = &g;
+    in.lights = lights.get();
+    in.materials = &bsdfs;
+    in.sky = sky;
+    in.previousSky = sky;
+    if (f > 0) in.previousState = &state, in.previousGbuffer = &g, in.previousLights = &scene.LightTriangles();
+    in.seed = static_cast<uint32_t>(k);
+    in.frame = static_cast<uint32_t>(f);
+    uint64_t rays = 0;
+    IndirectVertices paths =
+        SecondaryVertices(seq, state, scene, g, pipeline.Settings().indirect.bounces, in.seed, in.frame, rays);
+    const FrameResult gi = pipeline.RenderIndirect(in, paths.vertices);
+    ImageRgb image = std::move(paths.unshifted);
+    for (size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] += gi.image.pixels[i];
+    return image;
+  }
+};
+
 // Seed k's indirect light after `frames` frames of a static scene, each frame's paths (SecondaryVertices) resampled
-// by the preset's GI passes with the previous frame's reservoirs: the reservoirs' image plus the paths through a
-// vertex that is not reconnected, as FrameLoop::RenderPreset adds them.
+// by the preset's GI passes with the previous frame's reservoirs.
 std::vector<ImageRgb> GiFrames(const Sequence& seq, const FrameState& state, const PipelineSettings& settings,
                                int frames, int seeds, GBuffer& g) {
-  EmbreeScene scene(seq);
-  scene.Update(state);
-  TracePrimary(scene, state.camera, g);
-  GBuffer previous = g;  // the same view: every pixel reprojects onto itself
-  Reproject(state, state, previous, scene.LightObjectId(), ReprojectionParams{}, g);
-  const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
-  const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
-  const Sky sky = MakeSky(seq, state);
+  const StaticGiScene s(seq, state);
+  g = s.g;
   std::vector<ImageRgb> out;
   for (int k = 0; k < seeds; ++k) {
     Pipeline pipeline(settings);
     ImageRgb last;
-    for (int f = 0; f < frames; ++f) {
-      FrameInputs in;
-      in.state = &state;
-      in.scene = &scene;
-      in.gbuffer = &g;
-      in.lights = &lights;
-      in.materials = &bsdfs;
-      in.sky = sky;
-      in.previousSky = sky;
-      if (f > 0) in.previousState = &state, in.previousGbuffer = &g, in.previousLights = &scene.LightTriangles();
-      in.seed = static_cast<uint32_t>(k);
-      in.frame = static_cast<uint32_t>(f);
-      uint64_t rays = 0;
-      IndirectVertices paths = SecondaryVertices(seq, state, scene, g, settings.indirect.bounces, in.seed,
-                                                 in.frame, rays);
-      const FrameResult gi = pipeline.RenderIndirect(in, paths.vertices);
-      last = std::move(paths.unshifted);
-      for (size_t i = 0; i < last.pixels.size(); ++i) last.pixels[i] += gi.image.pixels[i];
-    }
+    for (int f = 0; f < frames; ++f) last = s.Frame(pipeline, k, f);
     out.push_back(std::move(last));
   }
   return out;
@@ -626,15 +645,8 @@ void ExpectGiMatchesItsPaths(const Sequence& seq, const FrameState& state, const
                              int seeds, const std::function<bool(const GBuffer&, size_t)>& compared,
                              const std::string& what) {
   constexpr int kFrames = 8, kFirst = 4;
-  EmbreeScene scene(seq);
-  scene.Update(state);
-  GBuffer g;
-  TracePrimary(scene, state.camera, g);
-  GBuffer previous = g;
-  Reproject(state, state, previous, scene.LightObjectId(), ReprojectionParams{}, g);
-  const LightSampler lights(scene.LightTriangles(), LightSelection::kPower);
-  const std::vector<Bsdf> bsdfs = MaterialBsdfs(seq);
-  const Sky sky = MakeSky(seq, state);
+  const StaticGiScene s(seq, state);
+  const GBuffer& g = s.g;
   std::vector<size_t> pixels;
   for (size_t i = 0; i < g.Size(); ++i)
     if (g.IsSurface(i) && compared(g, i)) pixels.push_back(i);
@@ -645,25 +657,13 @@ void ExpectGiMatchesItsPaths(const Sequence& seq, const FrameState& state, const
     Pipeline pipeline(settings);
     std::vector<double> gi(g.Size(), 0.0), paths(g.Size(), 0.0);
     for (int f = 0; f < kFrames; ++f) {
-      FrameInputs in;
-      in.state = &state;
-      in.scene = &scene;
-      in.gbuffer = &g;
-      in.lights = &lights;
-      in.materials = &bsdfs;
-      in.sky = sky;
-      in.previousSky = sky;
-      if (f > 0) in.previousState = &state, in.previousGbuffer = &g, in.previousLights = &scene.LightTriangles();
-      in.seed = static_cast<uint32_t>(k);
-      in.frame = static_cast<uint32_t>(f);
-      uint64_t rays = 0;
-      const int bounces = settings.indirect.bounces;
-      IndirectVertices v = SecondaryVertices(seq, state, scene, g, bounces, in.seed, in.frame, rays);
-      const FrameResult r = pipeline.RenderIndirect(in, v.vertices);
+      const ImageRgb frame = s.Frame(pipeline, k, f);
       if (f < kFirst) continue;
-      const ImageRgb plain = IndirectImage(seq, state, scene, g, bounces, in.seed, in.frame, rays);
+      uint64_t rays = 0;
+      const ImageRgb plain = IndirectImage(seq, state, s.scene, g, settings.indirect.bounces,
+                                           static_cast<uint32_t>(k), static_cast<uint32_t>(f), rays);
       for (size_t i : pixels) {
-        gi[i] += Y(D3(r.image.pixels[i] + v.unshifted.pixels[i]));
+        gi[i] += Y(D3(frame.pixels[i]));
         paths[i] += Y(D3(plain.pixels[i]));
       }
     }

@@ -140,17 +140,21 @@ class SimdDeterminism : public ::testing::Test {
 };
 
 // Under a sky, every preset also runs the candidate sources and the far points of direction samples
-// (tests/data/sky_smoke.json; BSDF candidates through rtxdi-defaults).
-void ExpectHashesIdenticalAcrossTargetsAndThreads(const std::string& sequence) {
+// (tests/data/sky_smoke.json; BSDF candidates through rtxdi-defaults). `presets`: AllPresets, or the given list.
+// Returns the hashes all runs agreed on.
+std::map<std::string, std::string> ExpectHashesIdenticalAcrossTargetsAndThreads(
+    const std::string& sequence, const std::vector<std::string>& presets = {}) {
   std::map<std::string, std::string> first;
   std::string firstName;
   for (SimdTarget t : SupportedSimdTargets()) {
-    ASSERT_TRUE(SetSimdTarget(t));
+    EXPECT_TRUE(SetSimdTarget(t));
     for (int threads : {1, 2}) {
       const std::string name = std::string(SimdTargetName(t)) + "-t" + std::to_string(threads);
       // 100 pixels wide: a full batch of 64 pixels and a partial one per row, SIMD tails in every kernel.
-      const RunResult r = restir::Run(SmokeAllPresets("restir-simd-" + name, threads, 100, 40, sequence));
-      ASSERT_EQ(r.rows.size(), AllPresets().size() * 4) << name;
+      RunOptions o = SmokeAllPresets("restir-simd-" + name, threads, 100, 40, sequence);
+      if (!presets.empty()) o.presets = presets;
+      const RunResult r = restir::Run(o);
+      EXPECT_EQ(r.rows.size(), o.presets.size() * 4) << name;
       const auto h = Hashes(r);
       if (first.empty()) {
         first = h;
@@ -160,6 +164,7 @@ void ExpectHashesIdenticalAcrossTargetsAndThreads(const std::string& sequence) {
       EXPECT_EQ(h, first) << name << " differs from " << firstName;
     }
   }
+  return first;
 }
 
 TEST_F(SimdDeterminism, ImageHashesIdenticalAcrossTargetsAndThreadCountsForEveryPreset) {
@@ -173,26 +178,11 @@ TEST_F(SimdDeterminism, ImageHashesIdenticalAcrossTargetsAndThreadCountsForEvery
 // ReSTIR GI's presets (issue 41): the paths, their vertices' reservoirs through the direct light's kernels, and the
 // held vertices carried across frames give the same bits on every SIMD target and thread count.
 TEST_F(SimdDeterminism, GiPresetHashesIdenticalAcrossTargetsAndThreadCounts) {
-  std::map<std::string, std::string> first;
-  std::string firstName;
-  for (SimdTarget t : SupportedSimdTargets()) {
-    ASSERT_TRUE(SetSimdTarget(t));
-    for (int threads : {1, 2}) {
-      const std::string name = std::string(SimdTargetName(t)) + "-t" + std::to_string(threads);
-      RunOptions o = SmokeAllPresets("restir-simd-gi-" + name, threads, 100, 40);
-      o.presets.clear();
-      for (const Preset& p : IndirectPresets()) o.presets.push_back(p.name);
-      const RunResult r = restir::Run(o);
-      ASSERT_EQ(r.rows.size(), IndirectPresets().size() * 4) << name;
-      const auto h = Hashes(r);
-      if (first.empty()) {
-        first = h;
-        firstName = name;
-        continue;
-      }
-      EXPECT_EQ(h, first) << name << " differs from " << firstName;
-    }
-  }
+  std::vector<std::string> names;
+  for (const Preset& p : IndirectPresets()) names.push_back(p.name);
+  const std::map<std::string, std::string> first =
+      ExpectHashesIdenticalAcrossTargetsAndThreads("sequences/smoke.json", names);
+  ASSERT_FALSE(first.empty());
   // Each preset's frames differ from its direct-light preset's with the same bounces: the reuse changes them.
   ASSERT_TRUE(SetSimdTarget(SimdTarget::kAuto));
   RunOptions o = SmokeAllPresets("restir-simd-gi-plain", 2, 100, 40);
