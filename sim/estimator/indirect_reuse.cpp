@@ -147,14 +147,26 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   const PipelineSettings& s = giPasses_;
   FrameResult r;
   r.temporalAccepted.assign(pixels, 0);
+  // The GI reservoirs' contributing shares after each pass, as RenderFrame measures the direct light's.
+  const auto contributing = [&] {
+    return in.measureReservoirs ? ContributingFraction(g, gi_.current, in.diagnosticsRegion) : Contributing{};
+  };
   PassStats initial;
   InitialVertices(view, vertices, gi_.current, initial);
   initial.ms = MsSince(t0);
   r.passes.push_back(initial);
+  const Contributing initialShare = contributing();
   if (s.temporal.enabled)
     TemporalReuse(s.temporal, view, gi_.previous, gi_.current, r.temporalAccepted, r.passes.emplace_back());
-  if (s.spatial.enabled) SpatialPass(s.spatial, view, gi_.current, gi_.previous, gi_.cells, r);
+  const Contributing temporalShare = s.temporal.enabled ? contributing() : initialShare;
+  if (s.spatial.enabled) {
+    SpatialPass(s.spatial, view, gi_.current, gi_.previous, gi_.cells, r);
+    r.indirectSpatial = r.passes.back();
+  }
+  const Contributing spatialShare = s.spatial.enabled ? contributing() : temporalShare;
+  RecordContributing(initialShare, temporalShare, spatialShare, r.diagnostics);
   Shade(s.shade, view, gi_.current, r.image, r.passes.emplace_back());
+  if (in.measureReservoirs) MeasureOutputReservoirs(g, gi_.current, r.diagnostics);
   gi_.vertices = KeepHeldVertices(points, gi_.current);
   std::swap(gi_.previous, gi_.current);
   PassStats total;
@@ -166,6 +178,7 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   size_t surfaces = 0, accepted = 0;
   for (size_t i = 0; i < pixels; ++i) surfaces += g.IsSurface(i), accepted += g.IsSurface(i) && r.temporalAccepted[i];
   r.temporalAcceptance = surfaces ? double(accepted) / double(surfaces) : 0.0;
+  r.diagnostics.contributingShaded = surfaces ? double(total.contributing) / double(surfaces) : 0.0;
   return r;
 }
 

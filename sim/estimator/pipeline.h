@@ -73,6 +73,11 @@ struct FrameResult {
   ReservoirDiagnostics diagnostics;
   uint64_t crossObjectReuse = 0;   // temporal inputs whose previous surface had another object id (must be 0)
   std::vector<uint8_t> temporalAccepted;  // per pixel: the previous reservoir was used
+  // ReSTIR GI's reservoirs (RenderIndirect: the same measures as `diagnostics`, over the GI reservoirs) and its
+  // spatial pass alone (the "indirect" pass folds every GI pass into one); set by FrameLoop::RenderPreset for a
+  // preset that reuses paths, null otherwise.
+  std::optional<ReservoirDiagnostics> indirectDiagnostics;
+  std::optional<PassStats> indirectSpatial;
 };
 
 // One frame's initial-sampling outputs, shared by the presets of a run. InitialSampling reads its parameters and the

@@ -370,6 +370,29 @@ void AppendErrorColumns(const FrameMeasurement& m, Columns& v) {
   v.emplace_back("flicker", m.previousImage ? Flicker(*m.image, *m.previousImage, ref, *m.previousReference) : 0.0);
 }
 
+// The same for ReSTIR GI's reservoirs, whose samples are paths' secondary vertices (issue 41): seed 004's regime is
+// where few of them contribute. Fixed columns; 0 for a preset that does not reuse paths.
+void AppendIndirectReservoirColumns(const FrameMeasurement& m, Columns& v) {
+  const size_t pixels = m.image->Size();
+  const ReservoirDiagnostics d = m.indirectDiagnostics ? *m.indirectDiagnostics : ReservoirDiagnostics{};
+  v.emplace_back("gi_contrib_initial", d.contributingInitial);
+  v.emplace_back("gi_contrib_temporal", d.contributingTemporal);
+  v.emplace_back("gi_contrib_spatial", d.contributingSpatial);
+  v.emplace_back("gi_contrib_shaded", d.contributingShaded);
+  v.emplace_back("gi_contrib_initial_disocc", d.contributingInitialRegion);
+  v.emplace_back("gi_contrib_temporal_disocc", d.contributingTemporalRegion);
+  v.emplace_back("gi_contrib_spatial_disocc", d.contributingSpatialRegion);
+  v.emplace_back("gi_mean_confidence", d.confidenceMean);
+  v.emplace_back("gi_sample_age", d.ageMean);
+  v.emplace_back("gi_duplicate_fraction", d.duplicateFraction);
+  const PassStats spatial = m.indirectSpatial ? *m.indirectSpatial : PassStats{};
+  v.emplace_back("gi_ms_spatial", spatial.ms);
+  v.emplace_back("gi_rays_per_pixel_spatial", double(spatial.rays) / double(pixels));
+  v.emplace_back("gi_targets_per_pixel_spatial", double(spatial.targets) / double(pixels));
+  v.emplace_back("gi_reservoir_reads_per_pixel_spatial", double(spatial.reservoirReads) / double(pixels));
+  v.emplace_back("gi_spatial_failed_fraction", spatial.visited ? double(spatial.failed) / double(spatial.visited) : 0.0);
+}
+
 // What the reservoirs held (issue 20) and the spatial pass's work per pixel, so a reader can price a method for
 // other hardware (issue 39), with the share of its surface pixels that found nothing to reuse.
 void AppendReservoirColumns(const FrameMeasurement& m, Columns& v) {
@@ -396,6 +419,7 @@ void AppendReservoirColumns(const FrameMeasurement& m, Columns& v) {
   v.emplace_back("reservoir_reads_per_pixel_spatial", spatial ? double(spatial->reservoirReads) / double(pixels) : 0.0);
   v.emplace_back("spatial_failed_fraction",
                  spatial && spatial->visited ? double(spatial->failed) / double(spatial->visited) : 0.0);
+  AppendIndirectReservoirColumns(m, v);
 }
 
 }  // namespace

@@ -132,6 +132,10 @@ struct FrameMeasurement {
   uint64_t guarded = 0;                            // FrameResult counters
   double temporalAcceptance = 0.0;
   ReservoirDiagnostics diagnostics;                // FrameResult::diagnostics
+  // FrameResult::indirectDiagnostics and indirectSpatial: ReSTIR GI's reservoirs and spatial pass (null: the
+  // preset does not reuse paths; its gi_* columns read 0).
+  const ReservoirDiagnostics* indirectDiagnostics = nullptr;
+  const PassStats* indirectSpatial = nullptr;
   uint64_t crossObjectReuse = 0;
   double disoccFraction = 0.0, recentFraction = 0.0;  // G-buffer disocclusion and its 4-frame window
   // The reference and what is measured against it:

@@ -78,7 +78,9 @@ FrameResult FrameLoop::RenderPreset(Pipeline& pipeline, const FrameInputs& input
   if (indirect.reuse) {
     IndirectVertices paths = SecondaryVertices(sequence_, state_, scene_, current_, indirect.bounces, inputs.seed,
                                                inputs.frame, pass.rays);
-    const FrameResult gi = pipeline.RenderIndirect(inputs, paths.vertices);
+    FrameResult gi = pipeline.RenderIndirect(inputs, paths.vertices);
+    result.indirectDiagnostics = gi.diagnostics;
+    result.indirectSpatial = gi.indirectSpatial;
     image = std::move(paths.unshifted);
     for (size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] += gi.image.pixels[i];
     const uint64_t pathRays = pass.rays;

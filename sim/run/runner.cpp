@@ -680,6 +680,8 @@ void MeasurePresets(RunContext& run, RunFrame& f) {
     m.guarded = fr.guardedEvents;
     m.temporalAcceptance = fr.temporalAcceptance;
     m.diagnostics = fr.diagnostics;
+    m.indirectDiagnostics = fr.indirectDiagnostics ? &*fr.indirectDiagnostics : nullptr;
+    m.indirectSpatial = fr.indirectSpatial ? &*fr.indirectSpatial : nullptr;
     m.crossObjectReuse = fr.crossObjectReuse;
     m.disoccFraction = MaskFraction(loop.Gbuffer().disoccluded);
     m.recentFraction = MaskFraction(f.recentMask);
