@@ -17,7 +17,10 @@
 // or RESTIR_BENCH_REFERENCE_CAP (its cap) say otherwise; RESTIR_BENCH_REFERENCE_LEARN=0 (the
 // unshadowed selection, without the pilot's visibility learning: the before of issue 40);
 // RESTIR_BENCH_REFERENCE_DIFFERENCE=0 (without the difference estimator at diffuse receivers);
-// RESTIR_BENCH_REFERENCE_SPREAD=0 (the pilot's relative variances as they came, not spread to their neighbours).
+// RESTIR_BENCH_REFERENCE_SPREAD=0 (the pilot's relative variances as they came, not spread to their neighbours);
+// RESTIR_BENCH_REFERENCE_GUIDE=0 (the indirect paths' first direction by the BSDF alone, without the pilot's guide).
+// The reference has the indirect bounces of the sequence's own presets (window_bars_sun's and shutter_reveal_sun's:
+// one).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -26,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/estimator/presets.h"
 #include "sim/reference/reference.h"
 #include "sim/run/frame_loop.h"
 #include "sim/scene/sequence.h"
@@ -37,7 +41,7 @@ const std::vector<std::string>& Sequences() {
   static const std::vector<std::string> names = {
       "window_bars_pan",     "sun_street_pan",     "static_room",          "asset_table",
       "moving_occluder",     "smoke",              "regimes/door_ajar",    "regimes/many_rooms",
-      "regimes/sliding_reveal", "regimes/sun_street_night"};
+      "regimes/sliding_reveal", "regimes/sun_street_night", "window_bars_sun", "shutter_reveal_sun"};
   return names;
 }
 
@@ -67,6 +71,11 @@ void BM_ReferenceQuality(benchmark::State& state) {
   params.differenceShadows = EnvInt("RESTIR_BENCH_REFERENCE_DIFFERENCE", 1) != 0;
   params.projectedSolidAngleDraws = EnvInt("RESTIR_BENCH_REFERENCE_PSA", 0) != 0;
   params.spreadRelativeVariance = EnvInt("RESTIR_BENCH_REFERENCE_SPREAD", 1) != 0;
+  params.guidePaths = EnvInt("RESTIR_BENCH_REFERENCE_GUIDE", 1) != 0;
+  // The indirect light the sequence's own presets ask for, as a run's reference has it.
+  for (const std::string& preset : seq.defaults.presets)
+    if (const Preset* p = FindPreset(preset))
+      params.indirectBounces = std::max(params.indirectBounces, p->settings.indirect.bounces);
   FrameLoop loop(seq, w, h);
   double meanRel = 0.0, p99 = 0.0, dark = 0.0, rays = 0.0, ms = 0.0, capped = 0.0, spp = 0.0;
   for (auto _ : state) {
@@ -96,7 +105,7 @@ void BM_ReferenceQuality(benchmark::State& state) {
   state.counters["rel_var_per_ray"] = (meanRel / frames) * (meanRel / frames) * (rays / frames);
 }
 
-BENCHMARK(BM_ReferenceQuality)->DenseRange(0, 9)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ReferenceQuality)->DenseRange(0, 11)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace restir

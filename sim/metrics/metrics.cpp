@@ -386,7 +386,7 @@ void AppendIndirectReservoirColumns(const FrameMeasurement& m, Columns& v) {
   v.emplace_back("gi_sample_age", d.ageMean);
   v.emplace_back("gi_duplicate_fraction", d.duplicateFraction);
   const PassStats spatial = m.indirectSpatial ? *m.indirectSpatial : PassStats{};
-  v.emplace_back("gi_ms_spatial", spatial.ms);
+  v.emplace_back("ms_gi_spatial", spatial.ms);
   v.emplace_back("gi_rays_per_pixel_spatial", double(spatial.rays) / double(pixels));
   v.emplace_back("gi_targets_per_pixel_spatial", double(spatial.targets) / double(pixels));
   v.emplace_back("gi_reservoir_reads_per_pixel_spatial", double(spatial.reservoirReads) / double(pixels));

@@ -52,8 +52,9 @@ namespace {
 // the pilot's relative variances spread to their neighbourhood before the allocation).
 constexpr uint32_t kReferenceVersion = 16;
 // The version of the indirect paths (sim/reference/reference_paths.h), in the key of references that have them.
-// 2: the secondary vertices weigh their lights; 3: a step is weighed in area measure from the ray's true origin.
-constexpr uint32_t kPathsVersion = 3;
+// 2: the secondary vertices weigh their lights; 3: a step is weighed in area measure from the ray's true origin;
+// 4: the first direction guided by what the pilot's paths found (sim/reference/reference_guide.h).
+constexpr uint32_t kPathsVersion = 4;
 // The reference has its own seed so that runs with different --seed share one reference.
 constexpr uint32_t kReferenceSeed = 0x5EFE12ECu;
 
@@ -312,7 +313,8 @@ std::string ReferenceCacheKey(const Sequence& sequence, const FrameState& state,
   h = Fnv1a(&error, sizeof(error), h);
   // Hashed only where there is indirect light, so that direct-light entries keep their keys.
   if (params.indirectBounces > 0) {
-    const int32_t bounces[2] = {params.indirectBounces, static_cast<int32_t>(kPathsVersion)};
+    const int32_t bounces[2] = {params.indirectBounces,
+                                static_cast<int32_t>(kPathsVersion) | (params.guidePaths ? 0 : 1 << 30)};
     h = Fnv1a(bounces, sizeof(bounces), h);
   }
   const uint64_t s = HashFrameState(state);
@@ -1218,6 +1220,25 @@ ReferenceParams PartParams(const ReferenceParams& params) {
   return part;
 }
 
+// Each guide tile's distribution from what the pilot's paths carried back: its own tile's sums and its eight
+// neighbours' (a tile whose pilot paths all missed a small bright patch hears it from the tiles around).
+std::vector<DirectionGuide> GuideTiles(const std::vector<double>& learned, int tilesX, int tilesY) {
+  std::vector<DirectionGuide> guides(static_cast<size_t>(tilesX) * tilesY);
+  tbb::parallel_for(0, tilesY, [&](int ty) {
+    std::vector<double> weights(kGuideBins);
+    for (int tx = 0; tx < tilesX; ++tx) {
+      std::fill(weights.begin(), weights.end(), 0.0);
+      for (int ny = std::max(0, ty - 1); ny <= std::min(tilesY - 1, ty + 1); ++ny)
+        for (int nx = std::max(0, tx - 1); nx <= std::min(tilesX - 1, tx + 1); ++nx) {
+          const double* bins = learned.data() + (static_cast<size_t>(ny) * tilesX + nx) * kGuideBins;
+          for (int b = 0; b < kGuideBins; ++b) weights[static_cast<size_t>(b)] += bins[b];
+        }
+      guides[static_cast<size_t>(ty) * tilesX + tx] = DirectionGuide(weights.data());
+    }
+  });
+  return guides;
+}
+
 // The indirect light (ReferenceParams::indirectBounces; sim/reference/reference_paths.h), added to the direct
 // light's estimate: a pilot of kPilotSamples paths a pixel (not part of the estimate) gives each pixel its relative
 // variance per path against its whole light (direct, as the main pass found it, plus the pilot's indirect mean), and
@@ -1243,22 +1264,41 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
         }
     });
   };
+  // The pilot: kPilotSamples paths a pixel, drawn by the BSDF. Each gives its pixel's relative variance, and each
+  // guide tile learns from its paths' first directions what they carried back (sim/reference/reference_guide.h).
+  // A guide tile's rows are run by one task, in order: the same sums on any thread count.
+  const int tilesX = (frame.w + kGuideTile - 1) / kGuideTile, tilesY = (frame.h + kGuideTile - 1) / kGuideTile;
+  std::vector<double> learned(static_cast<size_t>(tilesX) * tilesY * kGuideBins, 0.0);
   std::vector<float> relVar(frame.pixels, 0.0f);
-  forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
-    double sum = 0.0, sumSq = 0.0;
-    for (uint32_t k = 0; k < static_cast<uint32_t>(kPilotSamples); ++k) {
-      PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), k, RngPass::kReferencePathsPilot,
-                        bounces, u);
-      const double v = Luminance(paths.IndirectSample(sp, bounces, u, scratch, rays));
-      sum += v;
-      sumSq += v * v;
-    }
-    pathCount.local() += kPilotSamples;
-    const double mean = sum / kPilotSamples;
-    const double var = std::max(0.0, sumSq / kPilotSamples - mean * mean) * kPilotSamples / (kPilotSamples - 1);
-    const double total = double(Luminance(ref.mean.pixels[i])) + mean;
-    relVar[i] = total > 0.0 ? static_cast<float>(var / (total * total)) : 0.0f;
+  tbb::parallel_for(0, tilesY, [&](int ty) {
+    SampleBatch scratch;
+    std::vector<float> u(static_cast<size_t>(bounces) * kBounceDims);
+    uint64_t& rays = frame.rays.local();
+    for (int y = ty * kGuideTile; y < std::min(frame.h, (ty + 1) * kGuideTile); ++y)
+      for (int x = 0; x < frame.w; ++x) {
+        const size_t i = static_cast<size_t>(y) * frame.w + x;
+        if (!frame.active[i]) continue;
+        const ShadingPoint sp = ShadingPointAt(frame.g, i, eye, frame.bsdfs);
+        double* bins = learned.data() + (static_cast<size_t>(ty) * tilesX + x / kGuideTile) * kGuideBins;
+        double sum = 0.0, sumSq = 0.0;
+        for (uint32_t k = 0; k < static_cast<uint32_t>(kPilotSamples); ++k) {
+          PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), k, RngPass::kReferencePathsPilot,
+                            bounces, u.data());
+          Vec3 direction(0.0f);
+          const double v = Luminance(paths.IndirectSample(sp, bounces, u.data(), scratch, rays, nullptr, &direction));
+          sum += v;
+          sumSq += v * v;
+          if (v > 0.0 && std::isfinite(v)) bins[GuideBin(direction)] += v;
+        }
+        pathCount.local() += kPilotSamples;
+        const double mean = sum / kPilotSamples;
+        const double var = std::max(0.0, sumSq / kPilotSamples - mean * mean) * kPilotSamples / (kPilotSamples - 1);
+        const double total = double(Luminance(ref.mean.pixels[i])) + mean;
+        relVar[i] = total > 0.0 ? static_cast<float>(var / (total * total)) : 0.0f;
+      }
   });
+  const std::vector<DirectionGuide> guides =
+      params.guidePaths ? GuideTiles(learned, tilesX, tilesY) : std::vector<DirectionGuide>(learned.size() / kGuideBins);
   // Indirect light often reaches a pixel through a few of its paths' directions, which 16 pilot paths can all miss:
   // its neighbours' pilots hear it, as for direct light (SpreadRelativeVariance).
   if (params.spreadRelativeVariance) relVar = SpreadRelativeVariance(relVar, frame.active, frame.w, frame.h);
@@ -1268,13 +1308,15 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
   ref.allocation.scale = std::min(ref.allocation.scale, scale);
   forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
     const uint32_t m = perReplicate[i];
+    const size_t x = i % static_cast<size_t>(frame.w), y = i / static_cast<size_t>(frame.w);
+    const DirectionGuide* guide = &guides[(y / kGuideTile) * static_cast<size_t>(tilesX) + x / kGuideTile];
     glm::dvec3 replicateMean[kReplicates];
     for (uint32_t rep = 0; rep < kReplicates; ++rep) {
       glm::dvec3 sum(0.0);
       for (uint32_t k = 0; k < m; ++k) {
         PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), rep * m + k,
                           RngPass::kReferencePaths, bounces, u);
-        sum += glm::dvec3(paths.IndirectSample(sp, bounces, u, scratch, rays));
+        sum += glm::dvec3(paths.IndirectSample(sp, bounces, u, scratch, rays, guide));
       }
       replicateMean[rep] = sum / double(m);
     }

@@ -65,6 +65,10 @@ struct ReferenceParams {
   // allocation (sim/reference/reference_learning.h SpreadRelativeVariance). Off only to measure what it gains
   // (bench/reference_quality_bench.cpp, RESTIR_BENCH_REFERENCE_SPREAD=0). In the cache key.
   bool spreadRelativeVariance = true;
+  // With indirect light: draw each path's first direction from the mixture of x₁'s BSDF and what the pilot's paths
+  // found per guide tile (sim/reference/reference_guide.h). Off only to measure what it gains
+  // (bench/reference_quality_bench.cpp, RESTIR_BENCH_REFERENCE_GUIDE=0). In the cache key.
+  bool guidePaths = true;
   // Added to the reference's seed: another value renders the same frame from independent random numbers (a test
   // comparing two estimators needs them independent). In the cache key.
   uint32_t seed = 0;

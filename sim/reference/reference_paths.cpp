@@ -90,9 +90,32 @@ ShadingPoint PathScene::Vertex(const SurfaceHit& hit, const Vec3& dir) const {
   return sp;
 }
 
-bool PathScene::Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdfArea, uint64_t& rays) const {
-  const BsdfSample bs = SampleBsdf(x.bsdf, x.shadingNormal, x.wo, ub[0], ub[1]);
+namespace {
+
+// The direction a step takes from x and its solid-angle density: by x's BSDF, or by the one-sample mixture of the
+// BSDF and a guide (kGuideBsdfShare: ub[0] below it draws by the BSDF, rescaled; above it by the guide). The
+// mixture's density is the same function of the direction whichever strategy drew it.
+BsdfSample StepDirection(const ShadingPoint& x, const float* ub, const DirectionGuide* guide) {
+  if (!guide || guide->Empty()) return SampleBsdf(x.bsdf, x.shadingNormal, x.wo, ub[0], ub[1]);
+  BsdfSample s;
+  if (ub[0] < kGuideBsdfShare) {
+    s = SampleBsdf(x.bsdf, x.shadingNormal, x.wo, ub[0] / kGuideBsdfShare, ub[1]);
+    if (!(s.pdf > 0.0f)) return s;
+  } else {
+    s.wi = guide->Sample(std::min((ub[0] - kGuideBsdfShare) / (1.0f - kGuideBsdfShare), 0.99999994f), ub[1]);
+  }
+  s.pdf = kGuideBsdfShare * PdfBsdf(x.bsdf, x.shadingNormal, x.wo, s.wi) +
+          (1.0f - kGuideBsdfShare) * guide->Pdf(s.wi);
+  return s;
+}
+
+}  // namespace
+
+bool PathScene::Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdfArea, uint64_t& rays,
+                     const DirectionGuide* guide, Vec3* direction) const {
+  const BsdfSample bs = StepDirection(x, ub, guide);
   if (!(bs.pdf > 0.0f) || !(glm::dot(x.geometricNormal, bs.wi) > 0.0f)) return false;
+  if (direction) *direction = bs.wi;
   const float cosRay = glm::dot(x.shadingNormal, bs.wi);
   if (!(cosRay > 0.0f)) return false;
   const Vec3 fRay = EvalBsdf(x.bsdf, x.shadingNormal, x.wo, bs.wi);
@@ -147,14 +170,18 @@ bool PathScene::NextEvent(const ShadingPoint& x, const float* u, SampleBatch& sc
 }
 
 Vec3 PathScene::IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
-                               uint64_t& rays) const {
+                               uint64_t& rays, const DirectionGuide* guide, Vec3* firstDirection) const {
   Vec3 sum(0.0f), throughput(1.0f), light(0.0f);
   ShadingPoint x = x1;
   for (int bounce = 0; bounce < bounces; ++bounce) {
     const float* ub = u + static_cast<size_t>(bounce) * kBounceDims;
-    // The next vertex by the BSDF at x (throughput f cos θ / p, the path's weight in solid angle), then its
-    // direct light: one sample of the reference's light and BSDF strategies, combined by the power heuristic.
-    if (!Step(x, ub, throughput, nullptr, rays) || !NextEvent(x, ub + 2, scratch, light, rays)) break;
+    // The next vertex by the BSDF at x (throughput f cos θ / p, the path's weight in solid angle; the first by the
+    // guide's mixture where there is one), then its direct light: one sample of the reference's light and BSDF
+    // strategies, combined by the power heuristic.
+    const bool first = bounce == 0;
+    if (!Step(x, ub, throughput, nullptr, rays, first ? guide : nullptr, first ? firstDirection : nullptr) ||
+        !NextEvent(x, ub + 2, scratch, light, rays))
+      break;
     sum += throughput * light;
   }
   return sum;

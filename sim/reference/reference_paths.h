@@ -20,6 +20,7 @@
 #include "core/reconnection_shift.h"
 #include "core/rng.h"
 #include "core/sky.h"
+#include "sim/reference/reference_guide.h"
 #include "sim/reference/reference_samples.h"
 #include "sim/reference/reference_sky.h"
 #include "sim/scene/embree_scene.h"
@@ -62,9 +63,11 @@ class PathScene {
 
   // The radiance reflected at x₁ towards x₁.wo by light that reflected at 1 to `bounces` further surfaces
   // first, estimated by one path from the random numbers `u` (kBounceDims × bounces of them, bounce k's at
-  // u[k × kBounceDims ...]). Counts its rays.
-  Vec3 IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch,
-                      uint64_t& rays) const;
+  // u[k × kBounceDims ...]). Counts its rays. With a `guide` (not Empty), the first direction is drawn from the
+  // mixture of x₁'s BSDF and the guide (sim/reference/reference_guide.h); `firstDirection`, when given, receives
+  // the first ray's direction (unchanged where the path found no direction).
+  Vec3 IndirectSample(const ShadingPoint& x1, int bounces, const float* u, SampleBatch& scratch, uint64_t& rays,
+                      const DirectionGuide* guide = nullptr, Vec3* firstDirection = nullptr) const;
 
   // The same path split at its first vertex after x₁, for ReSTIR GI: IndirectSample is throughput × the
   // vertex's radiance (up to rounding). No vertex (pdfArea 0, throughput 0) where the path ends at x₁.
@@ -94,7 +97,11 @@ class PathScene {
   // surface y the ray hits and the throughput is multiplied by the step's integrand over its density, both in
   // area measure at y (f_r(x, ω_xy) cos θ_x |cos θ_y| / ‖y − x‖² over p_ω |cos θ_y,ray| / ‖y − org‖²; the density
   // into *pdfArea when asked); false where the path ends (a failed or absorbed sample, an escape, an emitter).
-  bool Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdfArea, uint64_t& rays) const;
+  // With a `guide`, the direction is drawn from the one-sample mixture kGuideBsdfShare × BSDF + the rest × guide
+  // (ub[0] chooses, rescaled for the chosen strategy) and weighed by the mixture's density; `direction`, when
+  // given, receives the ray's direction.
+  bool Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* pdfArea, uint64_t& rays,
+            const DirectionGuide* guide = nullptr, Vec3* direction = nullptr) const;
   // x's direct light by one next-event sample (kSkySampleDims numbers at u) into `value`; false where the
   // frame has no light at all.
   bool NextEvent(const ShadingPoint& x, const float* u, SampleBatch& scratch, Vec3& value, uint64_t& rays) const;
