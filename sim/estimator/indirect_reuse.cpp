@@ -149,7 +149,11 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   r.temporalAccepted.assign(pixels, 0);
   // The GI reservoirs' contributing shares after each pass, as RenderFrame measures the direct light's.
   const auto contributing = [&] {
-    return in.measureReservoirs ? ContributingFraction(g, gi_.current, in.diagnosticsRegion) : Contributing{};
+    if (!in.measureReservoirs) return Contributing{};
+    const auto m0 = Clock::now();
+    const Contributing c = ContributingFraction(g, gi_.current, in.diagnosticsRegion);
+    r.msDiagnostics += MsSince(m0);
+    return c;
   };
   PassStats initial;
   InitialVertices(view, vertices, gi_.current, initial);
@@ -166,7 +170,11 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   const Contributing spatialShare = s.spatial.enabled ? contributing() : temporalShare;
   RecordContributing(initialShare, temporalShare, spatialShare, r.diagnostics);
   Shade(s.shade, view, gi_.current, r.image, r.passes.emplace_back());
-  if (in.measureReservoirs) MeasureOutputReservoirs(g, gi_.current, r.diagnostics);
+  if (in.measureReservoirs) {
+    const auto m0 = Clock::now();
+    MeasureOutputReservoirs(g, gi_.current, r.diagnostics);
+    r.msDiagnostics += MsSince(m0);
+  }
   gi_.vertices = KeepHeldVertices(points, gi_.current);
   std::swap(gi_.previous, gi_.current);
   PassStats total;

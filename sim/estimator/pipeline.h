@@ -78,6 +78,9 @@ struct FrameResult {
   // preset that reuses paths, null otherwise.
   std::optional<ReservoirDiagnostics> indirectDiagnostics;
   std::optional<PassStats> indirectSpatial;
+  // Wall time RenderIndirect spent measuring its reservoirs (FrameInputs::measureReservoirs): not the method's, so
+  // FrameLoop::RenderPreset leaves it out of the "indirect" pass's time, as the direct light's passes leave out theirs.
+  double msDiagnostics = 0.0;
 };
 
 // One frame's initial-sampling outputs, shared by the presets of a run. InitialSampling reads its parameters and the

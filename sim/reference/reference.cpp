@@ -1268,7 +1268,7 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
   // guide tile learns from its paths' first directions what they carried back (sim/reference/reference_guide.h).
   // A guide tile's rows are run by one task, in order: the same sums on any thread count.
   const int tilesX = (frame.w + kGuideTile - 1) / kGuideTile, tilesY = (frame.h + kGuideTile - 1) / kGuideTile;
-  std::vector<double> learned(static_cast<size_t>(tilesX) * tilesY * kGuideBins, 0.0);
+  std::vector<double> learned(params.guidePaths ? static_cast<size_t>(tilesX) * tilesY * kGuideBins : 0, 0.0);
   std::vector<float> relVar(frame.pixels, 0.0f);
   tbb::parallel_for(0, tilesY, [&](int ty) {
     SampleBatch scratch;
@@ -1279,7 +1279,9 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
         const size_t i = static_cast<size_t>(y) * frame.w + x;
         if (!frame.active[i]) continue;
         const ShadingPoint sp = ShadingPointAt(frame.g, i, eye, frame.bsdfs);
-        double* bins = learned.data() + (static_cast<size_t>(ty) * tilesX + x / kGuideTile) * kGuideBins;
+        double* bins = params.guidePaths
+                           ? learned.data() + (static_cast<size_t>(ty) * tilesX + x / kGuideTile) * kGuideBins
+                           : nullptr;
         double sum = 0.0, sumSq = 0.0;
         for (uint32_t k = 0; k < static_cast<uint32_t>(kPilotSamples); ++k) {
           PathRandomNumbers(frame.seed, frame.stateKey, static_cast<uint32_t>(i), k, RngPass::kReferencePathsPilot,
@@ -1288,7 +1290,7 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
           const double v = Luminance(paths.IndirectSample(sp, bounces, u.data(), scratch, rays, nullptr, &direction));
           sum += v;
           sumSq += v * v;
-          if (v > 0.0 && std::isfinite(v)) bins[GuideBin(direction)] += v;
+          if (bins && v > 0.0 && std::isfinite(v)) bins[GuideBin(direction)] += v;
         }
         pathCount.local() += kPilotSamples;
         const double mean = sum / kPilotSamples;
@@ -1298,7 +1300,7 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
       }
   });
   const std::vector<DirectionGuide> guides =
-      params.guidePaths ? GuideTiles(learned, tilesX, tilesY) : std::vector<DirectionGuide>(learned.size() / kGuideBins);
+      params.guidePaths ? GuideTiles(learned, tilesX, tilesY) : std::vector<DirectionGuide>();
   // Indirect light often reaches a pixel through a few of its paths' directions, which 16 pilot paths can all miss:
   // its neighbours' pilots hear it, as for direct light (SpreadRelativeVariance).
   if (params.spreadRelativeVariance) relVar = SpreadRelativeVariance(relVar, frame.active, frame.w, frame.h);
@@ -1309,7 +1311,8 @@ void AddIndirectLight(ReferenceFrame& frame, const ReferenceParams& params,
   forEachPixel([&](size_t i, const ShadingPoint& sp, float* u, SampleBatch& scratch, uint64_t& rays) {
     const uint32_t m = perReplicate[i];
     const size_t x = i % static_cast<size_t>(frame.w), y = i / static_cast<size_t>(frame.w);
-    const DirectionGuide* guide = &guides[(y / kGuideTile) * static_cast<size_t>(tilesX) + x / kGuideTile];
+    const DirectionGuide* guide =
+        guides.empty() ? nullptr : &guides[(y / kGuideTile) * static_cast<size_t>(tilesX) + x / kGuideTile];
     glm::dvec3 replicateMean[kReplicates];
     for (uint32_t rep = 0; rep < kReplicates; ++rep) {
       glm::dvec3 sum(0.0);

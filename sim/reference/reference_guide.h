@@ -23,7 +23,7 @@
 namespace restir {
 
 inline constexpr int kGuideTile = 16;     // pixels a side of a guide tile (16 × 16 × 16 pilot paths = 4096)
-inline constexpr int kGuideRows = 16;     // bins in z = cos θ (world y is z's axis here: see GuideDirection)
+inline constexpr int kGuideRows = 16;     // bins in cos θ from world +y (the map's axis), evenly
 inline constexpr int kGuideColumns = 32;  // bins in φ
 inline constexpr int kGuideBins = kGuideRows * kGuideColumns;  // each ≈ 0.0245 sr, a cone of about 5° half-angle
 // The BSDF's share of the first direction's mixture: half the paths are drawn as an unguided reference would draw

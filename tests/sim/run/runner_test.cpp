@@ -547,6 +547,50 @@ TEST(Run, IndirectBouncesReachTheFramesTheReferenceAndRunJson) {
   EXPECT_THROW(restir::Run(o), InputError);
 }
 
+// ReSTIR GI's reservoirs have columns of their own (gi_*): set for a preset that reuses paths, with the shares
+// ordered as the passes make them (a shaded sample is a reservoir's that contributes), and 0 for a preset whose
+// paths are added as they are.
+TEST(Run, GiPresetsReportTheirReservoirsInTheGiColumns) {
+  const std::string out = TempOut("restir-run-gi-columns");
+  auto column = [](const FrameMetricsRow& row, const std::string& name) {
+    for (const auto& [n, v] : row.values)
+      if (n == name) return v;
+    ADD_FAILURE() << "no column " << name;
+    return -1.0;
+  };
+  RunOptions o = SmokeOptions(out + "/reuse");
+  o.cacheDir = out + "/cache";
+  o.presets = {"restir-gi-unbiased", "restir-gi-spmis"};
+  o.frameEnd = 3;
+  o.writeImages = false;
+  const RunResult reuse = restir::Run(o);
+  ASSERT_EQ(reuse.rows.size(), 6u);
+  for (const FrameMetricsRow& row : reuse.rows) {
+    const std::string what = row.preset + " frame " + std::to_string(row.frame);
+    const double initial = column(row, "gi_contrib_initial"), spatial = column(row, "gi_contrib_spatial");
+    const double shaded = column(row, "gi_contrib_shaded");
+    EXPECT_GT(initial, 0.0) << what;
+    EXPECT_LE(initial, 1.0) << what;
+    EXPECT_GT(spatial, 0.0) << what;
+    EXPECT_LE(spatial, 1.0) << what;
+    EXPECT_LE(shaded, spatial) << what;
+    EXPECT_GT(column(row, "gi_mean_confidence"), 0.0) << what;
+    EXPECT_GT(column(row, "gi_targets_per_pixel_spatial"), 0.0) << what;
+    EXPECT_GT(column(row, "gi_reservoir_reads_per_pixel_spatial"), 0.0) << what;
+    EXPECT_GT(column(row, "gi_rays_per_pixel_spatial"), 0.0) << what << ": ray-traced bias correction";
+    EXPECT_GT(column(row, "ms_gi_spatial"), 0.0) << what;
+    if (row.frame > 0) EXPECT_GT(column(row, "gi_sample_age"), 0.0) << what;
+  }
+  o.outDir = out + "/paths";
+  o.settings = {"indirect.reuse=false"};
+  const RunResult paths = restir::Run(o);
+  ASSERT_EQ(paths.rows.size(), 6u);
+  for (const FrameMetricsRow& row : paths.rows)
+    for (const char* name : {"gi_contrib_initial", "gi_contrib_spatial", "gi_contrib_shaded", "gi_mean_confidence",
+                             "gi_rays_per_pixel_spatial", "ms_gi_spatial"})
+      EXPECT_EQ(column(row, name), 0.0) << row.preset << " frame " << row.frame << " " << name;
+}
+
 TEST(Run, BadInputThrowsInputError) {
   RunOptions o = SmokeOptions(TempOut("restir-run-bad"));
   o.presets = {"no-such-preset"};
