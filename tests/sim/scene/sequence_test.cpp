@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace restir {
 // Named after the file, not anonymous: the unity build compiles it with other test files (CMakeLists.txt).
@@ -489,6 +491,58 @@ TEST(SequenceFiles, ShippedSequencesLoad) {
     EXPECT_EQ(seq.name, name);
     EXPECT_FALSE(seq.lights.empty());
     EXPECT_FALSE(SummarizeSequence(seq).empty());
+  }
+}
+
+// The ReSTIR GI sequences (issue 41) load with the GI presets (tests/sim/estimator/presets_test.cpp holds what those
+// model), and shutter_reveal_sun's description holds as
+// geometry: before the reveal its shutter fills the view (every corner ray of frames 0-11 hits it) and at no frame
+// does it stand in the way of a sun ray that enters the window (so the room's light never changes). Checked by slab
+// tests against the shutter's world box, not by the renderer.
+TEST(SequenceFiles, GiSequencesLoadAndTheShutterRevealsWithoutShadingTheRoom) {
+  for (const char* name : {"window_bars_sun", "shutter_reveal_sun"}) {
+    SCOPED_TRACE(name);
+    const Sequence seq = LoadSequence(SourcePath(std::string("sequences/") + name + ".json"));
+    EXPECT_TRUE(seq.lights.empty());
+    EXPECT_TRUE(seq.sun.present);
+    EXPECT_EQ(seq.defaults.presets, (std::vector<std::string>{"restir-gi", "restir-gi-unbiased", "restir-gi-spmis"}));
+  }
+  const Sequence seq = LoadSequence(SourcePath("sequences/shutter_reveal_sun.json"));
+  size_t shutter = seq.objects.size();
+  for (size_t k = 0; k < seq.objects.size(); ++k)
+    if (seq.objects[k].name == "shutter") shutter = k;
+  ASSERT_LT(shutter, seq.objects.size());
+  EXPECT_TRUE(seq.objects[shutter].animated);
+  const auto hits = [](const Vec3& lo, const Vec3& hi, const Vec3& origin, const Vec3& dir) {
+    float t0 = 0.0f, t1 = 1e30f;
+    for (int a = 0; a < 3; ++a) {
+      if (dir[a] == 0.0f) {
+        if (origin[a] < lo[a] || origin[a] > hi[a]) return false;
+        continue;
+      }
+      float ta = (lo[a] - origin[a]) / dir[a], tb = (hi[a] - origin[a]) / dir[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+    }
+    return t0 <= t1;
+  };
+  for (int frame = 0; frame < seq.frameCount; ++frame) {
+    const FrameState state = Evaluate(seq, frame, seq.width, seq.height);
+    Vec3 lo(1e30f), hi(-1e30f);
+    for (const Vec3& v : seq.objects[shutter].mesh.positions) {
+      const Vec3 w = Vec3(state.objectToWorld[shutter] * glm::vec4(v, 1.0f));
+      lo = glm::min(lo, w), hi = glm::max(hi, w);
+    }
+    // The window's opening (between the facade's sill, lintel and sides) on its street face, every 5 cm.
+    for (float x = -3.6f; x <= 3.6f; x += 0.05f)
+      for (float y = 0.3f; y <= 2.8f; y += 0.05f)
+        ASSERT_FALSE(hits(lo, hi, Vec3(x, y, 0.2f), state.sunDirection)) << "frame " << frame << " x " << x << " y " << y;
+    if (frame < 12) {
+      const Camera& c = state.camera;
+      for (const auto& [px, py] : {std::pair{0.0f, 0.0f}, {float(c.width), 0.0f}, {0.0f, float(c.height)},
+                                   {float(c.width), float(c.height)}})
+        EXPECT_TRUE(hits(lo, hi, c.position, c.RayDirection(px, py))) << "frame " << frame;
+    }
   }
 }
 
