@@ -6,9 +6,9 @@ set -eu
 BIN=$(realpath "$1"); OUT=$(realpath -m "$2")
 cd "$(dirname "$0")/.."
 rm -rf "$OUT"; mkdir -p "$OUT"
-cfg() { # name seq res frame spp-or-error
+cfg() { # name seq res frame spp-or-error [more run options]
   local extra="--reference-spp $5"; [[ $5 == e* ]] && extra="--reference-error ${5#e} --reference-cap 1048576"
-  "$BIN" run "$2" --preset ris --resolution "$3" --frames "$4:$(($4+1))" $extra --no-images \
+  "$BIN" run "$2" --preset ris --resolution "$3" --frames "$4:$(($4+1))" $extra ${6:-} --no-images \
      --cache-dir "$OUT/$1/cache" --out "$OUT/$1/run" >/dev/null 2>&1 || echo "FAILED $1"
 }
 cfg flagship sequences/window_bars_pan.json 96x54 8 48
@@ -20,6 +20,7 @@ cfg many_rooms sequences/regimes/many_rooms.json 48x27 0 16
 cfg static_room sequences/static_room.json 64x36 0 64
 cfg door_ajar sequences/regimes/door_ajar.json 48x27 0 32
 cfg tile_lights tests/data/tile_lights.json 48x27 0 16
+cfg sun_room_paths sequences/window_bars_sun.json 48x27 20 16 "--set indirect.bounces=1"
 python3 - "$OUT" <<'PY'
 import sys, os, struct, glob
 def fnv(b, h=0xcbf29ce484222325):

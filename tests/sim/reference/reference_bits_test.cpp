@@ -16,7 +16,9 @@
 // when the pilot's per-pixel probes came (kReferenceVersion 12: door_ajar added, the one case with 2 to 32 groups), and
 // when per-pixel distributions were taken up to 32768 light triangles (kReferenceVersion 15: many_rooms' changed;
 // tile_lights added, 33,802 triangles, the one case whose distributions stay per tile), and when the pilot's
-// relative variances were spread to their neighbourhood before the allocation (kReferenceVersion 16: every case);
+// relative variances were spread to their neighbourhood before the allocation (kReferenceVersion 16: every case),
+// and when the indirect paths' first direction came to be guided by the pilot's (kPathsVersion 4: sun_room_paths
+// added, one bounce of indirect light under a sun);
 // scripts/reference_bits_hashes.sh renders the same configurations with a restir-sim binary and prints the same hashes from its cache entries. The hashes come
 // from this code, so this is a determinism and regression check, not a proof of correctness: the answers the project
 // did not compute are in reference_test (Lambert's formula), reference_glossy_test (quadrature),
@@ -45,6 +47,7 @@ struct Case {
   int spp;  // 0: targetError instead
   double targetError;
   uint64_t hash;  // the payload's FNV-1a 64
+  int indirectBounces = 0;  // the indirect light's bounces (ReferenceParams::indirectBounces)
 };
 
 const Case kCases[] = {
@@ -57,6 +60,7 @@ const Case kCases[] = {
     {"static_room", "sequences/static_room.json", 64, 36, 0, 64, 0.0, 0x11896c6526ad708dull},
     {"door_ajar", "sequences/regimes/door_ajar.json", 48, 27, 0, 32, 0.0, 0x9f2bd68615784df0ull},
     {"tile_lights", "tests/data/tile_lights.json", 48, 27, 0, 16, 0.0, 0xe96892d72913841bull},
+    {"sun_room_paths", "sequences/window_bars_sun.json", 48, 27, 20, 16, 0.0, 0xb4bde1456e582b34ull, 1},
 };
 
 uint64_t PayloadHash(const ReferenceImage& r) {
@@ -78,6 +82,7 @@ TEST_F(ReferenceBits, AreTheRecordedOnesOnEveryTargetAndThreadCount) {
     ReferenceParams params;
     params.samplesPerPixel = c.spp;
     params.targetRelativeError = c.targetError;
+    params.indirectBounces = c.indirectBounces;
     for (SimdTarget t : SupportedSimdTargets()) {
       ASSERT_TRUE(SetSimdTarget(t));
       for (int threads : {1, 2}) {
