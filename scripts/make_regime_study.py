@@ -31,13 +31,19 @@ STUDIES = {
                     title="Stochastic pairwise MIS across regimes of contributing samples",
                     driver="scripts/regime_study.sh", notes="regime_study_notes.md",
                     contributes="whose initial sample is visible (its initial sampling traces visibility)",
-                    paired=False, temporal=False),
+                    paired=True, temporal=False,
+                    paired_why="the two methods' runs of one seed draw the same initial reservoirs, from the same "
+                               "random numbers, so what a seed's draws make of the error is common to both and "
+                               "cancels"),
     "path_reuse": dict(prefix="gi_", standard="restir-gi-unbiased", stochastic="restir-gi-spmis",
                        title="Path reuse: stochastic pairwise MIS in seed 004's own regime (ReSTIR GI)",
                        driver="scripts/path_reuse_study.sh", notes="path_reuse_study_notes.md",
                        contributes="whose initial GI reservoir holds a secondary vertex that sends light towards "
                                    "it (the path's vertex x₂ is directly lit and in front of x₁)",
-                       paired=True, temporal=True),
+                       paired=True, temporal=True,
+                       paired_why="the two methods' runs of one seed share their paths, direct light and initial "
+                                  "reservoirs, so what a seed's paths make of the error, a firefly of an unshifted "
+                                  "glossy path, is common to both and cancels"),
 }
 STUDY = STUDIES["regimes"]
 
@@ -128,9 +134,8 @@ def paired_resolved(a, b, key):
 
 def resolved(a, b):
     """Whether configurations a and b differ in relmse_c_disocc beyond the seeds' 95% intervals: None with one seed.
-    Unpaired, where the two intervals combined are exceeded; paired (STUDY["paired"]: the two methods' runs of one
-    seed share their paths, direct light and initial reservoirs, so a seed's firefly is common to both), where the
-    per-seed differences' Student t interval excludes 0."""
+    Unpaired, where the two intervals combined are exceeded; paired (STUDY["paired"], STUDY["paired_why"]), where
+    the per-seed differences' Student t interval excludes 0."""
     if STUDY["paired"]:
         return paired_resolved(a, b, "per_seed")
     ca, cb = a.get("relmse_c_disocc_ci"), b.get("relmse_c_disocc_ci")
@@ -304,9 +309,7 @@ def main(argv):
     print()
     if STUDY["paired"]:
         print("A sequence's verdict: a win or a loss where at least one pairing's per-seed differences have a 95% "
-              "Student t interval that excludes 0 (paired: the two methods' runs of one seed share their paths, "
-              "direct light and initial reservoirs, so what a seed's paths make of the error, a firefly of an "
-              "unshifted glossy path, is common to both and cancels), otherwise not resolved.\n")
+              f"Student t interval that excludes 0 (paired: {STUDY['paired_why']}), otherwise not resolved.\n")
     else:
         print("A sequence's verdict: a win or a loss where at least one pairing's difference exceeds the two 95% "
               "intervals combined (with one seed, every pairing counts), otherwise not resolved.\n")
