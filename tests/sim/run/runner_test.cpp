@@ -25,6 +25,14 @@ std::string TempOut(const std::string& name) {
   return dir.string();
 }
 
+// A row's value in column `name`; a failure (and -1) when the row has no such column.
+double ColumnOf(const FrameMetricsRow& row, const std::string& name) {
+  for (const auto& [n, v] : row.values)
+    if (n == name) return v;
+  ADD_FAILURE() << "no column " << name;
+  return -1.0;
+}
+
 RunOptions SmokeOptions(const std::string& out) {
   RunOptions o;
   o.sequencePath = "sequences/smoke.json";
@@ -72,23 +80,17 @@ TEST(Run, PresetsSharingTheirInitialPassEachReportItsTimeAndRays) {
   o.presets = {"restir-unbiased", "ris", "restir-balance"};
   const RunResult r = restir::Run(o);
   ASSERT_EQ(r.rows.size(), 9u);
-  auto value = [](const FrameMetricsRow& row, const std::string& name) {
-    for (const auto& [n, v] : row.values)
-      if (n == name) return v;
-    ADD_FAILURE() << "no column " << name;
-    return -1.0;
-  };
   for (size_t f = 0; f < 3; ++f) {
     const FrameMetricsRow &unbiased = r.rows[3 * f], &ris = r.rows[3 * f + 1], &balance = r.rows[3 * f + 2];
     ASSERT_EQ(unbiased.preset, "restir-unbiased");
     ASSERT_EQ(balance.preset, "restir-balance");
-    EXPECT_GT(value(unbiased, "ms_initial"), 0.0);
-    EXPECT_EQ(value(unbiased, "ms_initial"), value(balance, "ms_initial")) << "frame " << f;
-    EXPECT_GT(value(unbiased, "rays_per_pixel_initial"), 0.0);
-    EXPECT_EQ(value(unbiased, "rays_per_pixel_initial"), value(balance, "rays_per_pixel_initial"));
-    EXPECT_GT(value(ris, "ms_initial"), 0.0);
-    EXPECT_EQ(value(ris, "rays_per_pixel_initial"), 0.0);
-    EXPECT_GE(value(unbiased, "ms_frame"), value(unbiased, "ms_initial"));
+    EXPECT_GT(ColumnOf(unbiased, "ms_initial"), 0.0);
+    EXPECT_EQ(ColumnOf(unbiased, "ms_initial"), ColumnOf(balance, "ms_initial")) << "frame " << f;
+    EXPECT_GT(ColumnOf(unbiased, "rays_per_pixel_initial"), 0.0);
+    EXPECT_EQ(ColumnOf(unbiased, "rays_per_pixel_initial"), ColumnOf(balance, "rays_per_pixel_initial"));
+    EXPECT_GT(ColumnOf(ris, "ms_initial"), 0.0);
+    EXPECT_EQ(ColumnOf(ris, "rays_per_pixel_initial"), 0.0);
+    EXPECT_GE(ColumnOf(unbiased, "ms_frame"), ColumnOf(unbiased, "ms_initial"));
   }
 }
 
@@ -212,11 +214,6 @@ TEST(Run, ASequencesErrorTargetIsTheDefaultAndItsCapIsReported) {
   text.replace(text.find(shipped), shipped.size(), "\"referenceError\": 0.001, \"referenceSppCap\": 48}");
   const std::string seqPath = out + "/smoke_target.json";
   std::ofstream(seqPath) << text;
-  auto column = [](const FrameMetricsRow& row, const std::string& name) {
-    for (const auto& [n, v] : row.values)
-      if (n == name) return v;
-    return -1.0;
-  };
   auto runJson = [](const std::string& dir) {
     std::ifstream rj(dir + "/run.json");
     return nlohmann::json::parse(rj);
@@ -229,9 +226,9 @@ TEST(Run, ASequencesErrorTargetIsTheDefaultAndItsCapIsReported) {
   const RunResult capped = restir::Run(o);
   ASSERT_EQ(capped.rows.size(), 2u);
   for (const FrameMetricsRow& row : capped.rows) {
-    EXPECT_EQ(column(row, "reference_capped"), 1.0);
-    EXPECT_GT(column(row, "reference_spp"), 32.0);  // the cap spent as a budget: about 48, in whole replicates
-    EXPECT_LE(column(row, "reference_spp"), 1.25 * 48.0);
+    EXPECT_EQ(ColumnOf(row, "reference_capped"), 1.0);
+    EXPECT_GT(ColumnOf(row, "reference_spp"), 32.0);  // the cap spent as a budget: about 48, in whole replicates
+    EXPECT_LE(ColumnOf(row, "reference_spp"), 1.25 * 48.0);
   }
   nlohmann::json j = runJson(o.outDir);
   EXPECT_EQ(j["reference"]["targetRelativeError"], 0.001);
@@ -243,7 +240,7 @@ TEST(Run, ASequencesErrorTargetIsTheDefaultAndItsCapIsReported) {
   o.referenceSppCap = 1 << 20;
   o.referenceError = 0.2;  // affordable: nothing capped
   const RunResult free = restir::Run(o);
-  for (const FrameMetricsRow& row : free.rows) EXPECT_EQ(column(row, "reference_capped"), 0.0);
+  for (const FrameMetricsRow& row : free.rows) EXPECT_EQ(ColumnOf(row, "reference_capped"), 0.0);
   j = runJson(o.outDir);
   EXPECT_EQ(j["reference"]["targetRelativeError"], 0.2);
   EXPECT_EQ(j["referenceCapped"]["count"], 0);
@@ -254,10 +251,10 @@ TEST(Run, ASequencesErrorTargetIsTheDefaultAndItsCapIsReported) {
   o.referenceSpp = 128;
   const RunResult fixed = restir::Run(o);
   for (const FrameMetricsRow& row : fixed.rows) {
-    EXPECT_EQ(column(row, "reference_capped"), 0.0);
+    EXPECT_EQ(ColumnOf(row, "reference_capped"), 0.0);
     // Whole replicates per pixel, and no pixel above 16 times the mean: the budget is an upper bound, roughly met.
-    EXPECT_GT(column(row, "reference_spp"), 64.0);
-    EXPECT_LE(column(row, "reference_spp"), 1.25 * 128.0);
+    EXPECT_GT(ColumnOf(row, "reference_spp"), 64.0);
+    EXPECT_LE(ColumnOf(row, "reference_spp"), 1.25 * 128.0);
   }
   j = runJson(o.outDir);
   EXPECT_EQ(j["reference"]["targetRelativeError"], 0.0);
@@ -512,11 +509,6 @@ TEST(Run, RemovesItsOwnStaleTemporariesAndNothingOfTheUsers) {
 // its own) and run.json; metrics.csv reports the indirect pass's time and rays, 0 where it does not run.
 TEST(Run, IndirectBouncesReachTheFramesTheReferenceAndRunJson) {
   const std::string out = TempOut("restir-run-indirect");
-  auto column = [](const FrameMetricsRow& row, const std::string& name) {
-    for (const auto& [n, v] : row.values)
-      if (n == name) return v;
-    return -1.0;
-  };
   RunOptions o = SmokeOptions(out + "/direct");
   o.cacheDir = out + "/cache";
   o.presets = {"ris", "restir-unbiased"};
@@ -530,13 +522,13 @@ TEST(Run, IndirectBouncesReachTheFramesTheReferenceAndRunJson) {
   ASSERT_EQ(indirect.rows.size(), 4u);
   for (size_t k = 0; k < 4; ++k) {
     const FrameMetricsRow &a = direct.rows[k], &b = indirect.rows[k];
-    EXPECT_EQ(column(a, "ms_indirect"), 0.0);
-    EXPECT_EQ(column(a, "rays_per_pixel_indirect"), 0.0);
-    EXPECT_GT(column(b, "ms_indirect"), 0.0);
-    EXPECT_GT(column(b, "rays_per_pixel_indirect"), 0.5);  // a path a pixel: at least its first ray, most pixels
+    EXPECT_EQ(ColumnOf(a, "ms_indirect"), 0.0);
+    EXPECT_EQ(ColumnOf(a, "rays_per_pixel_indirect"), 0.0);
+    EXPECT_GT(ColumnOf(b, "ms_indirect"), 0.0);
+    EXPECT_GT(ColumnOf(b, "rays_per_pixel_indirect"), 0.5);  // a path a pixel: at least its first ray, most pixels
     EXPECT_NE(a.imageHash, b.imageHash) << b.preset << " frame " << b.frame;
     // The reference gained the indirect light as well: more light, not the direct-light entry from the cache.
-    EXPECT_GT(column(b, "reference_luma_sum"), column(a, "reference_luma_sum"));
+    EXPECT_GT(ColumnOf(b, "reference_luma_sum"), ColumnOf(a, "reference_luma_sum"));
   }
   std::ifstream rj(o.outDir + "/run.json");
   const nlohmann::json j = nlohmann::json::parse(rj);
@@ -552,12 +544,6 @@ TEST(Run, IndirectBouncesReachTheFramesTheReferenceAndRunJson) {
 // paths are added as they are.
 TEST(Run, GiPresetsReportTheirReservoirsInTheGiColumns) {
   const std::string out = TempOut("restir-run-gi-columns");
-  auto column = [](const FrameMetricsRow& row, const std::string& name) {
-    for (const auto& [n, v] : row.values)
-      if (n == name) return v;
-    ADD_FAILURE() << "no column " << name;
-    return -1.0;
-  };
   RunOptions o = SmokeOptions(out + "/reuse");
   o.cacheDir = out + "/cache";
   o.presets = {"restir-gi-unbiased", "restir-gi-spmis"};
@@ -567,19 +553,19 @@ TEST(Run, GiPresetsReportTheirReservoirsInTheGiColumns) {
   ASSERT_EQ(reuse.rows.size(), 6u);
   for (const FrameMetricsRow& row : reuse.rows) {
     const std::string what = row.preset + " frame " + std::to_string(row.frame);
-    const double initial = column(row, "gi_contrib_initial"), spatial = column(row, "gi_contrib_spatial");
-    const double shaded = column(row, "gi_contrib_shaded");
+    const double initial = ColumnOf(row, "gi_contrib_initial"), spatial = ColumnOf(row, "gi_contrib_spatial");
+    const double shaded = ColumnOf(row, "gi_contrib_shaded");
     EXPECT_GT(initial, 0.0) << what;
     EXPECT_LE(initial, 1.0) << what;
     EXPECT_GT(spatial, 0.0) << what;
     EXPECT_LE(spatial, 1.0) << what;
     EXPECT_LE(shaded, spatial) << what;
-    EXPECT_GT(column(row, "gi_mean_confidence"), 0.0) << what;
-    EXPECT_GT(column(row, "gi_targets_per_pixel_spatial"), 0.0) << what;
-    EXPECT_GT(column(row, "gi_reservoir_reads_per_pixel_spatial"), 0.0) << what;
-    EXPECT_GT(column(row, "gi_rays_per_pixel_spatial"), 0.0) << what << ": ray-traced bias correction";
-    EXPECT_GT(column(row, "ms_gi_spatial"), 0.0) << what;
-    if (row.frame > 0) EXPECT_GT(column(row, "gi_sample_age"), 0.0) << what;
+    EXPECT_GT(ColumnOf(row, "gi_mean_confidence"), 0.0) << what;
+    EXPECT_GT(ColumnOf(row, "gi_targets_per_pixel_spatial"), 0.0) << what;
+    EXPECT_GT(ColumnOf(row, "gi_reservoir_reads_per_pixel_spatial"), 0.0) << what;
+    EXPECT_GT(ColumnOf(row, "gi_rays_per_pixel_spatial"), 0.0) << what << ": ray-traced bias correction";
+    EXPECT_GT(ColumnOf(row, "ms_gi_spatial"), 0.0) << what;
+    if (row.frame > 0) EXPECT_GT(ColumnOf(row, "gi_sample_age"), 0.0) << what;
   }
   o.outDir = out + "/paths";
   o.settings = {"indirect.reuse=false"};
@@ -588,7 +574,7 @@ TEST(Run, GiPresetsReportTheirReservoirsInTheGiColumns) {
   for (const FrameMetricsRow& row : paths.rows)
     for (const char* name : {"gi_contrib_initial", "gi_contrib_spatial", "gi_contrib_shaded", "gi_mean_confidence",
                              "gi_rays_per_pixel_spatial", "ms_gi_spatial"})
-      EXPECT_EQ(column(row, name), 0.0) << row.preset << " frame " << row.frame << " " << name;
+      EXPECT_EQ(ColumnOf(row, name), 0.0) << row.preset << " frame " << row.frame << " " << name;
 }
 
 TEST(Run, BadInputThrowsInputError) {
