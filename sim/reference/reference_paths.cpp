@@ -123,8 +123,9 @@ bool PathScene::Step(ShadingPoint& x, const float* ub, Vec3& throughput, float* 
   const Vec3 org = OffsetRayOrigin(x.position, x.geometricNormal, x.errorScale, bs.wi);
   const SurfaceHit hit = scene_.Intersect(org, bs.wi, std::numeric_limits<float>::infinity());
   ++rays;
-  // An escape or an emitter: what it sends along the ray is x's direct light, which x's own next-event
-  // sample (or, at x₁, the direct-light reference) takes; neither reflects.
+  // What an escape or an emitter sends along the ray is x's direct light, which x's own next-event sample (or, at
+  // x₁, the direct-light reference) takes: never added here. An emitter with a material is a surface as well, and
+  // the path goes on from it (Light::material); one without, and an escape, end the path.
   if (!hit.hit || hit.materialId < 0) return false;
   // The ray left from the spawn offset, not from x (1 mm off at 1 km from the origin): the vertex it found has
   // the area density p_ω |n_y · ω| / ‖y − org‖², and the step's value is the integrand of the vertices x and y

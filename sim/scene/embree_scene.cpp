@@ -251,6 +251,7 @@ struct EmbreeScene::Impl {
   std::vector<Light> lights;
   std::vector<Vec3> lightNormals;   // per light triangle (zero for a degenerate one)
   std::vector<Vec3> lightVertices;  // per light triangle, its three world-space vertices
+  std::vector<int32_t> lightMaterials;  // per light triangle, its light's Light::material (-1: it does not reflect)
   Slot slots[2];
   int current = -1;
   int previous = -1;
@@ -434,8 +435,10 @@ EmbreeScene::EmbreeScene(const Sequence& sequence) : impl_(std::make_unique<Impl
   im.lightNormals.reserve(lights_.size());
   for (const LightTriangle& t : lights_) im.lightNormals.push_back(t.normal);
   for (const Light& light : im.lights)
-    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3)
+    for (size_t v = 0; v + 2 < light.vertices.size(); v += 3) {
       im.lightVertices.insert(im.lightVertices.end(), light.vertices.begin() + v, light.vertices.begin() + v + 3);
+      im.lightMaterials.push_back(light.material);
+    }
 }
 
 EmbreeScene::~EmbreeScene() = default;
@@ -590,7 +593,9 @@ SurfaceHit EmbreeScene::Query(const Vec3& org, const Vec3& dir, float tmax, Scen
 
   if (emitter) {
     out.objectId = lightObjectId_;
-    out.materialId = -1;
+    // A reflecting emitter is a flat-shaded, untextured surface too (the reader refuses a textured material on a
+    // light).
+    out.materialId = prim < im.lightMaterials.size() ? im.lightMaterials[prim] : -1;
     out.lightId = static_cast<int32_t>(prim);
     const Vec3 ln = prim < im.lightNormals.size() ? im.lightNormals[prim] : Vec3(0.0f);
     out.frontFace = glm::dot(dir, ln) < 0.0f;

@@ -19,7 +19,7 @@ struct GBuffer {
   std::vector<float> nsX, nsY, nsZ;        // shading normal, facing the camera
   std::vector<float> errorScale;           // the hit's error scale, for spawning rays off it (core/shadow_ray.h)
   std::vector<int32_t> objectId;           // -1: no hit
-  std::vector<int32_t> materialId;         // -1: emitter or no hit
+  std::vector<int32_t> materialId;         // -1: no hit, or an emitter that does not reflect
   // The receiver's entry in the frame's BSDF table (FrameBsdfTable, sim/scene/shading_point.h): materialId, or for a
   // pixel on a textured material its own entry, textureTableOffset + pixel index. -1 where materialId is.
   std::vector<int32_t> bsdfId;

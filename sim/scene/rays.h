@@ -25,7 +25,7 @@ struct SurfaceHit {
   Vec3 geometricNormal;    // unit, facing the ray origin
   Vec3 shadingNormal;      // unit, interpolated vertex normal when the mesh has normals, facing the ray origin
   int32_t objectId = -1;   // index into Sequence::objects; LightObjectId() for an emitter; -1 on a miss
-  int32_t materialId = -1; // index into Sequence::materials; -1 for an emitter or a miss
+  int32_t materialId = -1; // index into Sequence::materials; -1 for a miss or an emitter that does not reflect
   int32_t lightId = -1;    // index into the light-triangle list for an emitter hit, else -1
   bool frontFace = true;   // for emitters: the ray hit the emitting side
   Vec2 texcoord{0.0f};     // interpolated texture coordinates where the object's material is textured, else 0

@@ -69,6 +69,9 @@ struct Light {
   // empty: `radiance` for every triangle.
   std::vector<Vec3> triangleRadiance;
   std::vector<std::pair<int, int>> onRanges;  // frames [first, last) during which it is on; empty: always on
+  // Index into Sequence::materials of the surface the emitter also is (it reflects light by that material, on
+  // both sides, as any surface; its emission stays one-sided), or -1: it only emits (docs/sequence-format.md).
+  int32_t material = -1;
 };
 
 // The light at infinity (docs/sequence-format.md "Sky"; DESIGN §8): an environment and a sun, each animated by

@@ -404,15 +404,32 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       }
       return color * intensity;
     };
+    // The material the emitter reflects by, or -1 (it only emits). Emitters carry no texture coordinates, so a
+    // textured material (an asset's) would be read at one texel: refused.
+    const int32_t material = [&]() -> int32_t {
+      const Json* m = Find(l, "material");
+      if (!m) return -1;
+      const std::string mp = lp + "/material", wanted = String(*m, mp);
+      std::vector<std::string> names;
+      for (const Material& mat : seq.materials) names.push_back(mat.name);
+      const auto it = std::find(names.begin(), names.end(), wanted);
+      if (it == names.end()) Fail(mp, "unknown material '" + wanted + "'" + Suggestion(wanted, names));
+      const size_t index = static_cast<size_t>(it - names.begin());
+      if (seq.materials[index].baseColorTexture >= 0)
+        Fail(mp, "material '" + wanted + "' has a base-colour texture, which a light cannot carry (emitters have no "
+                 "texture coordinates)");
+      return static_cast<int32_t>(index);
+    }();
+    const size_t first = seq.lights.size();
     if (type == 0) {  // quad
-      CheckKeys(l, lp, {"name", "type", "center", "u", "v", "color", "intensity", "on"});
+      CheckKeys(l, lp, {"name", "type", "center", "u", "v", "color", "intensity", "on", "material"});
       const Vec3 c = vec("center"), u = vec("u"), v = vec("v");
       const Vec3 rad = radiance(false);
       Vec3 q[4];
       QuadCorners(c, u, v, q);
       AddLight(seq, name, {q[0], q[1], q[2], q[0], q[2], q[3]}, rad, on, lp);
     } else if (type == 1) {  // triangle
-      CheckKeys(l, lp, {"name", "type", "vertices", "color", "intensity", "on"});
+      CheckKeys(l, lp, {"name", "type", "vertices", "color", "intensity", "on", "material"});
       const Json& vs = Need(l, lp, "vertices");
       if (!vs.is_array() || vs.size() != 3) Fail(lp + "/vertices", "expected an array of 3 points");
       std::vector<Vec3> tri;
@@ -422,7 +439,7 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
     } else {  // grid
       CheckKeys(l, lp,
                 {"name", "type", "origin", "u", "v", "count", "pitch", "color", "colors", "intensity",
-                 "intensities", "on"});
+                 "intensities", "on", "material"});
       const Vec3 origin = vec("origin"), u = vec("u"), v = vec("v");
       const Json& count = Need(l, lp, "count");
       if (!count.is_array() || count.size() != 2) Fail(lp + "/count", "expected [nx, ny]");
@@ -485,6 +502,7 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
         }
       }
     }
+    for (size_t k = first; k < seq.lights.size(); ++k) seq.lights[k].material = material;
   }
 }
 

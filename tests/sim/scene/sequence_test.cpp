@@ -369,6 +369,29 @@ TEST(SequenceParse, QuadLightEmitsTowardsCrossUV) {
   ExpectNear(v[0], Vec3(-0.5f, 2.0f, -0.5f));
 }
 
+// A light's `material` makes it a surface too (docs/sequence-format.md "Lights"); every light of a grid takes it;
+// an unknown name is an error at its path, with the nearest name suggested.
+TEST(SequenceParse, LightMaterialNamesTheSurfaceItReflectsBy) {
+  EXPECT_EQ(ParseSequence(kBase, "seq.json", ".").lights[0].material, -1);
+  const std::string quad = Replace(kBase, "\"intensity\": 1}", "\"intensity\": 1, \"material\": \"m\"}");
+  EXPECT_EQ(ParseSequence(quad, "seq.json", ".").lights[0].material, 0);
+  const std::string grid = Replace(
+      kBase,
+      R"({"name": "l", "type": "quad", "center": [0, 2, 0], "u": [0.5, 0, 0], "v": [0, 0, 0.5], "color": [1, 1, 1], "intensity": 1})",
+      R"({"name": "g", "type": "grid", "origin": [0, 2, 0], "u": [1, 0, 0], "v": [0, 0, 1], "count": [2, 2],
+          "pitch": [2, 2], "color": [1, 1, 1], "intensity": 1, "material": "m"})");
+  const Sequence g = ParseSequence(grid, "seq.json", ".");
+  ASSERT_EQ(g.lights.size(), 4u);
+  for (const Light& l : g.lights) EXPECT_EQ(l.material, 0) << l.name;
+  const std::string wrong = Replace(kBase, "\"intensity\": 1}", "\"intensity\": 1, \"material\": \"n\"}");
+  const std::string error = ErrorOf(wrong);
+  EXPECT_NE(error.find("error at /lights/0/material: unknown material 'n' (did you mean 'm'?)"), std::string::npos)
+      << error;
+  EXPECT_NE(ErrorOf(Replace(kBase, "\"intensity\": 1}", "\"intensity\": 1, \"material\": 3}"))
+                .find("error at /lights/0/material: expected a string"),
+            std::string::npos);
+}
+
 TEST(SequenceParse, WindowBarsFollowDocumentedConvention) {
   const std::string bars = Replace(
       kBase, R"({"type": "sphere", "center": [0, 0, 0], "radius": 1})",
