@@ -348,7 +348,7 @@ struct StageTimes {
 // vertices they hold.
 struct History {
   std::vector<StoredReservoir> reservoirs, indirect;
-  std::vector<LightTriangle> vertices;
+  std::vector<HeldVertex> vertices;
   explicit History(Pipeline& p) : reservoirs(p.History()), indirect(p.IndirectHistory()), vertices(p.IndirectVertices()) {}
 };
 

@@ -17,15 +17,14 @@ namespace {
 
 // A secondary vertex as a point its reservoirs' passes evaluate like a point on a light (LightPointAt): its
 // position and geometric normal are in the reservoir, its radiance, error scale and shading normal (the side it
-// sends light to) here. The triangle's edges and area stay 0 (IsVertexPoint): nothing samples it.
-LightTriangle VertexPoint(const SecondaryVertex& v) {
+// sends light to) here. The triangle's corner, edges and area stay 0 (IsVertexPoint): nothing samples it.
+LightTriangle VertexPoint(const Vec3& shadingNormal, const Vec3& radiance, float errorScale) {
   LightTriangle t;
-  t.p0 = v.position;
-  t.e1 = t.e2 = Vec3(0.0f);
+  t.p0 = t.e1 = t.e2 = Vec3(0.0f);
   t.area = 0.0f;
-  t.normal = v.shadingNormal;
-  t.radiance = v.radiance;
-  t.errorScale = v.errorScale;
+  t.normal = shadingNormal;
+  t.radiance = radiance;
+  t.errorScale = errorScale;
   return t;
 }
 
@@ -76,8 +75,8 @@ void InitialVertices(const FrameView& view, const std::vector<SecondaryVertex>& 
 
 // What the next frame keeps: the vertices the output reservoirs hold, each once, in pixel order (deterministic),
 // and the reservoirs pointed at them.
-std::vector<LightTriangle> KeepHeldVertices(const std::vector<LightTriangle>& points, ReservoirBuffer& reservoirs) {
-  std::vector<LightTriangle> kept;
+std::vector<HeldVertex> KeepHeldVertices(const std::vector<LightTriangle>& points, ReservoirBuffer& reservoirs) {
+  std::vector<HeldVertex> kept;
   std::vector<uint32_t> index(points.size(), std::numeric_limits<uint32_t>::max());
   for (StoredReservoir& r : reservoirs) {
     if (!r.HasSample()) {
@@ -91,7 +90,8 @@ std::vector<LightTriangle> KeepHeldVertices(const std::vector<LightTriangle>& po
     uint32_t& k = index[r.lightId];
     if (k == std::numeric_limits<uint32_t>::max()) {
       k = static_cast<uint32_t>(kept.size());
-      kept.push_back(points[r.lightId]);
+      const LightTriangle& t = points[r.lightId];
+      kept.push_back(HeldVertex{t.normal, t.radiance, t.errorScale});
     }
     r.lightId = k;
   }
@@ -123,10 +123,12 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   // The points of this frame: pixel i's vertex at index i, then the vertices last frame's reservoirs hold, whose
   // indices move up by the pixel count.
   std::vector<LightTriangle> points(pixels);
-  for (size_t i = 0; i < pixels; ++i) points[i] = VertexPoint(vertices[i]);
+  for (size_t i = 0; i < pixels; ++i)
+    points[i] = VertexPoint(vertices[i].shadingNormal, vertices[i].radiance, vertices[i].errorScale);
   const bool history = in.previousState != nullptr && in.previousGbuffer != nullptr && gi_.previous.size() == pixels;
   if (history) {
-    points.insert(points.end(), gi_.vertices.begin(), gi_.vertices.end());
+    points.reserve(pixels + gi_.vertices.size());
+    for (const HeldVertex& v : gi_.vertices) points.push_back(VertexPoint(v.shadingNormal, v.radiance, v.errorScale));
     for (StoredReservoir& r : gi_.previous)
       if (r.HasSample()) r.lightId += static_cast<uint32_t>(pixels);
   } else {
@@ -164,7 +166,10 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
     TemporalReuse(s.temporal, view, gi_.previous, gi_.current, r.temporalAccepted, r.passes.emplace_back());
   const Contributing temporalShare = s.temporal.enabled ? contributing() : initialShare;
   if (s.spatial.enabled) {
-    SpatialPass(s.spatial, view, gi_.current, gi_.previous, gi_.cells, r);
+    // The cells are the pass's scratch, not state: no later frame reads them (the direct light's are kept for its
+    // tests), so a GI reservoir's memory between frames is its two reservoirs and its held vertex.
+    CellGrid cells;
+    SpatialPass(s.spatial, view, gi_.current, gi_.previous, cells, r);
     r.indirectSpatial = r.passes.back();
   }
   const Contributing spatialShare = s.spatial.enabled ? contributing() : temporalShare;

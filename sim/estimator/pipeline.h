@@ -109,6 +109,16 @@ class InitialSamplingShare {
   std::vector<Entry> entries_;  // a handful: one per distinct initial configuration and seed
 };
 
+// A secondary vertex that last frame's GI reservoirs hold, as the next frame needs it beyond what each reservoir
+// stores of it (its position and geometric normal): 28 bytes, where a frame's points are whole light triangles
+// (68). The frame rebuilds its point from this (nothing of the point is lost: LightPointAt reads no more).
+struct HeldVertex {
+  Vec3 shadingNormal{0.0f};  // the side x₂ sends L_o to (core/reconnection_shift.h InFrontOfVertex)
+  Vec3 radiance{0.0f};       // L_o(x₂), what the rest of the path sends back
+  float errorScale = 0.0f;   // x₂'s, for spawning the reconnection ray's far end (core/shadow_ray.h)
+};
+static_assert(sizeof(HeldVertex) == 28);
+
 // Per-preset estimator state across frames: the reservoirs of this frame and of the last one, ping-ponged.
 class Pipeline {
  public:
@@ -137,16 +147,15 @@ class Pipeline {
   // index it).
   const ReservoirBuffer& IndirectHistory() const { return gi_.previous; }
   ReservoirBuffer& IndirectHistory() { return gi_.previous; }
-  const std::vector<LightTriangle>& IndirectVertices() const { return gi_.vertices; }
-  std::vector<LightTriangle>& IndirectVertices() { return gi_.vertices; }
+  const std::vector<HeldVertex>& IndirectVertices() const { return gi_.vertices; }
+  std::vector<HeldVertex>& IndirectVertices() { return gi_.vertices; }
 
  private:
   // ReSTIR GI's reservoirs with their history (the direct light's are the members below, as they were).
   struct ReservoirState {
     ReservoirBuffer current;   // this frame's reservoirs
     ReservoirBuffer previous;  // last frame's output (temporal input), then spatial scratch
-    CellGrid cells;            // the last stochastic pairwise iteration's
-    std::vector<LightTriangle> vertices;  // the secondary vertices `previous` holds, as points (RenderIndirect)
+    std::vector<HeldVertex> vertices;  // the secondary vertices `previous` holds (RenderIndirect)
   };
 
   Contributing InitialPass(const FrameInputs& in, const FrameView& view, FrameResult& r);

@@ -18,6 +18,7 @@
 #include "sim/scene/gbuffer.h"
 #include "sim/util/input_file.h"
 #include "sim/estimator/passes/frame_view.h"
+#include "sim/estimator/pipeline.h"
 #include "sim/reference/reference.h"
 #include "sim/scene/sequence.h"  // InputError
 
@@ -44,6 +45,7 @@ constexpr double kBsdfEntry = sizeof(int32_t) + 3 * sizeof(float) + sizeof(float
 constexpr double kRgb = sizeof(Vec3);               // one ImageRgb pixel
 constexpr double kReservoir = sizeof(StoredReservoir);
 constexpr double kVertexPoint = sizeof(LightTriangle);  // a ReSTIR GI vertex as the passes read it
+constexpr double kHeldVertex = sizeof(HeldVertex);      // a ReSTIR GI vertex as the next frame keeps it
 
 // A metrics row: at most kMaxColumns (name, value) pairs, each name on the heap when longer than the small-string
 // buffer, then the row again as CSV text (the file is rewritten whole each frame) and in the checkpoint.
@@ -92,11 +94,11 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   // Per member: this frame's and last frame's reservoirs, the spatial pass's output buffer and its image.
   add("reservoirs", px * presets * members * 3.0 * kReservoir);
   // ReSTIR GI (Pipeline::RenderIndirect), per member of a preset that reuses its paths: the GI reservoirs of this
-  // frame and the last (the spatial pass writes into the last's), the vertices the last frame's reservoirs hold (at
-  // most one a pixel) and the cells of a stochastic pairwise pass (two indices a pixel).
+  // frame and the last (the spatial pass writes into the last's) and the vertices the last frame's reservoirs hold (at
+  // most one a pixel, compact: HeldVertex).
   if (s.reusedIndirectPresets > 0)
     add("ReSTIR GI reservoirs and held vertices",
-        px * double(s.reusedIndirectPresets) * members * (2.0 * kReservoir + kVertexPoint + 2.0 * sizeof(uint32_t)));
+        px * double(s.reusedIndirectPresets) * members * (2.0 * kReservoir + kHeldVertex));
   // A frame's initial passes, kept for the presets that share them (sim/estimator/pipeline.h InitialSamplingShare).
   if (s.sharedInitialPasses > 0)
     add("shared initial passes", px * double(s.sharedInitialPasses) * members * kReservoir);
@@ -114,14 +116,15 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   const double checkpoint =
       px * (gbuffer + sizeof(uint16_t) + (s.reference ? kRgb : 0.0) +
             presets * ((members >= 3 ? members + 1.0 : 2.0) * kRgb + members * kReservoir) +
-            double(s.reusedIndirectPresets) * members * (kReservoir + kVertexPoint));
+            double(s.reusedIndirectPresets) * members * (kReservoir + kHeldVertex));
   const double flip = s.reference ? px * double(HdrFlipScratchBytesPerPixel()) : 0.0;
   // A preset frame's indirect pass: its image, and where ReSTIR GI resamples the paths, the paths' vertices, the
   // frame's points (a pixel's own and the held ones: two a pixel at most) with an index of them for keeping the
-  // held ones, the next frame's held points (one a pixel at most), the reuse's image and its temporal flags.
+  // held ones, the next frame's held vertices (one a pixel at most), the cells of a stochastic pairwise pass (two
+  // indices a pixel), the reuse's image and its temporal flags.
   const double indirectPass =
       s.reusedIndirectPresets > 0
-          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 3.0 * kVertexPoint + 2.0 * sizeof(uint32_t) + 1.0)
+          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 2.0 * kVertexPoint + kHeldVertex + 4.0 * sizeof(uint32_t) + 1.0)
           : (s.indirectPresets > 0 ? px * kRgb : 0.0);
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =

@@ -140,8 +140,9 @@ void TransferRows(Io& io, std::vector<FrameMetricsRow>& rows) {
   }
 }
 
-// "RSTRCKTA" (A: ReSTIR GI's reservoirs and vertices; 9: the scrub PNGs' exposure)
-constexpr uint64_t kCheckpointMagic = 0x41544B43'52545352ull;
+// "RSTRCKTB" (B: ReSTIR GI's held vertices compact, sim/estimator/pipeline.h HeldVertex; A: ReSTIR GI's reservoirs
+// and vertices; 9: the scrub PNGs' exposure)
+constexpr uint64_t kCheckpointMagic = 0x42544B43'52545352ull;
 
 // Says which recorded frame files are missing or damaged and that the run renders from `frameBegin` again to
 // write them; false (saying nothing) when every one is as written.
