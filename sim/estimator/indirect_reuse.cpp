@@ -122,12 +122,12 @@ FrameResult Pipeline::RenderIndirect(const FrameInputs& in, const std::vector<Se
   const size_t pixels = g.Size();
   // The points of this frame: pixel i's vertex at index i, then the vertices last frame's reservoirs hold, whose
   // indices move up by the pixel count.
-  std::vector<LightTriangle> points(pixels);
-  for (size_t i = 0; i < pixels; ++i)
-    points[i] = VertexPoint(vertices[i].shadingNormal, vertices[i].radiance, vertices[i].errorScale);
   const bool history = in.previousState != nullptr && in.previousGbuffer != nullptr && gi_.previous.size() == pixels;
+  std::vector<LightTriangle> points;
+  points.reserve(pixels + (history ? gi_.vertices.size() : 0));  // one buffer, no copy: the memory estimate counts one
+  for (size_t i = 0; i < pixels; ++i)
+    points.push_back(VertexPoint(vertices[i].shadingNormal, vertices[i].radiance, vertices[i].errorScale));
   if (history) {
-    points.reserve(pixels + gi_.vertices.size());
     for (const HeldVertex& v : gi_.vertices) points.push_back(VertexPoint(v.shadingNormal, v.radiance, v.errorScale));
     for (StoredReservoir& r : gi_.previous)
       if (r.HasSample()) r.lightId += static_cast<uint32_t>(pixels);

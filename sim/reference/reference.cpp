@@ -589,7 +589,7 @@ void RowReceivers(const ReferenceFrame& frame, int y, std::vector<size_t>& rowPi
   for (int pass = 0; pass < 2; ++pass)
     for (int x = 0; x < frame.w; ++x) {
       const size_t i = static_cast<size_t>(y) * frame.w + x;
-      // An inactive pixel (background, emitter) has no material: bsdfId is -1 there.
+      // An inactive pixel (background, an emitter without a material) has none: bsdfId is -1 there.
       if (!frame.active[i]) continue;
       const bool diffuse = frame.bsdfs.type[static_cast<size_t>(frame.g.bsdfId[i])] ==
                            static_cast<int32_t>(BsdfType::kDiffuse);

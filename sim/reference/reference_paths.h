@@ -5,8 +5,9 @@
 // estimation, with the reference's own samplers (sim/reference/reference_samples.h SkySamples: a light
 // strategy, a point on a light or a sky direction, combined with BSDF sampling by the power heuristic, so an
 // emitter or the sky a BSDF ray meets is counted once); then from x₂ onwards the same, up to `bounces`
-// surfaces after x₁. An emitter does not reflect and a ray that escapes has no surface: either ends the path
-// (what they send along it is x₁'s direct light or the previous vertex's, taken there). Pure functions of
+// surfaces after x₁. An emitter without a material (Light::material) and a ray that escapes have no surface:
+// either ends the path; an emitter with one reflects and the path goes on. What an emitter or the sky sends along a
+// path's ray is x₁'s direct light or the previous vertex's, taken there, never by the step that met it. Pure functions of
 // their arguments and random numbers. The reference adds them to its direct light
 // (sim/reference/reference.cpp); a preset's frame adds one path a pixel (IndirectImage; sim/run/frame_loop.h
 // FrameLoop::RenderPreset).
@@ -58,7 +59,8 @@ class PathScene {
   PathScene& operator=(const PathScene&) = delete;
 
   // The surface a path's ray hit, as a receiver seen from along -dir: its material's BSDF, times the texel at
-  // the hit where the material is textured. Only for a hit on an object (materialId >= 0).
+  // the hit where the material is textured. Only for a hit with a material (materialId >= 0: an object, or an emitter
+  // that reflects).
   ShadingPoint Vertex(const SurfaceHit& hit, const Vec3& dir) const;
 
   // The radiance reflected at x₁ towards x₁.wo by light that reflected at 1 to `bounces` further surfaces

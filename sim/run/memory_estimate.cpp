@@ -124,7 +124,8 @@ MemoryEstimate EstimateRunMemory(const RunShape& s) {
   // indices a pixel), the reuse's image and its temporal flags.
   const double indirectPass =
       s.reusedIndirectPresets > 0
-          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 2.0 * kVertexPoint + kHeldVertex + 4.0 * sizeof(uint32_t) + 1.0)
+          ? px * (2.0 * kRgb + sizeof(SecondaryVertex) + 2.0 * kVertexPoint + kHeldVertex +
+                  4.0 * sizeof(uint32_t) + 1.0)
           : (s.indirectPresets > 0 ? px * kRgb : 0.0);
   const double cacheEntry = s.reference ? px * 2.0 * kRgb : 0.0;  // a reference cache entry as read and decoded
   const double referenceRender =

@@ -56,8 +56,8 @@ inline double ProjectedSolidAngle(const D3& x, const D3& n, const std::vector<D3
 // ---- The reference at one static frame, and its claims ----
 
 struct Rendered {
-  GBuffer g;
-  ReferenceImage ref;
+  GBuffer g;           // the frame's primary hits
+  ReferenceImage ref;  // the reference over them, with its per-pixel standard errors
 };
 
 inline Rendered Render(const Sequence& seq, const FrameState& state, int bounces, int spp) {
@@ -80,7 +80,7 @@ inline Rendered Render(const Sequence& seq, const FrameState& state, int bounces
 // replicates' unbiased variance of the mean), so the mean of d_i = (e_i² − se_i² / t_i²) is 0. Each by a
 // z-test over the pixels at kClaimRate.
 inline void ExpectAgreement(const Rendered& r, const std::function<double(size_t)>& truth, const std::string& what,
-                     size_t minPixels) {
+                            size_t minPixels) {
   const GBuffer& g = r.g;
   std::vector<double> relative, excess;
   for (size_t i = 0; i < g.Size(); ++i) {
@@ -123,13 +123,13 @@ inline void ExpectAgreement(const Rendered& r, const std::function<double(size_t
 
 // A static scene as every frame of ReSTIR GI sees it: the same view, each pixel reprojecting onto itself.
 struct StaticGiScene {
-  const Sequence& seq;
-  const FrameState& state;
-  EmbreeScene scene;
-  GBuffer g;
-  std::unique_ptr<LightSampler> lights;
-  std::vector<Bsdf> bsdfs;
-  Sky sky;
+  const Sequence& seq;                    // the scene, outliving this
+  const FrameState& state;                // its one state, every frame's and every previous frame's
+  EmbreeScene scene;                      // built for `state`
+  GBuffer g;                              // the primary hits, reprojected onto themselves
+  std::unique_ptr<LightSampler> lights;   // the direct light's sampler over the scene's light triangles
+  std::vector<Bsdf> bsdfs;                // one per material
+  Sky sky;                                // the state's sky (empty: none)
 
   StaticGiScene(const Sequence& s, const FrameState& st) : seq(s), state(st), scene(s) {
     scene.Update(state);
@@ -200,10 +200,11 @@ inline constexpr double kGiMaxRelativeError = 0.02;
 
 // Reuse makes neighbouring pixels' errors depend on each other, so the claim is on whole frames, which the seeds
 // make independent: per seed, the mean relative error over the compared pixels, and over each of four bands of
-// them (in pixel order: the floor's near to far rows, the sphere's top to bottom), is 0 by Student's t-test over
-// the seeds at kClaimRate / 5 each (Bonferroni over the five); and the frames' mean is within kMaxRelativeError.
+// them (in pixel order, so that each band is a part of the view: a floor's near to far rows, a sphere's top to
+// bottom), is 0 by Student's t-test over the seeds at kClaimRate / 5 each (Bonferroni over the five); and the
+// frames' mean is within kGiMaxRelativeError.
 inline void ExpectUnbiasedFrames(const std::vector<ImageRgb>& frames, const GBuffer& g,
-                          const std::function<double(size_t)>& truth, const std::string& what) {
+                                 const std::function<double(size_t)>& truth, const std::string& what) {
   std::vector<size_t> compared;
   for (size_t i = 0; i < g.Size(); ++i)
     if (g.IsSurface(i) && !std::isnan(truth(i))) compared.push_back(i);

@@ -5,10 +5,11 @@
 // point reflects (ρ + ρ² + … + ρ^(b+1)) L_e, whatever its place on the wall, the box's size, tilt or distance from
 // the origin. The truth shares no code with what it checks (no polygon, no quadrature: a geometric series).
 //
-// Checked for the reference (without bounces its direct light is exact, to rounding; with them ExpectAgreement:
-// z-tests over the pixels at kClaimRate = 1e-4 each, 5 configurations × 2 claims, family rate at most 0.1%) and for the whole frames of the unbiased GI presets, their direct light and
-// ReSTIR GI together (ExpectUnbiasedFrames: t-tests over 64 seeds at kClaimRate / 5 per band, 2 presets × 5 claims,
-// family rate at most 1e-4). What the primary ray sees emitted (L_e, exact) is taken out of both, so the claims'
+// Checked for the reference (without bounces most pixels' direct light is exact, to rounding; every other pixel by
+// ExpectAgreement's two z-tests over the pixels at kClaimRate = 1e-4 each: 7 configurations × 2 claims, a family
+// rate at most 1.4e-3) and for the whole frames of the unbiased GI presets, their direct light and ReSTIR GI
+// together (ExpectUnbiasedFrames: t-tests over 64 seeds at kClaimRate / 5 = 2e-5 per band, 2 presets × 5 claims,
+// a family rate at most 2e-4). What the primary ray sees emitted (L_e, exact) is taken out of both, so the claims'
 // relative errors are the estimated light's.
 #include <gtest/gtest.h>
 
@@ -28,9 +29,9 @@ namespace furnace_test {
 using namespace closed_form;  // NOLINT: the renderers and claims every test here uses
 
 struct Furnace {
-  Sequence seq;
-  FrameState state;
-  double albedo = 0.0, radiance = 0.0;
+  Sequence seq;                        // the six walls as lights with the material "wall"; no object
+  FrameState state;                    // its one frame
+  double albedo = 0.0, radiance = 0.0;  // ρ and L_e of every wall
 };
 
 // A cube of edge `edge` centred at `centre`, turned by `tiltDegrees` about the axis (1, 1, 0) (so that no wall is
@@ -43,8 +44,9 @@ Furnace FurnaceBox(const D3& centre, double edge, double tiltDegrees, double alb
   seq.width = 48;
   seq.height = 36;
   seq.frameCount = 1;
-  seq.contentHash = "furnace-" + std::to_string(centre.x) + "-" + std::to_string(edge) + "-" +
-                    std::to_string(tiltDegrees) + "-" + std::to_string(albedo);
+  seq.contentHash = "furnace-" + std::to_string(centre.x) + "," + std::to_string(centre.y) + "," +
+                    std::to_string(centre.z) + "-" + std::to_string(edge) + "-" + std::to_string(tiltDegrees) + "-" +
+                    std::to_string(albedo) + "-" + std::to_string(radiance);
   Material wall;
   wall.name = "wall";
   wall.albedo = Vec3(static_cast<float>(albedo));
@@ -81,14 +83,15 @@ double FurnaceTruth(const Furnace& f, int bounces) {
 
 TEST(Furnace, ReferenceReflectsTheGeometricSeriesOfTheAlbedo) {
   struct Case {
-    D3 centre;
-    double edge, tilt, albedo;
-    int bounces;
+    D3 centre;                   // the box's centre
+    double edge, tilt, albedo;   // its edge (m), its turn about (1, 1, 0) (degrees), ρ
+    int bounces;                 // of indirect light
   };
   const D3 far = 1000.0 * glm::normalize(D3(-0.6, 0.48, 0.64));
-  for (const Case& c : {Case{D3(0.0), 2.0, 0.0, 0.5, 0}, Case{far, 2.0, 35.0, 0.8, 0}, Case{D3(0.0), 2.0, 0.0, 0.5, 1},
-                        Case{D3(0.0), 0.05, 35.0, 0.8, 2}, Case{far, 2.0, 35.0, 0.8, 3},
-                        Case{far, 400.0, 60.0, 0.3, 1}, Case{D3(0.0), 2.0, 80.0, 0.95, 2}}) {
+  for (const Case& c : {Case{D3(0.0), 2.0, 0.0, 0.5, 0}, Case{far, 2.0, 35.0, 0.8, 0},
+                        Case{D3(0.0), 2.0, 0.0, 0.5, 1}, Case{D3(0.0), 0.05, 35.0, 0.8, 2},
+                        Case{far, 2.0, 35.0, 0.8, 3}, Case{far, 400.0, 60.0, 0.3, 1},
+                        Case{D3(0.0), 2.0, 80.0, 0.95, 2}}) {
     const Furnace f = FurnaceBox(c.centre, c.edge, c.tilt, c.albedo, 2.0);
     Rendered r = Render(f.seq, f.state, c.bounces, 256);
     EmbreeScene scene(f.seq);
@@ -141,7 +144,9 @@ TEST(Furnace, UnbiasedGiPresetsReflectTheGeometricSeries) {
   constexpr int kSeeds = 64;
   const Furnace f = FurnaceBox(1000.0 * glm::normalize(D3(0.3, -0.8, 0.52)), 2.0, 35.0, 0.7, 2.0);
   for (const char* name : {"restir-gi-unbiased", "restir-gi-spmis"}) {
-    const PipelineSettings& settings = FindPreset(name)->settings;
+    const Preset* preset = FindPreset(name);
+    ASSERT_NE(preset, nullptr) << name;
+    const PipelineSettings& settings = preset->settings;
     ASSERT_EQ(settings.indirect.bounces, 1) << name;
     GBuffer g;
     const std::vector<ImageRgb> frames = GiFrames(f.seq, f.state, settings, 4, kSeeds, g, true);
