@@ -12,7 +12,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${BIN:-build/release/restir-sim}
 seqs=("$@")
-if [ ${#seqs[@]} -eq 0 ]; then seqs=(sequences/shutter_reveal_sun.json sequences/window_bars_sun.json); fi
+# The two sunlit GI sequences (sparse contributions) and the lamp-lit flagship (dense), so the study spans a range.
+if [ ${#seqs[@]} -eq 0 ]; then
+  seqs=(sequences/shutter_reveal_sun.json sequences/window_bars_sun.json sequences/window_bars_pan.json)
+fi
 out=${OUT:-out/path-reuse-study}
 mkdir -p "$out"
 sequences=""
