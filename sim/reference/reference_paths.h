@@ -6,9 +6,9 @@
 // strategy, a point on a light or a sky direction, combined with BSDF sampling by the power heuristic, so an
 // emitter or the sky a BSDF ray meets is counted once); then from x₂ onwards the same, up to `bounces`
 // surfaces after x₁. An emitter without a material (Light::material) and a ray that escapes have no surface:
-// either ends the path; an emitter with one reflects and the path goes on. What an emitter or the sky sends along a
-// path's ray is x₁'s direct light or the previous vertex's, taken there, never by the step that met it. Pure functions of
-// their arguments and random numbers. The reference adds them to its direct light
+// either ends the path; an emitter with one reflects and the path goes on. What an emitter or the sky sends along
+// a path's ray is x₁'s direct light or the previous vertex's, taken there, never by the step that met it. Pure
+// functions of their arguments and random numbers. The reference adds them to its direct light
 // (sim/reference/reference.cpp); a preset's frame adds one path a pixel (IndirectImage; sim/run/frame_loop.h
 // FrameLoop::RenderPreset).
 #pragma once

@@ -112,10 +112,17 @@ void Reader::ReadMaterials(const Json& list, const std::string& p, Sequence& seq
   }
 }
 
+uint32_t Reader::MaterialNamed(const Json& value, const std::string& p, const Sequence& seq) const {
+  const std::string material = String(value, p);
+  std::vector<std::string> names;
+  for (const Material& m : seq.materials) names.push_back(m.name);
+  const auto it = std::find(names.begin(), names.end(), material);
+  if (it == names.end()) Fail(p, "unknown material '" + material + "'" + Suggestion(material, names));
+  return static_cast<uint32_t>(it - names.begin());
+}
+
 void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) {
   std::map<std::string, std::string> names;
-  std::vector<std::string> materialNames;
-  for (const Material& m : seq.materials) materialNames.push_back(m.name);
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string op = PointerChild(p, i);
     const Json& o = AsObject(list[i], op);
@@ -128,12 +135,7 @@ void Reader::ReadObjects(const Json& list, const std::string& p, Sequence& seq) 
       ReadAssetObject(o, op, obj.name, seq);
       continue;
     }
-    const std::string material = String(Need(o, op, "material"), op + "/material");
-    auto it = std::find(materialNames.begin(), materialNames.end(), material);
-    if (it == materialNames.end()) {
-      Fail(op + "/material", "unknown material '" + material + "'" + Suggestion(material, materialNames));
-    }
-    obj.material = static_cast<uint32_t>(it - materialNames.begin());
+    obj.material = MaterialNamed(Need(o, op, "material"), op + "/material", seq);
     obj.mesh = ReadShape(AsObject(Need(o, op, "shape"), op + "/shape"), op + "/shape");
     sceneTriangles_ += obj.mesh.triangles.size();
     if (sceneTriangles_ > kMaxSceneTriangles) {
@@ -272,15 +274,8 @@ void Reader::ReadAssetObject(const Json& o, const std::string& op, const std::st
     place.emissionScale = Float(*s, ap + "/emissionScale");
     if (!(place.emissionScale >= 0.0f)) Fail(ap + "/emissionScale", "emissionScale must be >= 0");
   }
-  if (const Json* m = Find(o, "material")) {
-    const std::string material = String(*m, op + "/material");
-    std::vector<std::string> materialNames;
-    for (const Material& mat : seq.materials) materialNames.push_back(mat.name);
-    auto it = std::find(materialNames.begin(), materialNames.end(), material);
-    if (it == materialNames.end())
-      Fail(op + "/material", "unknown material '" + material + "'" + Suggestion(material, materialNames));
-    place.material = static_cast<int32_t>(it - materialNames.begin());
-  }
+  if (const Json* m = Find(o, "material"))
+    place.material = static_cast<int32_t>(MaterialNamed(*m, op + "/material", seq));
   const ImportedAsset& asset = LoadAsset(String(Need(a, ap, "file"), ap + "/file"), ap + "/file");
   AssetBudget budget;
   budget.maxSceneTriangles = kMaxSceneTriangles;
@@ -383,6 +378,18 @@ void Reader::AddLight(Sequence& seq, std::string name, const std::vector<Vec3>& 
   seq.lights.push_back(std::move(light));
 }
 
+// Emitters carry no texture coordinates, so a textured material (an asset's) would be read at one texel: refused.
+int32_t Reader::ReadLightMaterial(const Json& light, const std::string& lp, const Sequence& seq) const {
+  const Json* m = Find(light, "material");
+  if (!m) return -1;
+  const uint32_t index = MaterialNamed(*m, lp + "/material", seq);
+  if (seq.materials[index].baseColorTexture >= 0)
+    Fail(lp + "/material", "material '" + seq.materials[index].name +
+                               "' has a base-colour texture, which a light cannot carry (emitters have no texture "
+                               "coordinates)");
+  return static_cast<int32_t>(index);
+}
+
 void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string lp = PointerChild(p, i);
@@ -404,22 +411,7 @@ void Reader::ReadLights(const Json& list, const std::string& p, Sequence& seq) {
       }
       return color * intensity;
     };
-    // The material the emitter reflects by, or -1 (it only emits). Emitters carry no texture coordinates, so a
-    // textured material (an asset's) would be read at one texel: refused.
-    const int32_t material = [&]() -> int32_t {
-      const Json* m = Find(l, "material");
-      if (!m) return -1;
-      const std::string mp = lp + "/material", wanted = String(*m, mp);
-      std::vector<std::string> names;
-      for (const Material& mat : seq.materials) names.push_back(mat.name);
-      const auto it = std::find(names.begin(), names.end(), wanted);
-      if (it == names.end()) Fail(mp, "unknown material '" + wanted + "'" + Suggestion(wanted, names));
-      const size_t index = static_cast<size_t>(it - names.begin());
-      if (seq.materials[index].baseColorTexture >= 0)
-        Fail(mp, "material '" + wanted + "' has a base-colour texture, which a light cannot carry (emitters have no "
-                 "texture coordinates)");
-      return static_cast<int32_t>(index);
-    }();
+    const int32_t material = ReadLightMaterial(l, lp, seq);
     const size_t first = seq.lights.size();
     if (type == 0) {  // quad
       CheckKeys(l, lp, {"name", "type", "center", "u", "v", "color", "intensity", "on", "material"});

@@ -141,6 +141,11 @@ class Reader : public JsonReader {
 
   void ReadMaterials(const Json& list, const std::string& p, Sequence& seq);
   void ReadObjects(const Json& list, const std::string& p, Sequence& seq);
+  // The index in seq.materials of the material `value` names (a string at `p`); an unknown name is an error there,
+  // with the nearest name suggested.
+  uint32_t MaterialNamed(const Json& value, const std::string& p, const Sequence& seq) const;
+  // A light's `material` (Light::material), or -1 where it gives none.
+  int32_t ReadLightMaterial(const Json& light, const std::string& lp, const Sequence& seq) const;
   Mesh ReadShape(const Json& shape, const std::string& p);
   ImportedAsset LoadAsset(const std::string& file, const std::string& p);
   void ReadAssetObject(const Json& o, const std::string& op, const std::string& name, Sequence& seq);
